@@ -1,0 +1,330 @@
+"""Case files: a TOML description of a contact problem on a Gmsh mesh.
+
+Example (all lengths in metres, stresses in Pa)::
+
+    [mesh]
+    file = "sphere_block.msh"      # relative to the case file
+    unit = "mm"                    # length unit of the mesh: m or mm
+
+    [[materials]]
+    volumes = ["sphere", "block"]
+    youngs_modulus = 212e9
+    poisson_ratio = 0.289
+    density = 7860
+
+    [[contacts]]
+    slave = "sphere_contact"
+    master = "block_contact"
+    penalty = "auto"               # or a value in Pa/m
+
+    [[supports]]
+    surface = "block_bottom"
+    fix = ["z"]
+
+    [[displacements]]              # applied in turn, one load step per value
+    surface = "sphere_equator"
+    component = "z"
+    values = [-5e-6, -1e-5]
+
+    [analysis]
+    type = "static"
+
+Parsing checks every key and value; :meth:`Case.check_groups` then checks the
+group names against a loaded mesh.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import CaseError, MeshError
+from .mesh import UNITS, FEMesh
+
+COMPONENTS = {"x": 0, "y": 1, "z": 2}
+ANALYSIS_TYPES = ("static",)
+_TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "analysis"}
+
+
+@dataclass(frozen=True)
+class MaterialSpec:
+    """Linear elastic isotropic material on some volume groups."""
+
+    volumes: tuple[str, ...]
+    youngs_modulus: float
+    poisson_ratio: float
+    density: float
+
+
+@dataclass(frozen=True)
+class ContactSpec:
+    """A frictionless contact pair; ``penalty=None`` means derive it (``"auto"``)."""
+
+    slave: str
+    master: str
+    penalty: float | None = None
+    search_distance: float | None = None
+
+
+@dataclass(frozen=True)
+class SupportSpec:
+    """Zero displacement of the listed components on a surface."""
+
+    surface: str
+    fix: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class DisplacementSpec:
+    """Prescribed displacement of one component on a surface, one value per load step."""
+
+    surface: str
+    component: int
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class AnalysisSpec:
+    type: str = "static"
+    max_iterations: int = 30
+    tolerance: float = 1e-6
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case file."""
+
+    path: Path
+    mesh_file: Path
+    unit: str
+    materials: tuple[MaterialSpec, ...]
+    contacts: tuple[ContactSpec, ...] = ()
+    supports: tuple[SupportSpec, ...] = ()
+    displacements: tuple[DisplacementSpec, ...] = ()
+    analysis: AnalysisSpec = field(default_factory=AnalysisSpec)
+
+    @property
+    def n_steps(self) -> int:
+        return max((len(d.values) for d in self.displacements), default=1)
+
+    def check_groups(self, mesh: FEMesh) -> None:
+        """Raise :class:`CaseError` if a group named in the case is missing or of the wrong kind."""
+        try:
+            for i, m in enumerate(self.materials):
+                for v in m.volumes:
+                    _group(mesh.volume, v, f"materials[{i}].volumes")
+            for i, c in enumerate(self.contacts):
+                _group(mesh.surface, c.slave, f"contacts[{i}].slave")
+                _group(mesh.surface, c.master, f"contacts[{i}].master")
+            for i, s in enumerate(self.supports):
+                _group(mesh.surface, s.surface, f"supports[{i}].surface")
+            for i, d in enumerate(self.displacements):
+                _group(mesh.surface, d.surface, f"displacements[{i}].surface")
+        except MeshError as exc:
+            raise CaseError(f"{self.path.name}: {exc}") from exc
+        assigned = [v for m in self.materials for v in m.volumes]
+        missing = sorted(set(mesh.volumes) - set(assigned))
+        if missing:
+            raise CaseError(f"{self.path.name}: volume groups {missing} have no material; "
+                            "list them in a [[materials]] volumes entry")
+        dup = sorted({v for v in assigned if assigned.count(v) > 1})
+        if dup:
+            raise CaseError(f"{self.path.name}: volume groups {dup} have more than one material")
+
+
+def _group(getter, name: str, where: str) -> None:
+    try:
+        getter(name)
+    except MeshError as exc:
+        raise MeshError(f"{where} = '{name}': {exc}") from None
+
+
+def load_case(path: str | Path) -> Case:
+    """Read and validate a case file (the mesh itself is not read here)."""
+    path = Path(path)
+    if not path.is_file():
+        raise CaseError(f"case file not found: {path}")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise CaseError(f"{path.name} is not valid TOML: {exc}") from exc
+    return parse_case(data, path)
+
+
+def parse_case(data: dict[str, Any], path: Path) -> Case:
+    """Validate a parsed TOML document; ``path`` locates relative files."""
+    r = _Reader(path.name)
+    r.keys(data, "", _TOP_KEYS, required={"mesh", "materials"})
+    mesh = r.table(data, "mesh")
+    r.keys(mesh, "mesh", {"file", "unit"}, required={"file"})
+    unit = r.choice(mesh, "mesh", "unit", tuple(UNITS), default="m")
+    mesh_file = (path.parent / r.string(mesh, "mesh", "file")).resolve()
+    if not mesh_file.is_file():
+        raise CaseError(f"{path.name}: [mesh] file = '{mesh['file']}': no such file "
+                        f"(looked for {mesh_file})")
+    return Case(
+        path=path, mesh_file=mesh_file, unit=unit,
+        materials=tuple(_material(r, t, f"materials[{i}]")
+                        for i, t in enumerate(r.array(data, "materials", required=True))),
+        contacts=tuple(_contact(r, t, f"contacts[{i}]")
+                       for i, t in enumerate(r.array(data, "contacts"))),
+        supports=tuple(_support(r, t, f"supports[{i}]")
+                       for i, t in enumerate(r.array(data, "supports"))),
+        displacements=_displacements(r, r.array(data, "displacements")),
+        analysis=_analysis(r, data.get("analysis", {})),
+    )
+
+
+def _material(r: _Reader, t: dict, where: str) -> MaterialSpec:
+    r.keys(t, where, {"volumes", "youngs_modulus", "poisson_ratio", "density"},
+           required={"volumes", "youngs_modulus", "poisson_ratio"})
+    E = r.number(t, where, "youngs_modulus", low=0.0, low_open=True)
+    nu = r.number(t, where, "poisson_ratio", low=-1.0, high=0.5, low_open=True,
+                  high_open=True)
+    rho = r.number(t, where, "density", low=0.0, low_open=True, default=7860.0)
+    return MaterialSpec(tuple(r.strings(t, where, "volumes")), E, nu, rho)
+
+
+def _contact(r: _Reader, t: dict, where: str) -> ContactSpec:
+    r.keys(t, where, {"slave", "master", "penalty", "search_distance"},
+           required={"slave", "master"})
+    pen = t.get("penalty", "auto")
+    if pen == "auto":
+        penalty = None
+    else:
+        penalty = r.number(t, where, "penalty", low=0.0, low_open=True, hint='or "auto"')
+    search = None
+    if t.get("search_distance", "auto") != "auto":
+        search = r.number(t, where, "search_distance", low=0.0, low_open=True,
+                          hint='or "auto"')
+    slave, master = r.string(t, where, "slave"), r.string(t, where, "master")
+    if slave == master:
+        raise CaseError(f"{r.file}: [{where}] slave and master are both '{slave}': "
+                        "a contact pair needs two different surfaces")
+    return ContactSpec(slave, master, penalty, search)
+
+
+def _support(r: _Reader, t: dict, where: str) -> SupportSpec:
+    r.keys(t, where, {"surface", "fix"}, required={"surface", "fix"})
+    comps = r.strings(t, where, "fix")
+    bad = [c for c in comps if c not in COMPONENTS]
+    if bad or not comps:
+        raise CaseError(f"{r.file}: [{where}] fix = {comps}: components must be a "
+                        f"non-empty list of {list(COMPONENTS)}")
+    return SupportSpec(r.string(t, where, "surface"), tuple(COMPONENTS[c] for c in comps))
+
+
+def _displacements(r: _Reader, tables: list) -> tuple[DisplacementSpec, ...]:
+    out = []
+    for i, t in enumerate(tables):
+        where = f"displacements[{i}]"
+        r.keys(t, where, {"surface", "component", "values"},
+               required={"surface", "component", "values"})
+        comp = r.choice(t, where, "component", tuple(COMPONENTS))
+        values = t["values"]
+        if (not isinstance(values, list) or not values
+                or not all(_is_real(v) for v in values)):
+            raise CaseError(f"{r.file}: [{where}] values = {values!r}: must be a non-empty "
+                            "list of numbers (m)")
+        out.append(DisplacementSpec(r.string(t, where, "surface"), COMPONENTS[comp],
+                                    tuple(float(v) for v in values)))
+    lengths = {len(d.values) for d in out}
+    if len(lengths) > 1:
+        raise CaseError(f"{r.file}: [[displacements]] have different numbers of values "
+                        f"{sorted(lengths)}: every entry needs one value per load step")
+    return tuple(out)
+
+
+def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
+    if not isinstance(t, dict):
+        raise CaseError(f"{r.file}: [analysis] must be a table")
+    r.keys(t, "analysis", {"type", "max_iterations", "tolerance"})
+    kind = r.choice(t, "analysis", "type", ANALYSIS_TYPES, default="static")
+    iters = t.get("max_iterations", 30)
+    if not isinstance(iters, int) or isinstance(iters, bool) or iters < 1:
+        raise CaseError(f"{r.file}: [analysis] max_iterations = {iters!r}: must be an "
+                        "integer >= 1")
+    tol = r.number(t, "analysis", "tolerance", low=0.0, high=1.0, low_open=True,
+                   default=1e-6)
+    return AnalysisSpec(kind, iters, tol)
+
+
+def _is_real(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+@dataclass(frozen=True)
+class _Reader:
+    """Typed access to TOML tables with messages that name file, table and key."""
+
+    file: str
+
+    def fail(self, where: str, key: str, value: Any, allowed: str) -> CaseError:
+        loc = f"[{where}] {key}" if where else key
+        return CaseError(f"{self.file}: {loc} = {value!r}: {allowed}")
+
+    def keys(self, t: dict, where: str, allowed: set, required: set = frozenset()) -> None:
+        if not isinstance(t, dict):
+            raise CaseError(f"{self.file}: [{where}] must be a table")
+        unknown = sorted(set(t) - allowed)
+        if unknown:
+            loc = f"[{where}]" if where else "top level"
+            raise CaseError(f"{self.file}: unknown key(s) {unknown} in {loc}; "
+                            f"allowed: {sorted(allowed)}")
+        missing = sorted(required - set(t))
+        if missing:
+            loc = f"[{where}]" if where else "the top level"
+            raise CaseError(f"{self.file}: missing key(s) {missing} in {loc}")
+
+    def table(self, t: dict, key: str) -> dict:
+        v = t[key]
+        if not isinstance(v, dict):
+            raise self.fail("", key, v, "must be a table, e.g. [mesh]")
+        return v
+
+    def array(self, t: dict, key: str, required: bool = False) -> list:
+        v = t.get(key, [])
+        if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
+            raise self.fail("", key, v, f"must be an array of tables, e.g. [[{key}]]")
+        if required and not v:
+            raise CaseError(f"{self.file}: at least one [[{key}]] is required")
+        return v
+
+    def string(self, t: dict, where: str, key: str) -> str:
+        v = t[key]
+        if not isinstance(v, str) or not v:
+            raise self.fail(where, key, v, "must be a non-empty string")
+        return v
+
+    def strings(self, t: dict, where: str, key: str) -> list[str]:
+        v = t[key]
+        if isinstance(v, str):
+            v = [v]
+        if not isinstance(v, list) or not v or not all(isinstance(s, str) and s for s in v):
+            raise self.fail(where, key, v, "must be a non-empty list of group names")
+        return v
+
+    def choice(self, t: dict, where: str, key: str, choices: tuple, default=None) -> str:
+        v = t.get(key, default)
+        if v not in choices:
+            raise self.fail(where, key, v, f"pick one of {list(choices)}")
+        return v
+
+    def number(self, t: dict, where: str, key: str, low: float | None = None,
+               high: float | None = None, low_open: bool = False, high_open: bool = False,
+               default: float | None = None, hint: str = "") -> float:
+        v = t.get(key, default)
+        lo = "(" if low_open else "["
+        hi = ")" if high_open else "]"
+        rng = f"{lo}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi}"
+        extra = f" {hint}" if hint else ""
+        if not _is_real(v):
+            raise self.fail(where, key, v, f"must be a number in {rng}{extra}")
+        bad_low = low is not None and (v <= low if low_open else v < low)
+        bad_high = high is not None and (v >= high if high_open else v > high)
+        if bad_low or bad_high:
+            raise self.fail(where, key, v, f"must be in {rng}{extra}")
+        return float(v)

@@ -1,0 +1,318 @@
+"""Frictionless penalty contact between two deformable bodies.
+
+The gap is evaluated at the quadrature points of the slave surface (a
+Gauss-point-to-segment formulation: the penalty energy is
+``eps/2 * integral <-g>^2 dA`` over the slave surface), so P1 and P2 faces
+are treated alike and the pressure is a surface field rather than nodal
+spikes. Each slave point of the *deformed* slave surface is projected on the
+*deformed* master surface (closest point, Gauss-Newton on the isoparametric
+triangle); the gap is ``g = n . (x_s - x_m)`` with ``n`` the outward master
+normal there, negative when the bodies overlap.
+
+Linearisation (used as the Newton direction of the contact iteration):
+``dg = n . (du_s - sum_b N_b(xi_m) du_b)`` with the variation of ``n`` and of
+the projection dropped, which vanishes at the converged gap for these smooth
+small-slip contacts (Wriggers, Computational Contact Mechanics, ch. 4).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from .errors import MeshError
+from .mesh import FEMesh
+
+logger = logging.getLogger(__name__)
+
+# Node order of a 6-node triangle (meshio/VTK): vertices 0,1,2, mid-sides 01, 12, 20.
+_FLIP = {3: [0, 2, 1], 6: [0, 2, 1, 5, 4, 3]}
+_INSIDE_TOL = 1e-6
+
+
+def tri_shape(xi: np.ndarray, eta: np.ndarray, nn: int) -> tuple[np.ndarray, np.ndarray]:
+    """Shape functions of 3- or 6-node triangles and their derivatives.
+
+    Returns ``N`` with shape (..., nn) and ``dN`` with shape (..., nn, 2).
+    """
+    L0, L1, L2 = 1.0 - xi - eta, xi, eta
+    one = np.ones_like(xi)
+    if nn == 3:
+        N = np.stack([L0, L1, L2], axis=-1)
+        d = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+        dN = np.broadcast_to(d, N.shape + (2,)).copy() * one[..., None, None]
+        return N, dN
+    N = np.stack([L0 * (2 * L0 - 1), L1 * (2 * L1 - 1), L2 * (2 * L2 - 1),
+                  4 * L0 * L1, 4 * L1 * L2, 4 * L2 * L0], axis=-1)
+    dxi = np.stack([-(4 * L0 - 1), 4 * L1 - 1, 0 * one,
+                    4 * (L0 - L1), 4 * L2, -4 * L2], axis=-1)
+    deta = np.stack([-(4 * L0 - 1), 0 * one, 4 * L2 - 1,
+                     -4 * L1, 4 * L1, 4 * (L0 - L2)], axis=-1)
+    return N, np.stack([dxi, deta], axis=-1)
+
+
+@dataclass(frozen=True, eq=False)
+class ContactSurface:
+    """A surface group with faces oriented outward from its body.
+
+    Attributes
+    ----------
+    name : str
+    faces : ndarray, shape (n_faces, 3 or 6)
+        Point indices; ``(x1 - x0) x (x2 - x0)`` points out of the body.
+    """
+
+    name: str
+    faces: np.ndarray
+
+    @classmethod
+    def from_mesh(cls, mesh: FEMesh, name: str) -> ContactSurface:
+        faces = mesh.surface(name)
+        return cls(name, orient_outward(mesh, faces, name))
+
+    @property
+    def nodes_per_face(self) -> int:
+        return self.faces.shape[1]
+
+    def geometry(self, x: np.ndarray, xi: np.ndarray, eta: np.ndarray,
+                 faces: np.ndarray | None = None):
+        """Points, tangents of faces at (xi, eta); broadcasting over faces.
+
+        ``x`` is the (n_points, 3) nodal position array (reference or deformed).
+        """
+        f = self.faces if faces is None else faces
+        N, dN = tri_shape(xi, eta, self.nodes_per_face)
+        X = x[f]  # (nf, nn, 3)
+        pos = np.einsum("...a,...ai->...i", N, X)
+        t1 = np.einsum("...a,...ai->...i", dN[..., 0], X)
+        t2 = np.einsum("...a,...ai->...i", dN[..., 1], X)
+        return pos, t1, t2, N
+
+
+def orient_outward(mesh: FEMesh, faces: np.ndarray, name: str) -> np.ndarray:
+    """Reorder each triangle so that its normal points away from its tetrahedron."""
+    n = mesh.n_points
+    if n >= 2_000_000:
+        raise MeshError("meshes above 2 million points are not supported by face matching")
+    tets = mesh.cells[:, :4]
+    local = np.array([[0, 1, 2, 3], [0, 1, 3, 2], [0, 2, 3, 1], [1, 2, 3, 0]])
+    tf = tets[:, local]  # (ne, 4 faces, 3 face vertices + opposite)
+    keys_t = _face_keys(np.sort(tf[..., :3], axis=-1).reshape(-1, 3), n)
+    opp = tf[..., 3].reshape(-1)
+    keys_s = _face_keys(np.sort(faces[:, :3], axis=1), n)
+    order = np.argsort(keys_t)
+    pos = np.searchsorted(keys_t[order], keys_s)
+    pos = np.minimum(pos, len(order) - 1)
+    found = keys_t[order][pos] == keys_s
+    if not found.all():
+        raise MeshError(f"surface group '{name}' has {np.count_nonzero(~found)} triangles "
+                        "that are not faces of any tetrahedron")
+    x = mesh.points
+    x0, x1, x2 = (x[faces[:, k]] for k in range(3))
+    normal = np.cross(x1 - x0, x2 - x0)
+    inward = np.einsum("ij,ij->i", normal, x[opp[order][pos]] - x0) > 0
+    out = faces.copy()
+    out[inward] = faces[inward][:, _FLIP[faces.shape[1]]]
+    return out
+
+
+def _face_keys(sorted_tri: np.ndarray, n: int) -> np.ndarray:
+    s = sorted_tri.astype(np.int64)
+    return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+
+
+@dataclass(frozen=True, eq=False)
+class SlavePoints:
+    """Quadrature points of (a subset of) slave faces and their nodal test weights."""
+
+    faces: np.ndarray     # (nf,) indices into the slave surface's faces
+    xi: np.ndarray        # (nq,) reference coordinates per face
+    eta: np.ndarray
+    weight: np.ndarray    # (nf, nq) area weights on the reference configuration, m^2
+    phi: np.ndarray       # (nq, nn) piecewise-linear test function of each face node
+
+
+# A 6-node face is split into four linear sub-triangles (corners in reference
+# coordinates, as node indices of the face) so every node gets a positive weight.
+_SUB_TRIANGLES = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
+_REF_NODES = np.array([[0, 0], [1, 0], [0, 1], [0.5, 0], [0.5, 0.5], [0, 0.5]], dtype=float)
+
+
+def slave_points(surface: ContactSurface, x_ref: np.ndarray, faces: np.ndarray) -> SlavePoints:
+    """Quadrature points, area weights and linear nodal test functions on slave faces.
+
+    3-node faces: a degree-4 rule (6 points) with the P1 shape functions as
+    test functions. 6-node faces: each of the four linear sub-triangles gets
+    the same rule, with the sub-triangle's hat functions as test functions
+    (segment-based weights as in Puso's quadratic mortar elements), so every
+    node has a positive tributary area.
+    """
+    from skfem.quadrature import get_quadrature
+    from skfem.refdom import RefTri
+
+    X, W = get_quadrature(RefTri, 4)
+    nn = surface.nodes_per_face
+    if nn == 3:
+        xi, eta, w = X[0], X[1], W
+        phi, _ = tri_shape(xi, eta, 3)
+    else:
+        xi_l, eta_l, w_l, phi_l = [], [], [], []
+        lin, _ = tri_shape(X[0], X[1], 3)  # (nq, 3) hat functions of a sub-triangle
+        for sub in _SUB_TRIANGLES:
+            corners = _REF_NODES[sub]          # (3, 2)
+            ref = lin @ corners                # (nq, 2)
+            xi_l.append(ref[:, 0])
+            eta_l.append(ref[:, 1])
+            w_l.append(W / 4.0)
+            p = np.zeros((len(W), 6))
+            p[:, sub] = lin
+            phi_l.append(p)
+        xi, eta, w = np.concatenate(xi_l), np.concatenate(eta_l), np.concatenate(w_l)
+        phi = np.concatenate(phi_l)
+    _, t1, t2, _ = surface.geometry(x_ref, xi[None, :], eta[None, :],
+                                    surface.faces[faces][:, None, :])
+    jac = np.linalg.norm(np.cross(t1, t2), axis=-1)  # (nf, nq)
+    return SlavePoints(np.asarray(faces), xi, eta, w[None, :] * jac, phi)
+
+
+@dataclass(frozen=True, eq=False)
+class Projection:
+    """Closest points of slave points on the master surface."""
+
+    valid: np.ndarray    # (n,) a projection inside some master face was found
+    face: np.ndarray     # (n,) master face index
+    xi: np.ndarray
+    eta: np.ndarray
+    point: np.ndarray    # (n, 3)
+    normal: np.ndarray   # (n, 3) unit outward master normal
+    gap: np.ndarray      # (n,) n . (x_s - x_m)
+
+
+def project(points: np.ndarray, master: ContactSurface, x: np.ndarray,
+            faces: np.ndarray, k: int = 8, iterations: int = 6) -> Projection:
+    """Project points on the master faces ``faces`` of the configuration ``x``.
+
+    The ``k`` faces with the nearest centroids are tried; the closest
+    projection falling inside a face wins. Points with no such projection
+    (beyond the master's edge) are marked invalid.
+    """
+    k = int(min(k, len(faces)))
+    cent = x[master.faces[faces, :3]].mean(axis=1)
+    _, cand = cKDTree(cent).query(points, k=k)
+    cand = cand.reshape(len(points), k)
+    fidx = faces[cand]  # (n, k)
+    P = np.repeat(points[:, None, :], k, axis=1)
+    xi = np.full(fidx.shape, 1.0 / 3.0)
+    eta = np.full(fidx.shape, 1.0 / 3.0)
+    for _ in range(iterations):
+        pos, t1, t2, _ = master.geometry(x, xi, eta, master.faces[fidx])
+        r = P - pos
+        a11, a12, a22 = (np.einsum("...i,...i", t1, t1), np.einsum("...i,...i", t1, t2),
+                         np.einsum("...i,...i", t2, t2))
+        b1, b2 = np.einsum("...i,...i", t1, r), np.einsum("...i,...i", t2, r)
+        det = a11 * a22 - a12 ** 2
+        xi = xi + (a22 * b1 - a12 * b2) / det
+        eta = eta + (a11 * b2 - a12 * b1) / det
+    pos, t1, t2, _ = master.geometry(x, xi, eta, master.faces[fidx])
+    inside = (xi >= -_INSIDE_TOL) & (eta >= -_INSIDE_TOL) & (xi + eta <= 1 + _INSIDE_TOL)
+    dist = np.linalg.norm(P - pos, axis=-1)
+    dist[~inside] = np.inf
+    best = np.argmin(dist, axis=1)
+    rows = np.arange(len(points))
+    nrm = np.cross(t1[rows, best], t2[rows, best])
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    point = pos[rows, best]
+    gap = np.einsum("ij,ij->i", nrm, points - point)
+    valid = np.isfinite(dist[rows, best])
+    gap[~valid] = np.inf
+    return Projection(valid, fidx[rows, best], xi[rows, best], eta[rows, best], point, nrm, gap)
+
+
+@dataclass(frozen=True, eq=False)
+class GapState:
+    """Weighted gaps at the slave nodes and their linearisation ``dg = B du``.
+
+    The weighted gap of node ``a`` is ``g_a = int phi_a g dA / A_a`` with
+    ``A_a = int phi_a dA`` its tributary area: one constraint per slave node,
+    so the pressure ``eps <-g_a>`` is a smooth nodal field (a gap sampled at
+    every quadrature point over-constrains the surface and the pressure
+    oscillates from point to point).
+    """
+
+    nodes: np.ndarray    # (n,) slave point indices
+    gap: np.ndarray      # (n,) m; +inf where no master face is opposite
+    weight: np.ndarray   # (n,) tributary area A_a, m^2
+    B: sp.csr_matrix     # (n, 3 * n_scalar_dofs)
+    point: np.ndarray    # (n, 3) deformed slave nodes
+    normal: np.ndarray   # (n, 3) averaged master normal
+
+
+@dataclass(frozen=True, eq=False)
+class ContactPair:
+    """A slave/master surface pair with its penalty (Pa/m)."""
+
+    slave: ContactSurface
+    master: ContactSurface
+    penalty: float
+
+    def gap_state(self, mesh: FEMesh, u: np.ndarray, slave_faces: np.ndarray,
+                  master_faces: np.ndarray) -> GapState:
+        """Gaps of the deformed configuration ``x = X + u`` (u: (n_points, 3))."""
+        x = mesh.points + u
+        sp_ = slave_points(self.slave, mesh.points, slave_faces)
+        f = self.slave.faces[slave_faces]
+        pos, _, _, Ns = self.slave.geometry(x, sp_.xi[None, :], sp_.eta[None, :], f[:, None, :])
+        nq = sp_.xi.size
+        pts = pos.reshape(-1, 3)
+        proj = project(pts, self.master, x, master_faces)
+        Nm, _ = tri_shape(proj.xi, proj.eta, self.master.nodes_per_face)
+        snodes = np.repeat(f, nq, axis=0)  # (n, nns)
+        Ns = np.broadcast_to(Ns, (len(slave_faces), nq, Ns.shape[-1])).reshape(len(pts), -1)
+        Bq = _gap_jacobian(mesh, snodes, Ns, self.master.faces[proj.face], Nm,
+                           proj.normal, proj.valid)
+        # Aggregate quadrature points onto nodes: W[a, q] = phi_a(q) w_q.
+        nodes, inv = np.unique(f, return_inverse=True)
+        inv = inv.reshape(f.shape)
+        c = sp_.phi[None, :, :] * sp_.weight[:, :, None]           # (nf, nq, nn)
+        cv = c * proj.valid.reshape(len(f), nq)[:, :, None]
+        rows = np.broadcast_to(inv[:, None, :], c.shape).ravel()
+        cols = np.broadcast_to(np.arange(len(pts)).reshape(len(f), nq)[:, :, None],
+                               c.shape).ravel()
+        Wv = sp.csr_matrix((cv.ravel(), (rows, cols)), shape=(len(nodes), len(pts)))
+        area = np.asarray(sp.csr_matrix((c.ravel(), (rows, cols)),
+                                        shape=(len(nodes), len(pts))).sum(axis=1)).ravel()
+        valid_area = np.asarray(Wv.sum(axis=1)).ravel()
+        ok = valid_area > 1e-3 * area
+        scale = np.where(ok, 1.0 / np.where(ok, valid_area, 1.0), 0.0)
+        Wn = sp.diags(scale) @ Wv
+        gap = np.where(ok, Wn @ np.where(proj.valid, proj.gap, 0.0), np.inf)
+        normal = Wn @ proj.normal
+        normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+        return GapState(nodes, gap, area, (Wn @ Bq).tocsr(), x[nodes], normal)
+
+
+def _gap_jacobian(mesh: FEMesh, snodes, Ns, mnodes, Nm, normal, valid) -> sp.csr_matrix:
+    n = len(normal)
+    nodes = np.concatenate([snodes, mnodes], axis=1)            # (n, a)
+    coef = np.concatenate([Ns, -Nm], axis=1) * valid[:, None]   # (n, a)
+    vals = coef[:, :, None] * normal[:, None, :]                # (n, a, 3)
+    cols = 3 * mesh.point_dof[nodes][:, :, None] + np.arange(3)
+    rows = np.broadcast_to(np.arange(n)[:, None, None], cols.shape)
+    ndof = 3 * (mesh.point_dof.max() + 1)
+    return sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(n, ndof))
+
+
+def surface_nodes(surface: ContactSurface, faces: np.ndarray) -> np.ndarray:
+    """Unique point indices of the given faces."""
+    return np.unique(surface.faces[faces])
+
+
+def nodal_pressure(mesh: FEMesh, state: GapState, pressure: np.ndarray) -> np.ndarray:
+    """Scatter the slave-node pressure into an (n_points,) array, zero elsewhere."""
+    out = np.zeros(mesh.n_points)
+    out[state.nodes] = pressure
+    return out

@@ -1,0 +1,123 @@
+"""Small-strain linear elasticity on P1/P2 tetrahedra with scikit-fem.
+
+Materials enter as per-element Lamé fields, so a multi-material model is
+assembled in one pass. DOFs are scikit-fem's: vector DOF ``3 * s + c`` for
+scalar DOF ``s`` and component ``c``.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .case import MaterialSpec
+from .mesh import FEMesh
+
+logger = logging.getLogger(__name__)
+
+
+def lame_from_youngpoisson(E: float, nu: float) -> tuple[float, float]:
+    """Lamé parameters (lambda, mu) in Pa from Young's modulus and Poisson's ratio."""
+    return E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
+
+
+def effective_modulus(E1: float, nu1: float, E2: float, nu2: float) -> float:
+    """Contact modulus E* = 1 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2) (Johnson 1985, eq. 4.22)."""
+    return 1.0 / ((1.0 - nu1 ** 2) / E1 + (1.0 - nu2 ** 2) / E2)
+
+
+@dataclass(frozen=True, eq=False)
+class ElasticModel:
+    """Assembled stiffness and per-element material data.
+
+    Attributes
+    ----------
+    basis : skfem.Basis
+        Vector P1 or P2 basis (quadrature exact for the stiffness of affine elements).
+    K : scipy.sparse.csr_matrix, shape (n_dofs, n_dofs)
+    material : ndarray of int, shape (n_elements,)
+        Index into ``materials`` of each element.
+    """
+
+    mesh: FEMesh
+    basis: object
+    K: sp.csr_matrix
+    materials: tuple[MaterialSpec, ...]
+    material: np.ndarray
+
+    @property
+    def n_dofs(self) -> int:
+        return self.K.shape[0]
+
+    def element_field(self, name: str) -> np.ndarray:
+        """Per-element value of a material attribute, e.g. ``"density"``."""
+        vals = np.array([getattr(m, name) for m in self.materials])
+        return vals[self.material]
+
+    def point_values(self, u: np.ndarray) -> np.ndarray:
+        """Nodal (n_points, 3) displacement from a DOF vector (0 at unused points)."""
+        out = np.zeros((self.mesh.n_points, 3))
+        used = self.mesh.point_dof >= 0
+        out[used] = u.reshape(-1, 3)[self.mesh.point_dof[used]]
+        return out
+
+
+def element_materials(mesh: FEMesh, materials: tuple[MaterialSpec, ...]) -> np.ndarray:
+    """Material index of every element (-1 where a volume has no material)."""
+    mat = -np.ones(len(mesh.cells), dtype=np.int64)
+    for i, m in enumerate(materials):
+        for v in m.volumes:
+            mat[mesh.volume(v)] = i
+    return mat
+
+
+def build_model(mesh: FEMesh, materials: tuple[MaterialSpec, ...]) -> ElasticModel:
+    """Assemble the stiffness matrix of the whole mesh."""
+    from skfem import Basis, ElementTetP1, ElementTetP2, ElementVector
+
+    elem = ElementTetP2() if mesh.order == 2 else ElementTetP1()
+    # Stiffness integrands are polynomials of degree 2(p-1): exact for affine elements.
+    basis = Basis(mesh.skfem_mesh, ElementVector(elem), intorder=max(2 * (mesh.order - 1), 1))
+    mat = element_materials(mesh, materials)
+    if np.any(mat < 0):
+        raise ValueError("some elements have no material")
+    K = assemble_stiffness(basis, mat, materials)
+    logger.info("assembled K: %d DOFs, %d nonzeros", K.shape[0], K.nnz)
+    return ElasticModel(mesh, basis, K, materials, mat)
+
+
+def assemble_stiffness(basis, mat: np.ndarray, materials) -> sp.csr_matrix:
+    """Stiffness matrix for per-element materials."""
+    from skfem import BilinearForm, asm
+    from skfem.helpers import ddot, sym_grad, trace
+
+    lam_mu = np.array([lame_from_youngpoisson(m.youngs_modulus, m.poisson_ratio)
+                       for m in materials])
+    nqp = basis.X.shape[1]
+    lam = np.repeat(lam_mu[mat, 0][:, None], nqp, axis=1)
+    mu = np.repeat(lam_mu[mat, 1][:, None], nqp, axis=1)
+
+    @BilinearForm
+    def stiffness(u, v, w):
+        eu, ev = sym_grad(u), sym_grad(v)
+        return 2.0 * w.mu * ddot(eu, ev) + w.lam * trace(eu) * trace(ev)
+
+    return asm(stiffness, basis, lam=lam, mu=mu).tocsr()
+
+
+def von_mises(model: ElasticModel, u: np.ndarray) -> np.ndarray:
+    """Element-mean von Mises stress (Pa) of the DOF vector ``u``; shape (n_elements,)."""
+    lam_mu = np.array([lame_from_youngpoisson(m.youngs_modulus, m.poisson_ratio)
+                       for m in model.materials])[model.material]
+    grad = model.basis.interpolate(u).grad  # (3, 3, ne, nq)
+    eps = 0.5 * (grad + np.swapaxes(grad, 0, 1))
+    tr = np.einsum("iiek->ek", eps)
+    dev = eps - np.eye(3)[:, :, None, None] * tr / 3.0
+    # sigma = 2 mu eps + lam tr I; deviator of sigma = 2 mu dev(eps)
+    s2 = np.einsum("ijek,ijek->ek", dev, dev)
+    vm = np.sqrt(1.5 * s2) * 2.0 * lam_mu[:, 1][:, None]
+    dx = model.basis.dx
+    return (vm * dx).sum(axis=1) / dx.sum(axis=1)

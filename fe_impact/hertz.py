@@ -1,0 +1,452 @@
+"""Hertz closed forms: the analytic references the FE contact is checked against.
+
+Every formula is for frictionless, linear-elastic, non-conforming bodies and
+comes from K. L. Johnson, *Contact Mechanics*, Cambridge University Press,
+1985 (chapters 3, 4 and 11) unless the docstring says otherwise. SI units
+throughout: m, N, Pa, kg, s.
+
+The two bodies are reduced to one effective modulus ``E_star`` and one
+effective radius ``R`` (``1/R = 1/R1 + 1/R2``); impact uses the effective
+mass ``m = m1 m2 / (m1 + m2)``.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.optimize import brentq
+from scipy.special import beta, elliprd, elliprf
+
+logger = logging.getLogger(__name__)
+
+#: ``t_c v / delta_max`` for a Hertz impact: ``2 * (2/5) B(2/5, 1/2) = 2.94328``.
+#: From energy conservation, ``t_c = 2 (delta_max / v) int_0^1 dx / sqrt(1 - x^(5/2))``;
+#: the substitution ``u = x^(5/2)`` turns the integral into a Beta function.
+HERTZ_CONTACT_TIME_FACTOR: float = float(2.0 * 0.4 * beta(0.4, 0.5))
+
+# Beyond z/a = 2 the closed form of the axial displacement loses digits to
+# cancellation; its asymptotic series then converges like (a/z)^2 <= 1/4 per term.
+_SERIES_FROM = 2.0
+_SERIES_TERMS = 30
+
+
+def _require_positive(name: str, value: float) -> float:
+    """Return ``value`` as a float, or raise ValueError naming it when not > 0."""
+    value = float(value)
+    if not np.isfinite(value) or value <= 0.0:
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    return value
+
+
+def _require_poisson(name: str, value: float) -> float:
+    """Return ``value`` as a float, or raise ValueError when outside (-1, 0.5]."""
+    value = float(value)
+    if not -1.0 < value <= 0.5:
+        raise ValueError(f"{name} must lie in (-1, 0.5], got {value!r}")
+    return value
+
+
+def effective_modulus(
+    E1: float, nu1: float, E2: float | None = None, nu2: float | None = None
+) -> float:
+    """Effective (contact) modulus of two elastic bodies.
+
+    ``E* = 1 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2)`` (Johnson 1985, section 4.2).
+
+    Parameters
+    ----------
+    E1, nu1 : float
+        Young's modulus [Pa] and Poisson's ratio [-] of the first body.
+    E2, nu2 : float, optional
+        Same for the second body; each defaults to the first body's value.
+
+    Returns
+    -------
+    float
+        E* [Pa].
+
+    Examples
+    --------
+    >>> round(effective_modulus(212e9, 0.289) / 1e9, 2)  # two 20CrMnTi bodies
+    115.66
+    """
+    E1 = _require_positive("E1", E1)
+    nu1 = _require_poisson("nu1", nu1)
+    E2 = E1 if E2 is None else _require_positive("E2", E2)
+    nu2 = nu1 if nu2 is None else _require_poisson("nu2", nu2)
+    return 1.0 / ((1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2)
+
+
+@dataclass(frozen=True)
+class HertzContact:
+    """Static Hertz contact patch.
+
+    Attributes
+    ----------
+    a : float
+        Semi-axis of the contact ellipse along the direction of the larger
+        relative radius of curvature (the major semi-axis) [m].
+    b : float
+        Minor semi-axis [m]; ``b == a`` for a circular contact.
+    p0 : float
+        Peak (central) pressure [Pa].
+    delta : float
+        Approach of distant points of the two bodies [m].
+    force : float
+        Normal load [N].
+    """
+
+    a: float
+    b: float
+    p0: float
+    delta: float
+    force: float
+
+
+def sphere_contact(force: float, R: float, E_star: float) -> HertzContact:
+    """Circular Hertz contact of two spheres (or a sphere on a flat).
+
+    ``a = (3 P R / (4 E*))^(1/3)``, ``p0 = 3 P / (2 pi a^2)``,
+    ``delta = a^2 / R`` (Johnson 1985, section 4.2(a)).
+
+    Parameters
+    ----------
+    force : float
+        Normal load P [N].
+    R : float
+        Effective radius, ``1/R = 1/R1 + 1/R2`` [m].
+    E_star : float
+        Effective modulus [Pa], see `effective_modulus`.
+
+    Returns
+    -------
+    HertzContact
+        With ``b == a``.
+
+    Examples
+    --------
+    >>> c = sphere_contact(1000.0, 0.01, 115.66e9)
+    >>> round(c.a * 1e6, 2), round(c.p0 / 1e6), round(c.delta * 1e6, 3)
+    (401.75, 2958, 16.141)
+    """
+    force = _require_positive("force", force)
+    R = _require_positive("R", R)
+    E_star = _require_positive("E_star", E_star)
+    a = (3.0 * force * R / (4.0 * E_star)) ** (1.0 / 3.0)
+    p0 = 3.0 * force / (2.0 * np.pi * a**2)
+    return HertzContact(a=a, b=a, p0=p0, delta=a**2 / R, force=force)
+
+
+def sphere_stiffness(R: float, E_star: float) -> float:
+    """Hertz stiffness coefficient ``K = (4/3) E* sqrt(R)`` [N/m^1.5].
+
+    Such that ``P = K delta^1.5`` (Johnson 1985, section 4.2(a); seed eq. 12).
+
+    Parameters
+    ----------
+    R : float
+        Effective radius [m].
+    E_star : float
+        Effective modulus [Pa].
+    """
+    R = _require_positive("R", R)
+    E_star = _require_positive("E_star", E_star)
+    return 4.0 / 3.0 * E_star * float(np.sqrt(R))
+
+
+def sphere_force(delta: ArrayLike, R: float, E_star: float) -> np.ndarray | float:
+    """Hertz force ``P = (4/3) E* sqrt(R) delta^1.5`` for an approach ``delta``.
+
+    Parameters
+    ----------
+    delta : float or array_like
+        Approach [m]; any shape. Non-positive values (no contact) give 0.
+    R : float
+        Effective radius [m].
+    E_star : float
+        Effective modulus [Pa].
+
+    Returns
+    -------
+    float or ndarray
+        Force [N], same shape as ``delta``.
+    """
+    k = sphere_stiffness(R, E_star)
+    force = k * np.maximum(np.asarray(delta, dtype=float), 0.0) ** 1.5
+    return float(force) if force.ndim == 0 else force
+
+
+def sphere_pressure(r: ArrayLike, force: float, R: float, E_star: float) -> np.ndarray | float:
+    """Hertz pressure ``p0 sqrt(1 - r^2/a^2)`` inside the contact circle, 0 outside.
+
+    Parameters
+    ----------
+    r : float or array_like
+        Radial distance from the contact centre [m]; any shape.
+    force, R, E_star : float
+        As in `sphere_contact`.
+
+    Returns
+    -------
+    float or ndarray
+        Pressure [Pa], same shape as ``r`` (Johnson 1985, section 4.2(a)).
+    """
+    contact = sphere_contact(force, R, E_star)
+    rho2 = (np.asarray(r, dtype=float) / contact.a) ** 2
+    pressure = contact.p0 * np.sqrt(np.maximum(1.0 - rho2, 0.0))
+    return float(pressure) if pressure.ndim == 0 else pressure
+
+
+def _ellipse_axis_ratio_squared(curvature_ratio: float) -> float:
+    """Solve the Hertz eccentricity relation for ``k'^2 = (b/a)^2``.
+
+    Johnson writes ``B/A = (E(e)/(1-e^2) - K(e)) / (K(e) - E(e))``. With
+    Carlson's integrals, ``K - E = (e^2/3) R_D(0, k'^2, 1)`` and
+    ``E - k'^2 K = (e^2 k'^2/3) R_D(0, 1, k'^2)`` (DLMF 19.25.1), so
+    ``B/A = R_D(0, 1, k'^2) / R_D(0, k'^2, 1)`` with no cancellation at
+    either end (near-circular or very slender ellipses). The ratio falls
+    monotonically from infinity at ``k'^2 -> 0`` to 1 at ``k'^2 = 1``; the
+    root is bracketed in ``log k'^2``.
+    """
+
+    def residual(log_p: float) -> float:
+        p = np.exp(log_p)
+        return float(elliprd(0.0, 1.0, p) / elliprd(0.0, p, 1.0)) - curvature_ratio
+
+    low = -1.0
+    while residual(low) < 0.0:
+        low *= 2.0
+        if low < -2000.0:  # k'^2 < 1e-868: no float ellipse is that slender
+            raise ValueError(f"curvature ratio B/A = {curvature_ratio!r} is too large")
+    log_p = brentq(residual, low, 0.0, xtol=1e-15, rtol=4.0 * np.finfo(float).eps)
+    return float(np.exp(log_p))
+
+
+def ellipse_contact(force: float, Rx: float, Ry: float, E_star: float) -> HertzContact:
+    """Exact elliptical Hertz contact (complete elliptic integrals).
+
+    The initial gap is ``h = A x^2 + B y^2`` with ``A = 1/(2 Rx)``,
+    ``B = 1/(2 Ry)``, Rx and Ry being the relative (effective) principal
+    radii. The eccentricity ``e^2 = 1 - b^2/a^2`` solves
+    ``B/A = (E/(1-e^2) - K)/(K - E)``; then ``A = p0 b (K - E)/(E* a^2 e^2)``,
+    ``P = (2/3) pi a b p0`` and ``delta = p0 b K / E*`` (Johnson 1985,
+    sections 3.6 and 4.2(b)). Elliptic integrals are evaluated in
+    Carlson's form so that any ratio ``Rx/Ry`` (tested up to 1000) and the
+    circular limit are accurate.
+
+    Parameters
+    ----------
+    force : float
+        Normal load P [N].
+    Rx, Ry : float
+        Principal relative radii of curvature [m], in either order.
+    E_star : float
+        Effective modulus [Pa].
+
+    Returns
+    -------
+    HertzContact
+        ``a`` is the semi-axis along the direction of the *larger* radius
+        (the major axis), ``b`` the one along the smaller radius. ``Rx == Ry``
+        gives `sphere_contact` with ``R = Rx``.
+
+    Examples
+    --------
+    >>> c = ellipse_contact(1000.0, 0.1, 0.01, 115.66e9)
+    >>> round(c.a * 1e6, 1), round(c.b * 1e6, 1), round(c.p0 / 1e6, 1)
+    (1172.2, 260.5, 1563.6)
+    """
+    force = _require_positive("force", force)
+    Rx = _require_positive("Rx", Rx)
+    Ry = _require_positive("Ry", Ry)
+    E_star = _require_positive("E_star", E_star)
+    if Rx == Ry:
+        return sphere_contact(force, Rx, E_star)
+    A = 0.5 / max(Rx, Ry)
+    B = 0.5 / min(Rx, Ry)
+    p = _ellipse_axis_ratio_squared(B / A)
+    # A = 3 P (K - E) / (2 pi E* a^3 e^2) with K - E = (e^2/3) R_D(0, p, 1).
+    a = (force * float(elliprd(0.0, p, 1.0)) / (2.0 * np.pi * E_star * A)) ** (1.0 / 3.0)
+    b = a * float(np.sqrt(p))
+    p0 = 3.0 * force / (2.0 * np.pi * a * b)
+    delta = p0 * b * float(elliprf(0.0, p, 1.0)) / E_star  # K(e) = R_F(0, k'^2, 1)
+    return HertzContact(a=a, b=b, p0=p0, delta=delta, force=force)
+
+
+def _arccot_remainder(zeta: np.ndarray) -> np.ndarray:
+    """``(1 + zeta^2) arccot(zeta) - zeta`` for ``zeta >= 0``, without cancellation.
+
+    Direct formula below ``_SERIES_FROM``; above it the alternating series
+    ``sum_k (-1)^(k+1) 2 / ((2k-1)(2k+1) zeta^(2k-1))``.
+    """
+    direct = (1.0 + zeta**2) * np.arctan2(1.0, zeta) - zeta
+    far = zeta > _SERIES_FROM
+    inv = 1.0 / np.where(far, zeta, _SERIES_FROM)
+    k = np.arange(1, _SERIES_TERMS + 1)[:, None]
+    terms = (-1.0) ** (k + 1) * 2.0 / ((2 * k - 1) * (2 * k + 1)) * inv ** (2 * k - 1)
+    return np.where(far, terms.sum(axis=0), direct)
+
+
+def axial_displacement(
+    z: ArrayLike, a: float, p0: float, E: float, nu: float
+) -> np.ndarray | float:
+    """Normal displacement on the axis of a half-space under Hertz pressure.
+
+    For ``p = p0 sqrt(1 - r^2/a^2)`` on the surface of a half-space, the
+    displacement along the load direction at depth ``z`` on the axis,
+    relative to the far field (``u -> 0`` at infinity), is
+
+    ``u(z) = a p0 (1 + nu)/E [arccot(z/a) - nu ((1 + z^2/a^2) arccot(z/a) - z/a)]``.
+
+    Derived by integrating ``eps_z = (sigma_z - 2 nu sigma_r)/E`` from ``z`` to
+    infinity with the axial stresses of Johnson 1985, section 3.4; it matches the
+    integral of Boussinesq's point-load solution over the pressure. Limits:
+    ``u(0) = pi p0 a (1 - nu^2)/(2 E)`` (half the Hertz approach for two
+    identical bodies) and ``u -> P (1 + nu)(3 - 2 nu)/(2 pi E z)`` for
+    ``z >> a`` (Boussinesq), with ``P = (2/3) pi a^2 p0``.
+
+    Parameters
+    ----------
+    z : float or array_like
+        Depth below the surface, ``z >= 0`` [m]; any shape.
+    a : float
+        Contact radius [m].
+    p0 : float
+        Peak pressure [Pa].
+    E, nu : float
+        Young's modulus [Pa] and Poisson's ratio of *this* body (not E*).
+
+    Returns
+    -------
+    float or ndarray
+        Displacement into the body [m], positive, same shape as ``z``.
+    """
+    a = _require_positive("a", a)
+    p0 = _require_positive("p0", p0)
+    E = _require_positive("E", E)
+    nu = _require_poisson("nu", nu)
+    zeta = np.asarray(z, dtype=float) / a
+    if np.any(zeta < 0.0) or not np.all(np.isfinite(zeta)):
+        raise ValueError(f"z must be finite and >= 0, got min {np.min(zeta) * a!r}")
+    arccot = np.arctan2(1.0, zeta)
+    u = a * p0 * (1.0 + nu) / E * (arccot - nu * _arccot_remainder(zeta))
+    return float(u) if u.ndim == 0 else u
+
+
+@dataclass(frozen=True)
+class HertzImpact:
+    """Quasi-static Hertz impact of two elastic bodies.
+
+    Attributes
+    ----------
+    delta_max : float
+        Maximum approach [m] (seed eq. 16).
+    force_max : float
+        Peak force [N].
+    contact_time : float
+        Duration of contact [s].
+    """
+
+    delta_max: float
+    force_max: float
+    contact_time: float
+
+
+def impact(mass: float, speed: float, R: float, E_star: float) -> HertzImpact:
+    """Hertz impact: ``m delta'' = -K delta^1.5`` from ``delta'(0) = v``.
+
+    ``delta_max = (5 m v^2 / (4 K))^(2/5)``, ``F_max = K delta_max^1.5`` and
+    ``t_c = 2.94328 delta_max / v`` (Johnson 1985, section 11.4; the factor
+    is `HERTZ_CONTACT_TIME_FACTOR`), ``K = (4/3) E* sqrt(R)``.
+
+    Parameters
+    ----------
+    mass : float
+        Effective mass ``m1 m2 / (m1 + m2)`` [kg].
+    speed : float
+        Normal approach speed at first contact [m/s].
+    R : float
+        Effective radius [m].
+    E_star : float
+        Effective modulus [Pa].
+
+    Returns
+    -------
+    HertzImpact
+
+    Examples
+    --------
+    >>> hit = impact(0.5, 0.1, 0.01, 115.66e9)
+    >>> round(hit.delta_max * 1e6, 2), round(hit.force_max), round(hit.contact_time * 1e6)
+    (11.04, 566, 325)
+    """
+    mass = _require_positive("mass", mass)
+    speed = _require_positive("speed", speed)
+    k = sphere_stiffness(R, E_star)
+    delta_max = float((5.0 * mass * speed**2 / (4.0 * k)) ** 0.4)
+    return HertzImpact(
+        delta_max=delta_max,
+        force_max=k * delta_max**1.5,
+        contact_time=HERTZ_CONTACT_TIME_FACTOR * delta_max / speed,
+    )
+
+
+def hunter_wave_loss(speed: ArrayLike, E: float, rho: float) -> np.ndarray | float:
+    """Fraction of the impact energy radiated as elastic waves (Hunter 1957).
+
+    ``1.04 (v / c0)^0.6`` with ``c0 = sqrt(E / rho)``, for a sphere striking
+    a half-space (S. C. Hunter, J. Mech. Phys. Solids 5, 1957; Johnson 1985,
+    section 11.4). For 20CrMnTi (c0 = 5193 m/s): 0.0015 at 0.1 m/s, 0.0061
+    at 1 m/s.
+
+    Parameters
+    ----------
+    speed : float or array_like
+        Impact speed [m/s], >= 0.
+    E : float
+        Young's modulus [Pa].
+    rho : float
+        Density [kg/m^3].
+
+    Returns
+    -------
+    float or ndarray
+        Energy fraction [-].
+    """
+    c0 = np.sqrt(_require_positive("E", E) / _require_positive("rho", rho))
+    speed = np.asarray(speed, dtype=float)
+    if np.any(speed < 0.0):
+        raise ValueError(f"speed must be >= 0, got min {np.min(speed)!r}")
+    loss = 1.04 * (speed / c0) ** 0.6
+    return float(loss) if loss.ndim == 0 else loss
+
+
+def yield_onset_speed(Y: float, rho: float, E_star: float) -> float:
+    """Impact speed at which a sphere starts to yield (Johnson 1985, section 11.4).
+
+    ``v_y = sqrt(26 Y^5 / (rho E*^4))`` (seed eq. 15): first yield when the
+    Hertz peak pressure reaches ``1.6 Y``; independent of the sphere's size.
+    For 20CrMnTi (Y = 835 MPa, rho = 7860 kg/m^3, E* = 115.66 GPa) this gives
+    0.0866 m/s.
+
+    Parameters
+    ----------
+    Y : float
+        Yield strength in simple tension [Pa].
+    rho : float
+        Density of the striking sphere [kg/m^3].
+    E_star : float
+        Effective modulus [Pa].
+
+    Returns
+    -------
+    float
+        Speed [m/s].
+    """
+    Y = _require_positive("Y", Y)
+    rho = _require_positive("rho", rho)
+    E_star = _require_positive("E_star", E_star)
+    return float(np.sqrt(26.0 * Y**5 / (rho * E_star**4)))

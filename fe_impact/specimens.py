@@ -1,0 +1,132 @@
+"""Gmsh builders for the analytic test specimens (sphere on block).
+
+The Hertz validations and tests run on these: a quarter model of a
+hemisphere (or a whole quarter sphere) touching an elastic block at the
+origin, with the symmetry planes x = 0 and y = 0. The block's top face is
+z = 0 and the sphere touches it at one point with an optional initial gap.
+
+Physical groups (the interface to the solver):
+
+- volumes ``sphere``, ``block``;
+- surfaces ``sphere_contact`` (the curved surface), ``block_contact``
+  (the top face), ``block_bottom``, ``sphere_equator`` (the flat face of a
+  hemisphere), ``sym_x`` (x = 0 faces of both bodies), ``sym_y``.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+from .meshing import gmsh_session, write_msh
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SphereBlockSpec:
+    """Dimensions (m) and mesh sizes of a quarter sphere-on-block model.
+
+    ``h_contact`` is the element size within ``r_fine`` of the contact point;
+    it grows linearly to ``h_far`` over ``r_grade``.
+    """
+
+    radius: float = 10e-3
+    block_half_width: float = 10e-3
+    block_depth: float = 10e-3
+    gap: float = 0.0
+    h_contact: float = 0.1e-3
+    h_far: float = 2.5e-3
+    r_fine: float = 1.0e-3
+    r_grade: float = 6e-3
+    order: int = 2
+    hemisphere: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("radius", "block_half_width", "block_depth", "h_contact", "h_far",
+                     "r_fine", "r_grade"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if self.order not in (1, 2):
+            raise ValueError(f"order must be 1 or 2, got {self.order}")
+
+
+def build_sphere_block(spec: SphereBlockSpec, path: str | Path) -> Path:
+    """Mesh the quarter sphere-on-block model and write it as MSH 4.1 (metres)."""
+    with gmsh_session("sphere_block") as model:
+        _add_geometry(model, spec)
+        _add_size_field(model, spec)
+        model.mesh.generate(3)
+        if spec.order == 2:
+            model.mesh.setOrder(2)
+        return write_msh(path)
+
+
+def _add_geometry(model, spec: SphereBlockSpec) -> None:
+    occ = model.occ
+    R, W, H, g = spec.radius, spec.block_half_width, spec.block_depth, spec.gap
+    zc = R + g
+    ball = occ.addSphere(0, 0, zc, R)
+    keep = occ.addBox(0, 0, zc - R - 1e-3 * R, R * 1.1, R * 1.1,
+                      R * (1.0 if spec.hemisphere else 2.0) + 1e-3 * R)
+    sphere, _ = occ.intersect([(3, ball)], [(3, keep)])
+    block = occ.addBox(0, 0, -H, W, W, H)
+    occ.synchronize()
+    sphere_tag = sphere[0][1]
+    _tag_groups(model, spec, sphere_tag, block)
+
+
+def _tag_groups(model, spec: SphereBlockSpec, sphere_tag: int, block_tag: int) -> None:
+    R, H, g = spec.radius, spec.block_depth, spec.gap
+    eps = 1e-3 * R  # OCC bounding boxes are padded by its tolerance (~1e-7 m)
+    model.addPhysicalGroup(3, [sphere_tag], name="sphere")
+    model.addPhysicalGroup(3, [block_tag], name="block")
+    groups: dict[str, list[int]] = {k: [] for k in (
+        "sphere_contact", "block_contact", "block_bottom", "sphere_equator", "sym_x", "sym_y")}
+    for dim, tag in model.getBoundary([(3, sphere_tag)], oriented=False):
+        xmin, ymin, zmin, xmax, ymax, zmax = model.getBoundingBox(dim, tag)
+        if xmax < eps:
+            groups["sym_x"].append(tag)
+        elif ymax < eps:
+            groups["sym_y"].append(tag)
+        elif zmin > R + g - eps:
+            groups["sphere_equator"].append(tag)
+        else:
+            groups["sphere_contact"].append(tag)
+    for dim, tag in model.getBoundary([(3, block_tag)], oriented=False):
+        xmin, ymin, zmin, xmax, ymax, zmax = model.getBoundingBox(dim, tag)
+        if xmax < eps:
+            groups["sym_x"].append(tag)
+        elif ymax < eps:
+            groups["sym_y"].append(tag)
+        elif zmin > -eps:
+            groups["block_contact"].append(tag)
+        elif zmax < -H + eps:
+            groups["block_bottom"].append(tag)
+    for name, tags in groups.items():
+        if tags:
+            model.addPhysicalGroup(2, tags, name=name)
+
+
+def _add_size_field(model, spec: SphereBlockSpec) -> None:
+    import gmsh
+
+    fields = model.mesh.field
+    pt = fields.add("Distance")
+    # A point just at the contact: the distance field refines both bodies.
+    p = model.occ.addPoint(0, 0, spec.gap / 2)
+    model.occ.synchronize()
+    fields.setNumbers(pt, "PointsList", [p])
+    th = fields.add("Threshold")
+    fields.setNumber(th, "InField", pt)
+    fields.setNumber(th, "SizeMin", spec.h_contact)
+    fields.setNumber(th, "SizeMax", spec.h_far)
+    fields.setNumber(th, "DistMin", spec.r_fine)
+    fields.setNumber(th, "DistMax", spec.r_fine + spec.r_grade)
+    fields.setAsBackgroundMesh(th)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: fast and robust
+    logger.debug("size field: %.3g m within %.3g m of contact", spec.h_contact, spec.r_fine)

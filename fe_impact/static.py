@@ -1,0 +1,423 @@
+"""Displacement-controlled static contact between linear elastic bodies.
+
+The bodies are linear, only contact is nonlinear, and only a small patch of
+surface can touch. The solver therefore
+
+1. factorises the free-free stiffness once;
+2. condenses the stiffness onto the DOFs of the contact zone (the
+   candidate faces within the search distance) with a Schur complement,
+   giving the compliance ``G`` of those DOFs;
+3. per load step, solves the no-contact displacement ``u0``, then iterates
+   contact forces ``lambda`` on the small dense problem: gaps on the
+   deformed configuration, ``u_c = u0_c + G B^T lambda``, penalty law
+   ``lambda = eps w <-g>``, until the active set and the displacement
+   converge;
+4. recovers the full field with one more back-substitution, and checks the
+   whole slave surface: penetration outside the candidate zone enlarges the
+   zone and repeats the step.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from scipy.optimize import nnls
+from scipy.spatial import cKDTree
+
+from .case import Case
+from .contact import ContactPair, ContactSurface, nodal_pressure
+from .elasticity import ElasticModel, build_model, effective_modulus, von_mises
+from .errors import CaseError, ContactError
+from .linalg import SPDSolver, condensed_compliance
+from .mesh import FEMesh, load_mesh
+
+logger = logging.getLogger(__name__)
+
+#: Auto penalty = PENALTY_FACTOR * E* / h. For a Hertzian patch the
+#: penetration/approach ratio is p0/(eps delta) = 2 E*/(pi a eps) = 2 h/(100 pi a),
+#: below 1% once the contact radius spans a fifth of an element.
+PENALTY_FACTOR = 100.0
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """Outcome of one load step (SI units)."""
+
+    value: float
+    contact_force: list[float]
+    contact_area: list[float]
+    max_pressure: float
+    max_penetration: float
+    iterations: int
+    active_set_iterations: int
+    reaction_force: list[float]
+    u: np.ndarray = field(repr=False)          # (n_points, 3)
+    pressure: np.ndarray = field(repr=False)   # (n_points,)
+    von_mises: np.ndarray = field(repr=False)  # (n_elements,)
+
+
+@dataclass
+class StaticResult:
+    steps: list[StepResult]
+    mesh: FEMesh
+    model: ElasticModel
+    penalties: list[float]
+    timings: dict[str, float]
+    info: dict
+
+
+@dataclass
+class _Zone:
+    """Candidate contact zone of each pair and its condensed compliance."""
+
+    slave_faces: list[np.ndarray]
+    master_faces: list[np.ndarray]
+    dofs: np.ndarray = None      # indices into the free DOFs, sorted
+    G: np.ndarray = None         # compliance on those DOFs
+
+
+class StaticSolver:
+    """Set up once per case; :meth:`run` solves the load steps."""
+
+    def __init__(self, case: Case, mesh: FEMesh | None = None) -> None:
+        self.case = case
+        self.timings: dict[str, float] = {}
+        t = time.perf_counter()
+        self.mesh = mesh if mesh is not None else load_mesh(case.mesh_file, case.unit)
+        case.check_groups(self.mesh)
+        self.timings["mesh"] = time.perf_counter() - t
+        t = time.perf_counter()
+        self.model = build_model(self.mesh, case.materials)
+        self.timings["assembly"] = time.perf_counter() - t
+        self._setup_dofs()
+        t = time.perf_counter()
+        K = self.model.K
+        self.K_ff = K[self.free][:, self.free].tocsr()
+        self.K_fd = K[self.free][:, self.fixed].tocsr()
+        self.solver = SPDSolver(self.K_ff)
+        self.timings["factorisation"] = time.perf_counter() - t
+        self.pairs = self._contact_pairs()
+        t = time.perf_counter()
+        self.zone = self._initial_zone()
+        self._condense()
+        self.timings["condensation"] = time.perf_counter() - t
+
+    # -- set-up -------------------------------------------------------------
+    def _setup_dofs(self) -> None:
+        mesh, n = self.mesh, self.model.n_dofs
+        values = np.full((n, self.case.n_steps), np.nan)
+        owner: dict[int, str] = {}
+        for s in self.case.supports:
+            for c in s.fix:
+                self._prescribe(values, owner, s.surface, c, np.zeros(self.case.n_steps))
+        for d in self.case.displacements:
+            self._prescribe(values, owner, d.surface, d.component, np.array(d.values))
+        fixed = ~np.isnan(values[:, 0])
+        self.fixed = np.flatnonzero(fixed)
+        self.free = np.flatnonzero(~fixed)
+        self.fixed_values = values[self.fixed]
+        self.free_index = -np.ones(n, dtype=np.int64)
+        self.free_index[self.free] = np.arange(len(self.free))
+        self.loaded = [3 * mesh.point_dof[mesh.surface_points(d.surface)] + d.component
+                       for d in self.case.displacements]
+
+    def _prescribe(self, values, owner, surface: str, comp: int, vals: np.ndarray) -> None:
+        dofs = 3 * self.mesh.point_dof[self.mesh.surface_points(surface)] + comp
+        known = ~np.isnan(values[dofs, 0])
+        clash = known & np.any(values[dofs] != vals[None, :], axis=1)
+        if clash.any():
+            other = owner[int(dofs[np.flatnonzero(clash)[0]])]
+            raise CaseError(f"{self.case.path.name}: surface '{surface}' and '{other}' "
+                            f"prescribe different values to component {'xyz'[comp]} of "
+                            f"{int(clash.sum())} shared nodes")
+        values[dofs] = vals[None, :]
+        owner.update(dict.fromkeys(dofs.tolist(), surface))
+
+    def _contact_pairs(self) -> list[ContactPair]:
+        pairs = []
+        for spec in self.case.contacts:
+            slave = ContactSurface.from_mesh(self.mesh, spec.slave)
+            master = ContactSurface.from_mesh(self.mesh, spec.master)
+            penalty = spec.penalty
+            if penalty is None:
+                penalty = PENALTY_FACTOR * self._pair_modulus(slave, master) / min(
+                    _face_size(self.mesh, slave), _face_size(self.mesh, master))
+            pairs.append(ContactPair(slave, master, penalty))
+            logger.info("contact %s -> %s: penalty %.3g Pa/m", spec.slave, spec.master, penalty)
+        return pairs
+
+    def _pair_modulus(self, slave: ContactSurface, master: ContactSurface) -> float:
+        props = []
+        for s in (slave, master):
+            mats = self.model.material[_elements_touching(self.mesh, s.faces[:, 0])]
+            m = min((self.case.materials[i] for i in np.unique(mats)),
+                    key=lambda m: m.youngs_modulus)
+            props.append((m.youngs_modulus, m.poisson_ratio))
+        return effective_modulus(*props[0], *props[1])
+
+    def _search_distance(self, spec) -> float:
+        if spec.search_distance is not None:
+            return spec.search_distance
+        reach = max((abs(v) for d in self.case.displacements for v in d.values), default=0.0)
+        # The approach cannot exceed the largest prescribed displacement; the
+        # zone grows by itself if a face outside it touches.
+        return 1.25 * reach
+
+    def _initial_zone(self) -> _Zone:
+        zero = np.zeros((self.mesh.n_points, 3))
+        slave_faces, master_faces = [], []
+        for spec, pair in zip(self.case.contacts, self.pairs, strict=True):
+            all_s = np.arange(len(pair.slave.faces))
+            st = pair.gap_state(self.mesh, zero, all_s, np.arange(len(pair.master.faces)))
+            s = max(self._search_distance(spec), 1e-3 * _face_size(self.mesh, pair.slave))
+            near = all_s[_face_min_gap(pair, st, all_s) < s]
+            slave_faces.append(near)
+            master_faces.append(self._master_near(pair, self.mesh.points[
+                np.unique(pair.slave.faces[near])], s))
+        return _Zone(slave_faces, master_faces)
+
+    def _master_near(self, pair: ContactPair, points: np.ndarray, s: float) -> np.ndarray:
+        if len(points) == 0:
+            return np.zeros(0, dtype=np.int64)
+        x = self.mesh.points
+        cent = x[pair.master.faces[:, :3]].mean(axis=1)
+        radius = s + 2.0 * _face_size(self.mesh, pair.master, stat=np.max)
+        hits = cKDTree(points).query_ball_point(cent, r=radius, return_length=True)
+        return np.flatnonzero(hits > 0)
+
+    def _condense(self) -> None:
+        nodes = [pair.slave.faces[f].ravel() for pair, f in zip(self.pairs, self.zone.slave_faces,
+                                                                 strict=True)]
+        nodes += [pair.master.faces[f].ravel() for pair, f in zip(self.pairs,
+                                                                  self.zone.master_faces,
+                                                                  strict=True)]
+        pts = np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, dtype=np.int64)
+        dofs = (3 * self.mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
+        free = self.free_index[dofs]
+        self.zone.dofs = np.unique(free[free >= 0])
+        self.zone.G = condensed_compliance(self.K_ff, self.zone.dofs)
+        logger.info("contact zone: %d DOFs condensed", len(self.zone.dofs))
+
+    # -- load steps -----------------------------------------------------------
+    def run(self, step_hook: Callable[[int, StepResult], None] | None = None) -> StaticResult:
+        """Solve every load step; ``step_hook(i, step)`` is called after each."""
+        steps = []
+        t_contact = 0.0
+        for i in range(self.case.n_steps):
+            t = time.perf_counter()
+            step = self.solve_step(i)
+            t_contact += time.perf_counter() - t
+            steps.append(step)
+            if step_hook is not None:
+                step_hook(i, step)
+        self.timings["steps"] = t_contact
+        info = {"n_dofs": int(self.model.n_dofs), "n_free_dofs": int(len(self.free)),
+                "n_contact_dofs": int(len(self.zone.dofs)), "element_order": self.mesh.order,
+                "n_elements": int(len(self.mesh.cells)), "n_points": int(self.mesh.n_points),
+                "factor_nonzeros": self.solver.factor_nnz}
+        return StaticResult(steps, self.mesh, self.model, [p.penalty for p in self.pairs],
+                            dict(self.timings), info)
+
+    def _dirichlet(self, i: int) -> np.ndarray:
+        return self.fixed_values[:, i]
+
+    def solve_step(self, i: int) -> StepResult:
+        u_d = self._dirichlet(i)
+        rhs0 = -(self.K_fd @ u_d)
+        u = np.zeros(self.model.n_dofs)
+        u[self.fixed] = u_d
+        u[self.free] = self.solver.solve(rhs0)
+        for _ in range(5):  # enlargements of the contact zone
+            u_c, lam, states, its, ai = self._contact_iterations(u)
+            u_full = self._recover(u_d, rhs0, states, lam)
+            if not self._grow_zone(u_full):
+                return self._step_result(i, u_full, states, lam, its, ai)
+        raise ContactError("the contact zone kept growing: set a larger "
+                           "[[contacts]] search_distance")
+
+    def _contact_iterations(self, u0: np.ndarray):
+        zone, tol = self.zone, self.case.analysis.tolerance
+        cdofs = self.free[zone.dofs]
+        u = u0.copy()
+        lam, active, total = None, None, 0
+        for it in range(1, self.case.analysis.max_iterations + 1):
+            states = self._gap_states(u)
+            B = sp.vstack([s.B for s in states]).tocsr()[:, cdofs]
+            gap = np.concatenate([s.gap for s in states])
+            eps_w = np.concatenate([p.penalty * s.weight for p, s in zip(self.pairs, states,
+                                                                         strict=True)])
+            ok = np.isfinite(gap)
+            h = np.where(ok, gap - B @ (u[cdofs] - u0[cdofs]), 0.0)
+            lam = np.zeros(len(gap))
+            lam[ok], n_as = solve_penalty_lcp(B[ok], zone.G, h[ok], eps_w[ok],
+                                              None if active is None else active[ok])
+            total += n_as
+            u_new = u0[cdofs] + zone.G @ (B.T @ lam)
+            change = np.abs(u_new - u[cdofs]).max(initial=0.0)
+            scale = np.abs(u_new - u0[cdofs]).max(initial=0.0)
+            new_active = lam > 0
+            u[cdofs] = u_new
+            if active is not None and np.array_equal(new_active, active) and \
+                    change <= tol * max(scale, 1e-30):
+                return u, lam, states, it, total
+            active = new_active
+        raise ContactError(f"contact did not converge in {self.case.analysis.max_iterations} "
+                           f"iterations (last displacement change {change:.3g} m); raise "
+                           "[analysis] max_iterations or check the penalty")
+
+    def _gap_states(self, u: np.ndarray):
+        up = self.model.point_values(u)
+        return [p.gap_state(self.mesh, up, sf, mf) for p, sf, mf in
+                zip(self.pairs, self.zone.slave_faces, self.zone.master_faces, strict=True)]
+
+    def _recover(self, u_d, rhs0, states, lam) -> np.ndarray:
+        B = sp.vstack([s.B for s in states]).tocsr() if states else None
+        rhs = rhs0.copy()
+        if B is not None and B.shape[0]:
+            rhs += (B.T @ lam)[self.free]
+        u = np.zeros(self.model.n_dofs)
+        u[self.fixed] = u_d
+        u[self.free] = self.solver.solve(rhs)
+        return u
+
+    def _grow_zone(self, u: np.ndarray) -> bool:
+        """Enlarge the zone if faces outside it penetrate; True if it grew."""
+        up = self.model.point_values(u)
+        grew = False
+        for k, pair in enumerate(self.pairs):
+            outside = np.setdiff1d(np.arange(len(pair.slave.faces)), self.zone.slave_faces[k])
+            if len(outside) == 0:
+                continue
+            st = pair.gap_state(self.mesh, up, outside, np.arange(len(pair.master.faces)))
+            bad = outside[_face_min_gap(pair, st, outside) < 0]
+            if len(bad):
+                logger.warning("contact %s: %d faces outside the search zone touch; "
+                               "enlarging it", pair.slave.name, len(bad))
+                self.zone.slave_faces[k] = np.union1d(self.zone.slave_faces[k], bad)
+                s = 2.0 * _face_size(self.mesh, pair.slave, stat=np.max)
+                self.zone.master_faces[k] = np.union1d(
+                    self.zone.master_faces[k],
+                    self._master_near(pair, up[np.unique(pair.slave.faces[bad])]
+                                      + self.mesh.points[np.unique(pair.slave.faces[bad])], s))
+                grew = True
+        if grew:
+            self._condense()
+        return grew
+
+    def _step_result(self, i, u, states, lam, its, ai) -> StepResult:
+        forces, areas, pmax, pen = [], [], 0.0, 0.0
+        pressure = np.zeros(self.mesh.n_points)
+        start = 0
+        for pair, st in zip(self.pairs, states, strict=True):
+            lk = lam[start:start + len(st.gap)]
+            start += len(st.gap)
+            p = np.where(lk > 0, lk / st.weight, 0.0)
+            forces.append(float(lk.sum()))
+            areas.append(float(st.weight[lk > 0].sum()))
+            pmax = max(pmax, float(p.max(initial=0.0)))
+            pen = max(pen, float((p / pair.penalty).max(initial=0.0)))
+            pressure = np.maximum(pressure, nodal_pressure(self.mesh, st, p))
+        Ku = self.model.K @ u
+        reactions = [float(Ku[d].sum()) for d in self.loaded]
+        value = self.case.displacements[0].values[i] if self.case.displacements else 0.0
+        return StepResult(value, forces, areas, pmax, pen, its, ai, reactions,
+                          self.model.point_values(u), pressure, von_mises(self.model, u))
+
+
+def solve_penalty_lcp(B: sp.csr_matrix, G: np.ndarray, h: np.ndarray, eps_w: np.ndarray,
+                      active: np.ndarray | None = None,
+                      max_iter: int = 60) -> tuple[np.ndarray, int]:
+    """Contact forces with ``lam = eps_w <-(h + C lam)>_+``, ``C = B G B^T``.
+
+    This is the linear complementarity problem ``0 <= lam _|_ M lam + h >= 0``
+    with ``M = C + diag(1/eps_w)`` symmetric positive definite, solved by a
+    primal-dual active set (semismooth Newton) method; if that cycles, by
+    non-negative least squares on the Cholesky factor, which is exact.
+
+    Contact forces push the bodies apart, so a point whose gap ``h`` is open
+    before contact forces act rarely closes: the problem is solved on the
+    points with ``h`` below a small margin, and the others are checked
+    afterwards and added if they do penetrate.
+
+    Parameters
+    ----------
+    active : bool array, optional
+        Warm start for the active set (from a previous iteration).
+
+    Returns
+    -------
+    lam : ndarray
+        Forces (N) at the points.
+    iterations : int
+        Active-set iterations.
+    """
+    n = len(h)
+    lam = np.zeros(n)
+    if n == 0:
+        return lam, 0
+    margin = 0.05 * max(-h.min(), 0.0)
+    rows = h < margin
+    if active is not None:
+        rows |= active
+    total = 0
+    while True:
+        idx = np.flatnonzero(rows)
+        Bs = B[idx]
+        BG = Bs @ G
+        sub, its = _active_set(np.asarray(Bs @ BG.T).T, h[idx], eps_w[idx],
+                               None if active is None else active[idx], max_iter)
+        total += its
+        lam[:] = 0.0
+        lam[idx] = sub
+        rest = np.flatnonzero(~rows)
+        if len(rest) == 0:
+            return lam, total
+        w_rest = h[rest] + B[rest] @ (BG.T @ sub)
+        missed = rest[w_rest < 0]
+        if len(missed) == 0:
+            return lam, total
+        rows[missed] = True
+
+
+def _active_set(C: np.ndarray, h: np.ndarray, eps_w: np.ndarray, active, max_iter: int):
+    n = len(h)
+    M = 0.5 * (C + C.T)
+    M[np.diag_indices(n)] += 1.0 / eps_w
+    active = (h < 0) if active is None else active.copy()
+    for it in range(1, max_iter + 1):
+        lam = np.zeros(n)
+        if active.any():
+            idx = np.flatnonzero(active)
+            lam[idx] = sla.solve(M[np.ix_(idx, idx)], -h[idx], assume_a="pos")
+        w = M @ lam + h
+        new = (active & (lam > 0)) | (~active & (w < 0))
+        if np.array_equal(new, active):
+            return np.maximum(lam, 0.0), it
+        active = new
+    logger.debug("active-set iteration cycled; using NNLS")
+    L = np.linalg.cholesky(M)
+    lam, _ = nnls(L.T, -sla.solve_triangular(L, h, lower=True))
+    return lam, max_iter
+
+
+def _face_size(mesh: FEMesh, surface: ContactSurface, stat=np.median) -> float:
+    """Typical edge length of a surface's triangles (vertex to vertex), m."""
+    x = mesh.points[surface.faces[:, :3]]
+    edges = np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2)
+    return float(stat(edges))
+
+
+def _face_min_gap(pair: ContactPair, state, faces: np.ndarray) -> np.ndarray:
+    """Smallest nodal gap of each face (inf where none is opposite the master)."""
+    pos = np.searchsorted(state.nodes, pair.slave.faces[faces])
+    return state.gap[pos].min(axis=1)
+
+
+def _elements_touching(mesh: FEMesh, points: np.ndarray) -> np.ndarray:
+    return np.flatnonzero(np.isin(mesh.cells[:, :4], points).any(axis=1))

@@ -1,0 +1,229 @@
+"""Hertz closed forms against DESIGN.md section 6 and independent derivations."""
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.special import ellipe, ellipk
+
+from fe_impact import hertz
+
+E_STEEL = 212e9  # 20CrMnTi, DESIGN section 2
+NU_STEEL = 0.289
+RHO_STEEL = 7860.0
+E_STAR = 115.66e9  # the rounded value the DESIGN check numbers are quoted for
+
+
+def test_effective_modulus_of_the_steel_pair():
+    # DESIGN quotes 115.66 GPa: half a unit of the last digit.
+    assert hertz.effective_modulus(E_STEEL, NU_STEEL) == pytest.approx(115.66e9, abs=0.005e9)
+
+
+def test_effective_modulus_of_two_materials_is_symmetric():
+    # Same expression with the terms swapped: round-off only.
+    one = hertz.effective_modulus(212e9, 0.289, 70e9, 0.33)
+    assert one == pytest.approx(hertz.effective_modulus(70e9, 0.33, 212e9, 0.289), rel=1e-15)
+    assert one == pytest.approx(1.0 / ((1 - 0.289**2) / 212e9 + (1 - 0.33**2) / 70e9), rel=1e-15)
+
+
+def test_sphere_contact_check_values():
+    # Tolerances: half a unit of the last digit DESIGN quotes.
+    contact = hertz.sphere_contact(1000.0, 0.01, E_STAR)
+    assert contact.a * 1e6 == pytest.approx(401.75, abs=0.005)
+    assert contact.b == contact.a
+    assert contact.p0 / 1e6 == pytest.approx(2958.0, abs=0.5)
+    assert contact.delta * 1e6 == pytest.approx(16.141, abs=0.0005)
+
+
+@pytest.mark.parametrize("force", [1.0, 1000.0, 1e5])
+def test_sphere_force_inverts_sphere_contact(force):
+    # Two closed forms composed: only round-off separates them.
+    contact = hertz.sphere_contact(force, 0.01, E_STAR)
+    assert hertz.sphere_force(contact.delta, 0.01, E_STAR) == pytest.approx(force, rel=1e-12)
+    stiffness = hertz.sphere_stiffness(0.01, E_STAR)
+    assert stiffness * contact.delta**1.5 == pytest.approx(force, rel=1e-12)
+
+
+def test_sphere_force_is_vectorised_and_zero_out_of_contact():
+    force = hertz.sphere_force(np.array([[-1e-6, 0.0], [1e-6, 4e-6]]), 0.01, E_STAR)
+    assert force.shape == (2, 2)
+    assert force[0, 0] == 0.0 and force[0, 1] == 0.0
+    assert force[1, 1] == pytest.approx(8.0 * force[1, 0], rel=1e-14)  # 4^1.5 = 8
+
+
+def test_sphere_pressure_integrates_to_the_load():
+    contact = hertz.sphere_contact(1000.0, 0.01, E_STAR)
+    total, _ = quad(
+        lambda r: 2 * np.pi * r * hertz.sphere_pressure(r, 1000.0, 0.01, E_STAR), 0, contact.a
+    )
+    # quad on a square-root edge singularity: converged far below 1e-8.
+    assert total == pytest.approx(1000.0, rel=1e-8)
+    pressure = hertz.sphere_pressure(np.array([0.0, 2 * contact.a]), 1000.0, 0.01, E_STAR)
+    assert pressure[0] == pytest.approx(contact.p0, rel=1e-15)
+    assert pressure[1] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("Rx", "Ry", "a_um", "b_um", "p0_mpa", "delta_um"),
+    [(0.1, 0.01, 1172.2, 260.5, 1563.6, 10.263), (1.0, 0.01, 3007.2, 165.3, 960.3, 5.889)],
+)
+def test_ellipse_contact_check_values(Rx, Ry, a_um, b_um, p0_mpa, delta_um):
+    # Tolerances: half a unit of the last digit DESIGN quotes.
+    contact = hertz.ellipse_contact(1000.0, Rx, Ry, E_STAR)
+    assert contact.a * 1e6 == pytest.approx(a_um, abs=0.05)
+    assert contact.b * 1e6 == pytest.approx(b_um, abs=0.05)
+    assert contact.p0 / 1e6 == pytest.approx(p0_mpa, abs=0.05)
+    assert contact.delta * 1e6 == pytest.approx(delta_um, abs=0.0005)
+
+
+@pytest.mark.parametrize("ratio", [1.5, 10.0, 100.0, 1000.0])
+def test_ellipse_contact_satisfies_johnsons_legendre_relations(ratio):
+    # Recheck with scipy's Legendre integrals (an independent evaluation of
+    # the Carlson forms used inside); ellipk near m = 1 and the K - E
+    # difference keep ~1e-10 here.
+    Ry = 0.01
+    Rx = ratio * Ry
+    contact = hertz.ellipse_contact(1000.0, Rx, Ry, E_STAR)
+    m = 1.0 - (contact.b / contact.a) ** 2
+    K, E = ellipk(m), ellipe(m)
+    A, B = 0.5 / Rx, 0.5 / Ry
+    assert (E / (1 - m) - K) / (K - E) == pytest.approx(B / A, rel=1e-9)
+    assert contact.p0 * contact.b * (K - E) / (E_STAR * contact.a**2 * m) == pytest.approx(
+        A, rel=1e-9
+    )
+    assert 2 / 3 * np.pi * contact.a * contact.b * contact.p0 == pytest.approx(1000.0, rel=1e-12)
+    assert contact.p0 * contact.b * K / E_STAR == pytest.approx(contact.delta, rel=1e-9)
+
+
+def test_ellipse_contact_axis_convention_does_not_depend_on_argument_order():
+    one = hertz.ellipse_contact(1000.0, 0.1, 0.01, E_STAR)
+    assert one == hertz.ellipse_contact(1000.0, 0.01, 0.1, E_STAR)
+    assert one.a > one.b
+
+
+def test_ellipse_contact_tends_to_the_sphere():
+    sphere = hertz.sphere_contact(1000.0, 0.01, E_STAR)
+    assert hertz.ellipse_contact(1000.0, 0.01, 0.01, E_STAR) == sphere
+    # Radii 1e-9 apart: the contact differs from the sphere's at that order
+    # (the effective radius 2/(1/Rx + 1/Ry) moves by 5e-10), so 1e-8 is met
+    # only if the near-circular solution has no cancellation error.
+    near = hertz.ellipse_contact(1000.0, 0.01 * (1 + 1e-9), 0.01, E_STAR)
+    for name in ("a", "b", "p0", "delta"):
+        assert getattr(near, name) == pytest.approx(getattr(sphere, name), rel=1e-8)
+
+
+def test_axial_displacement_at_the_surface_is_half_the_hertz_approach():
+    contact = hertz.sphere_contact(1000.0, 0.01, hertz.effective_modulus(E_STEEL, NU_STEEL))
+    u0 = hertz.axial_displacement(0.0, contact.a, contact.p0, E_STEEL, NU_STEEL)
+    expected = np.pi * contact.p0 * contact.a * (1 - NU_STEEL**2) / (2 * E_STEEL)
+    assert u0 == pytest.approx(expected, rel=1e-14)  # same formula at z = 0
+    # Two identical bodies share the approach equally (round-off only).
+    assert 2 * u0 == pytest.approx(contact.delta, rel=1e-12)
+
+
+def test_axial_displacement_far_field_is_boussinesq():
+    contact = hertz.sphere_contact(1000.0, 0.01, E_STAR)
+    z = 1e4 * contact.a
+    u = hertz.axial_displacement(z, contact.a, contact.p0, E_STEEL, NU_STEEL)
+    point = 1000.0 * (1 + NU_STEEL) * (3 - 2 * NU_STEEL) / (2 * np.pi * E_STEEL * z)
+    # The next term of the expansion is O((a/z)^2) = 1e-8 relative.
+    assert u == pytest.approx(point, rel=1e-7)
+
+
+def _boussinesq_on_axis(z, a, p0, E, nu):
+    """u_z = P/(4 pi G) (z^2/rho^3 + 2 (1 - nu)/rho), integrated over the Hertz pressure."""
+    G = E / (2 * (1 + nu))
+
+    def ring(r):
+        rho = np.hypot(r, z)
+        kernel = (z**2 / rho**3 + 2 * (1 - nu) / rho) / (4 * np.pi * G)
+        return p0 * np.sqrt(1 - (r / a) ** 2) * 2 * np.pi * r * kernel
+
+    return quad(ring, 0.0, a, epsabs=0.0, epsrel=1e-13, limit=200)[0]
+
+
+def test_axial_displacement_matches_integrated_boussinesq():
+    a, p0 = 4e-4, 3e9
+    z = a * np.array([0.0, 0.1, 1.0, 1.999, 2.001, 5.0, 100.0])
+    u = hertz.axial_displacement(z, a, p0, E_STEEL, NU_STEEL)
+    assert u.shape == z.shape
+    expected = [_boussinesq_on_axis(zi, a, p0, E_STEEL, NU_STEEL) for zi in z]
+    # quad converges to ~1e-13; the closed form is exact: 1e-11 leaves margin,
+    # and the points either side of z = 2a check the switch to the series.
+    np.testing.assert_allclose(u, expected, rtol=1e-11)
+
+
+def test_impact_contact_time_factor_is_the_energy_integral():
+    integral, _ = quad(lambda x: 1 / np.sqrt(1 - x**2.5), 0, 1, epsabs=0, epsrel=1e-13)
+    # quad on an inverse-square-root end singularity: good to ~1e-11.
+    assert hertz.HERTZ_CONTACT_TIME_FACTOR == pytest.approx(2 * integral, rel=1e-10)
+    assert hertz.HERTZ_CONTACT_TIME_FACTOR == pytest.approx(2.9433, abs=5e-5)
+
+
+@pytest.mark.parametrize(
+    ("speed", "delta_um", "force_n", "time_us"),
+    # (value, half a unit of the last digit DESIGN quotes)
+    [
+        (0.1, (11.04, 0.005), (566.0, 0.5), (325.0, 0.5)),
+        (1.0, (69.7, 0.05), (8970.0, 5.0), (205.0, 0.5)),
+    ],
+)
+def test_impact_check_values(speed, delta_um, force_n, time_us):
+    hit = hertz.impact(0.5, speed, 0.01, E_STAR)
+    assert hit.delta_max * 1e6 == pytest.approx(delta_um[0], abs=delta_um[1])
+    assert hit.force_max == pytest.approx(force_n[0], abs=force_n[1])
+    assert hit.contact_time * 1e6 == pytest.approx(time_us[0], abs=time_us[1])
+
+
+def test_impact_contact_time_power_law_of_design():
+    m, v, R = 0.5, 0.3, 0.01
+    hit = hertz.impact(m, v, R, E_STAR)
+    # DESIGN's 2.87 is rounded to 3 digits.
+    assert hit.contact_time == pytest.approx(2.87 * (m**2 / (R * E_STAR**2 * v)) ** 0.2, rel=2e-3)
+    assert hit.force_max == pytest.approx(hertz.sphere_force(hit.delta_max, R, E_STAR), rel=1e-14)
+
+
+def test_hunter_wave_loss_values():
+    loss = hertz.hunter_wave_loss(np.array([0.1, 1.0]), E_STEEL, RHO_STEEL)
+    # DESIGN quotes 2 significant digits.
+    np.testing.assert_allclose(loss, [0.0015, 0.0061], atol=5e-5)
+    assert hertz.hunter_wave_loss(0.0, E_STEEL, RHO_STEEL) == 0.0
+
+
+def test_yield_onset_speed_of_the_steel():
+    v_y = hertz.yield_onset_speed(835e6, RHO_STEEL, hertz.effective_modulus(E_STEEL, NU_STEEL))
+    assert v_y == pytest.approx(0.0866, abs=5e-5)  # value stated in the docstring
+
+
+@pytest.mark.parametrize("R", [1e-3, 0.1])
+def test_yield_onset_speed_matches_the_energy_form(R):
+    # Energy form of DESIGN section 4 for a solid sphere on a flat, first yield
+    # at p0 = 1.6 Y. It gives 4 (0.8 pi)^5 / (5 pi) = 25.5 where Johnson rounds
+    # to 26, so the two differ by sqrt(26/25.5) - 1 = 1.0%, whatever the size.
+    Y = 835e6
+    mass = 4 / 3 * np.pi * R**3 * RHO_STEEL
+    delta_y = R * (np.pi * 1.6 * Y / (2 * E_STAR)) ** 2
+    energy_form = np.sqrt(4 * hertz.sphere_stiffness(R, E_STAR) * delta_y**2.5 / (5 * mass))
+    assert hertz.yield_onset_speed(Y, RHO_STEEL, E_STAR) == pytest.approx(energy_form, rel=0.011)
+
+
+@pytest.mark.parametrize(
+    ("call", "name"),
+    [
+        (lambda: hertz.effective_modulus(-1.0, 0.3), "E1"),
+        (lambda: hertz.effective_modulus(1.0, 0.7), "nu1"),
+        (lambda: hertz.sphere_contact(-1.0, 0.01, E_STAR), "force"),
+        (lambda: hertz.sphere_contact(1.0, 0.0, E_STAR), "R"),
+        (lambda: hertz.sphere_force(1e-6, 0.01, -E_STAR), "E_star"),
+        (lambda: hertz.ellipse_contact(1.0, -0.1, 0.01, E_STAR), "Rx"),
+        (lambda: hertz.ellipse_contact(1.0, 0.1, np.nan, E_STAR), "Ry"),
+        (lambda: hertz.axial_displacement(-1e-3, 1e-3, 1e9, E_STEEL, NU_STEEL), "z"),
+        (lambda: hertz.axial_displacement(1e-3, -1e-3, 1e9, E_STEEL, NU_STEEL), "a"),
+        (lambda: hertz.impact(0.0, 0.1, 0.01, E_STAR), "mass"),
+        (lambda: hertz.impact(0.5, -0.1, 0.01, E_STAR), "speed"),
+        (lambda: hertz.hunter_wave_loss(-0.1, E_STEEL, RHO_STEEL), "speed"),
+        (lambda: hertz.yield_onset_speed(835e6, -1.0, E_STAR), "rho"),
+    ],
+)
+def test_invalid_input_names_the_parameter(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()

@@ -111,7 +111,7 @@ class Case:
         return max((len(d.values) for d in self.displacements), default=1)
 
     def check_groups(self, mesh: FEMesh) -> None:
-        """Raise :class:`CaseError` if a group named in the case is missing or of the wrong kind."""
+        """Raise :class:`CaseError` if a case group is missing or of the wrong kind."""
         try:
             for i, m in enumerate(self.materials):
                 for v in m.volumes:

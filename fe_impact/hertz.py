@@ -333,6 +333,7 @@ def axial_displacement(
         raise ValueError(f"z must be finite and >= 0, got min {np.min(zeta) * a!r}")
     arccot = np.arctan2(1.0, zeta)
     u = a * p0 * (1.0 + nu) / E * (arccot - nu * _arccot_remainder(zeta))
+    u = np.reshape(u, zeta.shape)  # the remainder helper works on 1-D arrays
     return float(u) if u.ndim == 0 else u
 
 

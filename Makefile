@@ -1,0 +1,30 @@
+# Two entry points: `make run` (set up, then the main job on the built-in
+# default) and `make test` (set up, then the test suite). Only Python 3.11+
+# and pip are needed; everything installs into .venv.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: setup run test lint validate clean
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+run: $(STAMP)
+	$(BIN)/python validation/hertz_static.py --out out/hertz_static
+
+test: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/python -m pytest -q
+
+validate: $(STAMP)
+	$(BIN)/python validation/hertz_static.py --out out/hertz_static
+
+clean:
+	rm -rf out .pytest_cache

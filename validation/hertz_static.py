@@ -1,0 +1,262 @@
+"""Static Hertz validation: a hemisphere pressed on a block, three mesh levels.
+
+Run ``python validation/hertz_static.py --out out/hertz_static`` (about a
+minute); it writes ``hertz_static.csv``, ``hertz_static.json``,
+``hertz_static.md`` and ``hertz_static.png``.
+
+Model: quarter of a hemisphere R = 10 mm on a 20 x 20 x 10 mm block (both
+20CrMnTi), symmetry planes x = 0 and y = 0, block bottom fixed in z, the
+hemisphere's flat equator face pushed down 5 ... 25 um in five steps, the
+curved face the slave surface. Reported forces are for the whole sphere
+(4 x the quarter model).
+
+What is compared
+----------------
+Hertz theory assumes two half-spaces and measures the approach between
+points far away. The model is finite: the equator is 10 mm above the
+contact and the block bottom 10 mm below, so the prescribed displacement
+D is not the Hertz approach (the bodies' own compliance adds to it). To
+separate that far-field part from the discretisation error, the approach
+is measured locally, between the points on the axis at depth ``d`` in
+each body, and compared with Hertz plus the Boussinesq-type axial
+displacement of a half-space under the Hertz pressure at that depth
+(``hertz.axial_displacement``):
+
+    delta_local(F) = a(F)^2 / R - w(d; a, p0) [sphere] - w(d; a, p0) [block]
+
+Force error: the FE force against the Hertz force that produces the
+measured local approach. The far-field part, reported separately, is
+``(D - a^2/R) / D`` at the FE force: the share of the prescribed
+displacement that is not Hertz approach. Contact radius from the contact
+area (sqrt(4 A / pi) for the quarter), peak pressure the largest nodal
+pressure, both against Hertz at the FE force.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import brentq
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from fe_impact import hertz
+from fe_impact.case import load_case
+from fe_impact.io import write_csv, write_json
+from fe_impact.specimens import SphereBlockSpec, build_sphere_block
+from fe_impact.static import StaticSolver
+
+logger = logging.getLogger(__name__)
+
+E, NU = 212e9, 0.289
+R = 10e-3
+DISPLACEMENTS = (-5e-6, -1e-5, -1.5e-5, -2e-5, -2.5e-5)
+LEVELS = {"coarse": 0.2e-3, "medium": 0.1e-3, "fine": 0.05e-3}
+SYMMETRY = 4.0  # quarter model
+DEPTH = 2.0e-3  # axis points for the local approach: 4 contact radii at full load
+
+CASE_TEMPLATE = """\
+[mesh]
+file = "{mesh}"
+unit = "m"
+
+[[materials]]
+volumes = ["sphere", "block"]
+youngs_modulus = {E}
+poisson_ratio = {nu}
+density = 7860
+
+[[contacts]]
+slave = "sphere_contact"
+master = "block_contact"
+penalty = "auto"
+
+[[supports]]
+surface = "block_bottom"
+fix = ["z"]
+[[supports]]
+surface = "sym_x"
+fix = ["x"]
+[[supports]]
+surface = "sym_y"
+fix = ["y"]
+
+[[displacements]]
+surface = "sphere_equator"
+component = "z"
+values = {values}
+"""
+
+
+@dataclass(frozen=True)
+class LevelResult:
+    level: str
+    h_contact: float
+    n_dofs: int
+    n_contact_dofs: int
+    seconds: float
+    rows: list[dict]
+
+
+def write_case(folder: Path, h_contact: float, order: int = 2,
+               displacements=DISPLACEMENTS) -> Path:
+    """Mesh the specimen and write its case file; returns the case path."""
+    folder.mkdir(parents=True, exist_ok=True)
+    spec = SphereBlockSpec(radius=R, h_contact=h_contact, r_fine=0.8e-3, order=order)
+    build_sphere_block(spec, folder / "sphere_block.msh")
+    case = folder / "case.toml"
+    case.write_text(CASE_TEMPLATE.format(mesh="sphere_block.msh", E=E, nu=NU,
+                                         values=list(displacements)))
+    return case
+
+
+def axis_point(solver: StaticSolver, volume: str, z: float) -> int:
+    """Index of the mesh point on the axis x = y = 0 of ``volume`` nearest height z."""
+    mesh = solver.mesh
+    pts = np.unique(mesh.cells[mesh.volume(volume)])
+    x = mesh.points[pts]
+    on_axis = pts[np.hypot(x[:, 0], x[:, 1]) < 1e-9]
+    return int(on_axis[np.argmin(np.abs(mesh.points[on_axis, 2] - z))])
+
+
+def compare(step, solver: StaticSolver, ps: int, pb: int) -> dict:
+    """Errors of one load step against Hertz (see module docstring)."""
+    e_star = hertz.effective_modulus(E, NU)
+    force = SYMMETRY * step.contact_force[0]
+    zs, zb = solver.mesh.points[ps, 2], -solver.mesh.points[pb, 2]
+    local = step.u[pb, 2] - step.u[ps, 2]  # approach of the two axis points
+
+    def local_hertz(f: float) -> float:
+        c = hertz.sphere_contact(f, R, e_star)
+        return float(c.a ** 2 / R - hertz.axial_displacement(zs, c.a, c.p0, E, NU)
+                - hertz.axial_displacement(zb, c.a, c.p0, E, NU))
+
+    f_hertz = brentq(lambda f: local_hertz(float(f)) - local, 1e-3 * force, 1e3 * force,
+                     xtol=1e-12)
+    c = hertz.sphere_contact(force, R, e_star)
+    # Contact radius from the loaded area of the quarter model. It is biased
+    # low by up to half an element: an edge node only counts once its whole
+    # support is closed.
+    a_fe = np.sqrt(SYMMETRY * step.contact_area[0] / np.pi)
+    return {
+        "displacement_um": -step.value * 1e6,
+        "force_N": force,
+        "force_hertz_local_N": f_hertz,
+        "force_error": force / f_hertz - 1.0,
+        "force_hertz_uncorrected_N": hertz.sphere_force(-step.value, R, e_star),
+        "far_field_share": (-step.value - c.a ** 2 / R) / -step.value,
+        "contact_radius_um": a_fe * 1e6,
+        "contact_radius_hertz_um": c.a * 1e6,
+        "radius_error": a_fe / c.a - 1.0,
+        "peak_pressure_MPa": step.max_pressure / 1e6,
+        "peak_pressure_hertz_MPa": c.p0 / 1e6,
+        "pressure_error": step.max_pressure / c.p0 - 1.0,
+        "penetration_ratio": step.max_penetration / (c.a ** 2 / R),
+        "iterations": step.iterations,
+    }
+
+
+def run_level(level: str, h_contact: float, out: Path) -> LevelResult:
+    t = time.perf_counter()
+    case = load_case(write_case(out / level, h_contact))
+    solver = StaticSolver(case)
+    ps = axis_point(solver, "sphere", DEPTH)
+    pb = axis_point(solver, "block", -DEPTH)
+    result = solver.run()
+    rows = [compare(s, solver, ps, pb) for s in result.steps]
+    secs = time.perf_counter() - t
+    logger.info("%s: %d DOFs in %.1f s", level, result.info["n_dofs"], secs)
+    return LevelResult(level, h_contact, result.info["n_dofs"],
+                       result.info["n_contact_dofs"], secs, rows)
+
+
+def run(levels: dict[str, float] | None = None, out: str | Path = "out/hertz_static"
+        ) -> list[LevelResult]:
+    """Solve every level and write the tables; returns the per-level results."""
+    out = Path(out)
+    results = [run_level(name, h, out) for name, h in (levels or LEVELS).items()]
+    header = ["level", "h_contact_mm", "n_dofs"] + list(results[0].rows[0])
+    table = [[r.level, r.h_contact * 1e3, r.n_dofs] + list(row.values())
+             for r in results for row in r.rows]
+    write_csv(out / "hertz_static.csv", header, table)
+    write_json(out / "hertz_static.json", {"levels": [vars(r) for r in results],
+                                           "depth_m": DEPTH, "radius_m": R})
+    (out / "hertz_static.md").write_text(report(results))
+    return results
+
+
+def worst(r: LevelResult, key: str) -> float:
+    """Largest absolute error of ``key`` over the load steps."""
+    return max(abs(row[key]) for row in r.rows)
+
+
+def report(results: list[LevelResult]) -> str:
+    lines = ["# Static Hertz validation (hemisphere R = 10 mm on a block, P2)", "",
+             "| level | h at contact (mm) | DOFs | time (s) | force error | radius error "
+             "| peak pressure error | far-field share of D |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in results:
+        ff = [row["far_field_share"] for row in r.rows]
+        lines.append(f"| {r.level} | {r.h_contact * 1e3:.3g} | {r.n_dofs} | {r.seconds:.1f} "
+                     f"| {worst(r, 'force_error'):.2%} | {worst(r, 'radius_error'):.2%} "
+                     f"| {worst(r, 'pressure_error'):.2%} | {min(ff):.1%} to {max(ff):.1%} |")
+    lines += ["", "Errors are the largest over the five load steps (5-25 um).", ""]
+    return "\n".join(lines)
+
+
+def plot(results: list[LevelResult], path: str | Path) -> Path:
+    """Force-approach, contact radius and peak pressure against Hertz (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 3, figsize=(14, 4.2))
+    for r in results:
+        f = [row["force_N"] for row in r.rows]
+        ax[0].plot([row["force_hertz_local_N"] for row in r.rows], f, "o-", label=r.level)
+        ax[1].plot(f, [row["contact_radius_um"] for row in r.rows], "o-", label=r.level)
+        ax[2].plot(f, [row["peak_pressure_MPa"] for row in r.rows], "o-", label=r.level)
+    fh = np.linspace(1, max(row["force_N"] for row in results[-1].rows) * 1.05, 100)
+    e_star = hertz.effective_modulus(E, NU)
+    hc = [hertz.sphere_contact(x, R, e_star) for x in fh]
+    ax[0].plot(fh, fh, "k--", label="Hertz")
+    ax[1].plot(fh, [c.a * 1e6 for c in hc], "k--", label="Hertz")
+    ax[2].plot(fh, [c.p0 / 1e6 for c in hc], "k--", label="Hertz")
+    ax[0].set(xlabel="Hertz force for the measured local approach (N)", ylabel="FE force (N)",
+              title="force-approach")
+    ax[1].set(xlabel="force (N)", ylabel="contact radius (um)", title="contact radius")
+    ax[2].set(xlabel="force (N)", ylabel="peak pressure (MPa)", title="peak pressure")
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, default=Path("out/hertz_static"))
+    p.add_argument("--levels", default=",".join(LEVELS),
+                   help=f"comma-separated subset of {list(LEVELS)}")
+    args = p.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    logging.getLogger("skfem").setLevel(logging.WARNING)
+    chosen = {k: LEVELS[k] for k in args.levels.split(",")}
+    results = run(chosen, args.out)
+    plot(results, args.out / "hertz_static.png")
+    print(report(results))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

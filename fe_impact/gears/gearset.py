@@ -1,0 +1,613 @@
+"""Gear-set description: typed records, TOML loading and validation.
+
+A gear set is one involute spur pinion design (``n_pinions`` identical
+pinions arranged symmetrically) meshing with one or more face-gear stages
+(nested rings), all of one material. SI units inside: m, kg m^2, Pa,
+kg/m^3.
+
+TOML format (every key that carries a unit says so in its suffix; a field
+of the records is the key without its suffix)::
+
+    name = "seed"                      # required
+    notes = "free text"                # optional
+    n_pinions = 4                      # optional, default 4
+
+    [material]
+    youngs_modulus_pa = 212e9
+    poisson_ratio = 0.289
+    density_kg_m3 = 7860.0
+    yield_strength_pa = 835e6
+
+    [pinion]
+    teeth = 19
+    module_mm = 3.0
+    pressure_angle_deg = 20.0
+    addendum_coeff = 1.0
+    clearance_coeff = 0.25
+    face_width_mm = 24.0
+    fillet_radius_coeff = 0.38
+    lengthwise_crowning_um = 10.0
+    profile_crowning_um = 0.0
+    inertia_kg_m2 = 1.95e-4
+
+    [face_gear]
+    module_mm = 3.0                    # must equal the pinion module
+    inner_limit = "conjugate"          # or "undercut": the inner-radius rule
+
+    [[face_gear.stages]]               # one table per stage, inner ring first
+    teeth = 56
+    shaper_teeth = 21
+    inner_radius_mm = 82.5
+    outer_radius_mm = 96.0
+    lengthwise_crowning_um = 0.0
+    inertia_kg_m2 = 7.15e-3
+    force_shaper = false               # optional: allow N_s outside N_p + 1..3
+
+Stages are numbered from 1 in messages, as in the seed study.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import numbers
+import tomllib
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fe_impact.errors import GeometryError
+from fe_impact.gears.facegear import (
+    INNER_LIMIT_RULES,
+    FaceGearLimits,
+    FaceGearTooth,
+    face_gear_limits,
+)
+from fe_impact.gears.pinion import (
+    PinionTooth,
+    max_fillet_radius_coeff,
+    min_teeth_without_undercut,
+)
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "FaceGearStage",
+    "GearSet",
+    "Material",
+    "Pinion",
+    "default_gearset",
+    "gearset_from_dict",
+    "load_gearset",
+]
+
+#: Shaper tooth counts accepted without ``force_shaper``: pinion + 1..3
+#: (Litvin's handbook recommends a difference of 1-3: N_s = N_p gives line
+#: contact, sensitive to misalignment; a larger difference shrinks the contact).
+SHAPER_TEETH_EXCESS = (1, 3)
+
+#: Crowning above this fraction of the module is taken for a unit mistake
+#: (micrometres entered as millimetres).
+MAX_CROWNING_PER_MODULE = 0.1
+
+_MM = 1e-3
+_UM = 1e-6
+
+
+# -- small checks ------------------------------------------------------------------
+def _positive(field: str, value: float, unit: str = "mm", scale: float = 1e3) -> None:
+    """Raise GeometryError naming ``field`` unless ``value`` is finite and > 0."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise GeometryError(f"{field} = {value!r} must be a number")
+    if not math.isfinite(value) or value <= 0.0:
+        raise GeometryError(f"{field} = {value * scale:g} {unit} must be > 0")
+
+
+def _integer(field: str, value: Any, minimum: int) -> None:
+    """Raise GeometryError unless ``value`` is an integer >= ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise GeometryError(f"{field} = {value!r} must be an integer >= {minimum}")
+
+
+def _crowning(field: str, value: float, module: float) -> None:
+    """Crowning must be >= 0 and at most ``MAX_CROWNING_PER_MODULE`` modules."""
+    upper = MAX_CROWNING_PER_MODULE * module
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0.0 <= value <= upper:
+        shown = value * 1e6 if isinstance(value, numbers.Real) else value
+        raise GeometryError(
+            f"{field} = {shown} um must lie in [0, {upper * 1e6:g}] um "
+            f"({MAX_CROWNING_PER_MODULE} module)"
+        )
+
+
+# -- records -----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Material:
+    """Isotropic elastic material with a yield strength.
+
+    Parameters
+    ----------
+    youngs_modulus : float
+        E [Pa].
+    poisson_ratio : float
+        nu [-], in (-1, 0.5).
+    density : float
+        rho [kg/m^3].
+    yield_strength : float
+        Y [Pa] (uniaxial; an input, used for plasticity and yield-onset speed).
+    """
+
+    youngs_modulus: float
+    poisson_ratio: float
+    density: float
+    yield_strength: float
+
+    def __post_init__(self) -> None:
+        _positive("material.youngs_modulus", self.youngs_modulus, "Pa", 1.0)
+        _positive("material.density", self.density, "kg/m^3", 1.0)
+        _positive("material.yield_strength", self.yield_strength, "Pa", 1.0)
+        nu = self.poisson_ratio
+        if isinstance(nu, bool) or not isinstance(nu, numbers.Real) or not -1.0 < nu < 0.5:
+            raise GeometryError(f"material.poisson_ratio = {nu!r} must lie in (-1, 0.5)")
+
+
+@dataclass(frozen=True)
+class Pinion:
+    """Involute spur pinion design (standard, no profile shift).
+
+    Parameters
+    ----------
+    teeth : int
+        ``z``; at least the undercut bound (17.1 for the standard rack).
+    module : float
+        ``m`` [m].
+    pressure_angle_deg : float
+        [deg], in (0, 45).
+    addendum_coeff, clearance_coeff : float
+        ``ha*``, ``c*`` [-]; the face gear uses the same proportions.
+    face_width : float
+        [m].
+    fillet_radius_coeff : float
+        Rack tip-round radius / module [-], in (0, max_fillet_radius_coeff].
+    lengthwise_crowning, profile_crowning : float
+        Parabolic crowning amounts [m] (see :mod:`fe_impact.gears.pinion`).
+    inertia : float
+        Mass moment of inertia about the pinion axis [kg m^2].
+    """
+
+    teeth: int
+    module: float
+    pressure_angle_deg: float
+    addendum_coeff: float
+    clearance_coeff: float
+    face_width: float
+    fillet_radius_coeff: float
+    lengthwise_crowning: float
+    profile_crowning: float
+    inertia: float
+
+    def __post_init__(self) -> None:
+        _positive("pinion.module", self.module)
+        _positive("pinion.face_width", self.face_width)
+        _positive("pinion.addendum_coeff", self.addendum_coeff, "", 1.0)
+        _positive("pinion.clearance_coeff", self.clearance_coeff, "", 1.0)
+        _positive("pinion.inertia", self.inertia, "kg m^2", 1.0)
+        if not 0.0 < self.pressure_angle_deg < 45.0:
+            raise GeometryError(
+                f"pinion.pressure_angle_deg = {self.pressure_angle_deg!r} must lie in (0, 45) deg"
+            )
+        rho_max = max_fillet_radius_coeff(
+            self.pressure_angle_deg, self.addendum_coeff, self.clearance_coeff
+        )
+        if not 0.0 < self.fillet_radius_coeff <= rho_max:
+            raise GeometryError(
+                f"pinion.fillet_radius_coeff = {self.fillet_radius_coeff!r} must lie in "
+                f"(0, {rho_max:.4f}] for this rack"
+            )
+        z_min = min_teeth_without_undercut(
+            self.pressure_angle_deg,
+            self.addendum_coeff,
+            self.clearance_coeff,
+            self.fillet_radius_coeff,
+        )
+        _integer("pinion.teeth", self.teeth, 1)
+        if self.teeth < z_min:
+            raise GeometryError(
+                f"pinion.teeth = {self.teeth} must be >= {math.ceil(z_min)} "
+                f"(bound {z_min:.2f}): fewer teeth are undercut by the rack"
+            )
+        _crowning("pinion.lengthwise_crowning", self.lengthwise_crowning, self.module)
+        _crowning("pinion.profile_crowning", self.profile_crowning, self.module)
+
+    @property
+    def pitch_radius(self) -> float:
+        """``m z / 2`` [m]."""
+        return 0.5 * self.module * self.teeth
+
+
+@dataclass(frozen=True)
+class FaceGearStage:
+    """One face-gear ring (stage).
+
+    Parameters
+    ----------
+    teeth : int
+        ``N_2``; a multiple of the number of pinions.
+    shaper_teeth : int
+        ``N_s`` of the generating shaper; pinion teeth + 1..3 unless
+        ``force_shaper``.
+    inner_radius, outer_radius : float
+        Face width as radii [m], inside the usable limits.
+    lengthwise_crowning : float
+        [m], see :class:`~fe_impact.gears.facegear.FaceGearTooth`.
+    inertia : float
+        Mass moment of inertia of the ring about its axis [kg m^2].
+    force_shaper : bool
+        Accept a shaper tooth count outside pinion + 1..3.
+    """
+
+    teeth: int
+    shaper_teeth: int
+    inner_radius: float
+    outer_radius: float
+    lengthwise_crowning: float
+    inertia: float
+    force_shaper: bool = False
+
+    def __post_init__(self) -> None:
+        _integer("face_gear.stages.teeth", self.teeth, 3)
+        _integer("face_gear.stages.shaper_teeth", self.shaper_teeth, 3)
+        _positive("face_gear.stages.inner_radius", self.inner_radius)
+        _positive("face_gear.stages.outer_radius", self.outer_radius)
+        _positive("face_gear.stages.inertia", self.inertia, "kg m^2", 1.0)
+        if self.outer_radius <= self.inner_radius:
+            raise GeometryError(
+                f"face_gear.stages.outer_radius = {self.outer_radius * 1e3:g} mm must exceed "
+                f"inner_radius = {self.inner_radius * 1e3:g} mm"
+            )
+        if not isinstance(self.force_shaper, bool):
+            raise GeometryError(
+                f"face_gear.stages.force_shaper = {self.force_shaper!r} must be true or false"
+            )
+
+    @property
+    def face_width(self) -> float:
+        """``outer_radius - inner_radius`` [m]."""
+        return self.outer_radius - self.inner_radius
+
+
+@dataclass(frozen=True)
+class GearSet:
+    """A pinion design, its face-gear stages and their material.
+
+    Parameters
+    ----------
+    name : str
+        Label used in outputs.
+    pinion : Pinion
+    stages : tuple of FaceGearStage
+        Nested rings; any order, but they must not overlap radially.
+    material : Material
+        Shared by pinion and face gears.
+    n_pinions : int
+        Identical pinions around the face gear (4 in the seed).
+    notes : str
+        Free text (sources, choices).
+    face_gear_module : float or None
+        Face-gear module [m]; None means the pinion's. A different value is
+        invalid: a face gear meshes only with a pinion of its module.
+    inner_limit : {"conjugate", "undercut"}
+        Which inner limit the inner radii are checked against: the stricter
+        conjugate-tip limit (default) or the undercut limit.
+    """
+
+    name: str
+    pinion: Pinion
+    stages: tuple[FaceGearStage, ...]
+    material: Material
+    n_pinions: int = 4
+    notes: str = ""
+    face_gear_module: float | None = None
+    inner_limit: str = "conjugate"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stages", tuple(self.stages))
+        if not isinstance(self.name, str) or not self.name:
+            raise GeometryError(f"name = {self.name!r} must be a non-empty string")
+        _integer("n_pinions", self.n_pinions, 1)
+        if not self.stages:
+            raise GeometryError("face_gear.stages is empty: give at least one stage")
+        if self.inner_limit not in INNER_LIMIT_RULES:
+            raise GeometryError(
+                f"face_gear.inner_limit = {self.inner_limit!r}; pick one of {INNER_LIMIT_RULES}"
+            )
+        self._check_module()
+        for number, stage in enumerate(self.stages, start=1):
+            self._check_stage(number, stage)
+        self._check_overlap()
+
+    # -- validation -----------------------------------------------------------------
+    def _check_module(self) -> None:
+        module = self.face_gear_module
+        if module is None:
+            return
+        _positive("face_gear.module", module)
+        if not math.isclose(module, self.pinion.module, rel_tol=1e-9):
+            raise GeometryError(
+                f"face_gear.module = {module * 1e3:g} mm differs from pinion.module = "
+                f"{self.pinion.module * 1e3:g} mm: a face gear meshes only with a pinion of "
+                "the same module"
+            )
+
+    def _label(self, number: int) -> str:
+        return f"stage {number} ({self.stages[number - 1].teeth} teeth)"
+
+    def _check_stage(self, number: int, stage: FaceGearStage) -> None:
+        label = self._label(number)
+        if stage.teeth % self.n_pinions:
+            raise GeometryError(
+                f"{label}: teeth = {stage.teeth} must be a multiple of n_pinions = "
+                f"{self.n_pinions} (pinions arranged symmetrically)"
+            )
+        low, high = (self.pinion.teeth + e for e in SHAPER_TEETH_EXCESS)
+        if not stage.force_shaper and not low <= stage.shaper_teeth <= high:
+            raise GeometryError(
+                f"{label}: shaper_teeth = {stage.shaper_teeth} must lie in [{low}, {high}] "
+                f"(pinion teeth + {SHAPER_TEETH_EXCESS[0]}..{SHAPER_TEETH_EXCESS[1]}); "
+                "set force_shaper = true to accept it"
+            )
+        if stage.shaper_teeth >= stage.teeth:
+            raise GeometryError(
+                f"{label}: shaper_teeth = {stage.shaper_teeth} must be < teeth = {stage.teeth}"
+            )
+        _crowning(f"{label}: lengthwise_crowning", stage.lengthwise_crowning, self.pinion.module)
+        limits = self.stage_limits(number - 1)
+        inner = limits.inner(self.inner_limit)
+        other = "undercut" if self.inner_limit == "conjugate" else "conjugate"
+        usable = (
+            f"usable [{inner * 1e3:.3f}, {limits.outer_pointing * 1e3:.3f}] mm: inner = "
+            f"{self.inner_limit} limit (face_gear.inner_limit; the {other} limit is "
+            f"{limits.inner(other) * 1e3:.3f} mm), outer = pointing limit"
+        )
+        if stage.inner_radius < inner:
+            raise GeometryError(
+                f"{label}: inner_radius = {stage.inner_radius * 1e3:.3f} mm is below the "
+                f"inner limit; {usable}"
+            )
+        if stage.outer_radius > limits.outer_pointing:
+            raise GeometryError(
+                f"{label}: outer_radius = {stage.outer_radius * 1e3:.3f} mm is beyond the "
+                f"pointing limit; {usable}"
+            )
+
+    def _check_overlap(self) -> None:
+        order = sorted(range(len(self.stages)), key=lambda i: self.stages[i].inner_radius)
+        for i, j in zip(order, order[1:], strict=False):
+            a, b = self.stages[i], self.stages[j]
+            overlap = a.outer_radius - b.inner_radius
+            if overlap > 0.0:
+                raise GeometryError(
+                    f"{self._label(i + 1)} and {self._label(j + 1)} overlap radially by "
+                    f"{overlap * 1e3:.3f} mm: outer_radius {a.outer_radius * 1e3:.3f} mm > "
+                    f"inner_radius {b.inner_radius * 1e3:.3f} mm; clip the face widths"
+                )
+
+    # -- geometry ---------------------------------------------------------------------------
+    @property
+    def module(self) -> float:
+        """Common module [m]."""
+        return self.pinion.module
+
+    def stage_limits(self, index: int) -> FaceGearLimits:
+        """Usable-radius limits of stage ``index`` (0-based)."""
+        stage = self.stages[index]
+        p = self.pinion
+        return face_gear_limits(
+            stage.teeth,
+            stage.shaper_teeth,
+            p.module,
+            p.pressure_angle_deg,
+            p.addendum_coeff,
+            p.clearance_coeff,
+        )
+
+    def pinion_tooth(self) -> PinionTooth:
+        """Tooth geometry of the pinion."""
+        p = self.pinion
+        return PinionTooth(
+            teeth=p.teeth,
+            module=p.module,
+            pressure_angle_deg=p.pressure_angle_deg,
+            addendum_coeff=p.addendum_coeff,
+            clearance_coeff=p.clearance_coeff,
+            fillet_radius_coeff=p.fillet_radius_coeff,
+            face_width=p.face_width,
+            lengthwise_crowning=p.lengthwise_crowning,
+            profile_crowning=p.profile_crowning,
+        )
+
+    def face_gear_tooth(self, index: int) -> FaceGearTooth:
+        """Tooth geometry of stage ``index`` (0-based)."""
+        stage, p = self.stages[index], self.pinion
+        return FaceGearTooth(
+            teeth=stage.teeth,
+            shaper_teeth=stage.shaper_teeth,
+            module=p.module,
+            pressure_angle_deg=p.pressure_angle_deg,
+            addendum_coeff=p.addendum_coeff,
+            clearance_coeff=p.clearance_coeff,
+            inner_radius=stage.inner_radius,
+            outer_radius=stage.outer_radius,
+            lengthwise_crowning=stage.lengthwise_crowning,
+        )
+
+
+# -- TOML -------------------------------------------------------------------------------------
+# key -> (field, scale to SI); a scale of None keeps the value as it is
+_TOP_KEYS = {"name": ("name", None), "notes": ("notes", None), "n_pinions": ("n_pinions", None)}
+_MATERIAL_KEYS = {
+    "youngs_modulus_pa": ("youngs_modulus", 1.0),
+    "poisson_ratio": ("poisson_ratio", 1.0),
+    "density_kg_m3": ("density", 1.0),
+    "yield_strength_pa": ("yield_strength", 1.0),
+}
+_PINION_KEYS = {
+    "teeth": ("teeth", None),
+    "module_mm": ("module", _MM),
+    "pressure_angle_deg": ("pressure_angle_deg", 1.0),
+    "addendum_coeff": ("addendum_coeff", 1.0),
+    "clearance_coeff": ("clearance_coeff", 1.0),
+    "face_width_mm": ("face_width", _MM),
+    "fillet_radius_coeff": ("fillet_radius_coeff", 1.0),
+    "lengthwise_crowning_um": ("lengthwise_crowning", _UM),
+    "profile_crowning_um": ("profile_crowning", _UM),
+    "inertia_kg_m2": ("inertia", 1.0),
+}
+_FACE_GEAR_KEYS = {
+    "module_mm": ("face_gear_module", _MM),
+    "inner_limit": ("inner_limit", None),
+    "stages": ("stages", None),
+}
+_STAGE_KEYS = {
+    "teeth": ("teeth", None),
+    "shaper_teeth": ("shaper_teeth", None),
+    "inner_radius_mm": ("inner_radius", _MM),
+    "outer_radius_mm": ("outer_radius", _MM),
+    "lengthwise_crowning_um": ("lengthwise_crowning", _UM),
+    "inertia_kg_m2": ("inertia", 1.0),
+    "force_shaper": ("force_shaper", None),
+}
+_OPTIONAL = {"notes", "n_pinions", "force_shaper", "inner_limit", "module_mm"}
+
+
+def _table(data: Any, where: str) -> Mapping[str, Any]:
+    if not isinstance(data, Mapping):
+        raise GeometryError(f"[{where}] must be a table, got {type(data).__name__}")
+    return data
+
+
+def _convert(
+    data: Mapping[str, Any],
+    keys: Mapping[str, tuple[str, float | None]],
+    where: str,
+    optional: Collection[str] = (),
+) -> dict[str, Any]:
+    """Map TOML keys to record fields in SI units, rejecting unknown or missing keys."""
+    unknown = sorted(set(data) - set(keys))
+    if unknown:
+        raise GeometryError(
+            f"unknown key {unknown[0]!r} in [{where}]; allowed: {', '.join(sorted(keys))}"
+        )
+    missing = sorted(set(keys) - set(data) - set(optional))
+    if missing:
+        raise GeometryError(f"missing key {missing[0]!r} in [{where}]")
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        field, scale = keys[key]
+        if scale is not None:
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise GeometryError(f"[{where}] {key} = {value!r} must be a number")
+            value = float(value) * scale
+        out[field] = value
+    return out
+
+
+def _stage_from_dict(data: Any, number: int) -> FaceGearStage:
+    where = f"face_gear.stages {number}"
+    fields = _convert(_table(data, where), _STAGE_KEYS, where, _OPTIONAL)
+    try:
+        return FaceGearStage(**fields)
+    except GeometryError as exc:
+        raise GeometryError(f"stage {number}: {exc}") from exc
+
+
+def gearset_from_dict(data: Mapping[str, Any]) -> GearSet:
+    """Build a validated :class:`GearSet` from parsed TOML (see the module docstring).
+
+    Raises
+    ------
+    GeometryError
+        For unknown or missing keys and for any invalid value; the message
+        names the key or field, the value and what is allowed.
+    """
+    data = _table(data, "top level")
+    top_keys = {**_TOP_KEYS, "material": None, "pinion": None, "face_gear": None}
+    unknown = sorted(set(data) - set(top_keys))
+    if unknown:
+        raise GeometryError(
+            f"unknown key {unknown[0]!r} at the top level; allowed: {', '.join(sorted(top_keys))}"
+        )
+    for key in ("name", "material", "pinion", "face_gear"):
+        if key not in data:
+            raise GeometryError(f"missing key {key!r} at the top level")
+    top = _convert(
+        {k: v for k, v in data.items() if k in _TOP_KEYS}, _TOP_KEYS, "top level", _OPTIONAL
+    )
+    material = Material(
+        **_convert(_table(data["material"], "material"), _MATERIAL_KEYS, "material")
+    )
+    pinion = Pinion(**_convert(_table(data["pinion"], "pinion"), _PINION_KEYS, "pinion"))
+    face = _convert(
+        _table(data["face_gear"], "face_gear"), _FACE_GEAR_KEYS, "face_gear", _OPTIONAL
+    )
+    raw_stages = face.pop("stages")
+    if not isinstance(raw_stages, list):
+        raise GeometryError("face_gear.stages must be an array of tables [[face_gear.stages]]")
+    stages = tuple(_stage_from_dict(s, i) for i, s in enumerate(raw_stages, start=1))
+    return GearSet(pinion=pinion, stages=stages, material=material, **top, **face)
+
+
+def load_gearset(path: str | Path) -> GearSet:
+    """Read and validate a gear-set TOML file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Raises
+    ------
+    GeometryError
+        If the file is missing, is not TOML, or describes an invalid gear
+        set; the message starts with the path.
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError as exc:
+        raise GeometryError(f"{path}: gear-set file not found") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise GeometryError(f"{path}: not valid TOML: {exc}") from exc
+    try:
+        gearset = gearset_from_dict(data)
+    except GeometryError as exc:
+        raise GeometryError(f"{path}: {exc}") from exc
+    logger.info("loaded gear set %r from %s", gearset.name, path)
+    return gearset
+
+
+def _default_candidates() -> list[Path]:
+    """Where the default gear set is looked for, in order."""
+    here = Path(__file__).resolve().parent
+    return [here / "seed.toml", here.parents[1] / "geometry" / "seed.toml"]
+
+
+def default_gearset() -> GearSet:
+    """The seed study's gear set (``geometry/seed.toml``), m = 3 for all gears.
+
+    Looks for ``seed.toml`` next to this module (a packaged copy) and then
+    in the source tree's ``geometry/`` directory.
+
+    Raises
+    ------
+    GeometryError
+        If neither file exists.
+    """
+    candidates = _default_candidates()
+    for path in candidates:
+        if path.is_file():
+            return load_gearset(path)
+    tried = ", ".join(str(p) for p in candidates)
+    raise GeometryError(f"default gear set not found; looked for {tried}")

@@ -80,7 +80,8 @@ def test_cli_reports_user_errors_without_traceback(coarse_hertz_case, tmp_path, 
 
 
 def test_missing_mesh_named_in_case(tmp_path):
-    (tmp_path / "c.toml").write_text('[mesh]\nfile = "nowhere.msh"\n[[materials]]\n'
-                                     'volumes = ["a"]\nyoungs_modulus = 1e9\npoisson_ratio = 0.3\n')
+    (tmp_path / "c.toml").write_text(
+        '[mesh]\nfile = "nowhere.msh"\n[[materials]]\n'
+        'volumes = ["a"]\nyoungs_modulus = 1e9\npoisson_ratio = 0.3\n')
     with pytest.raises(CaseError, match=r"file = 'nowhere.msh': no such file"):
         load_case(tmp_path / "c.toml")

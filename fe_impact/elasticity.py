@@ -24,11 +24,6 @@ def lame_from_youngpoisson(E: float, nu: float) -> tuple[float, float]:
     return E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
 
 
-def effective_modulus(E1: float, nu1: float, E2: float, nu2: float) -> float:
-    """Contact modulus E* = 1 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2) (Johnson 1985, eq. 4.22)."""
-    return 1.0 / ((1.0 - nu1 ** 2) / E1 + (1.0 - nu2 ** 2) / E2)
-
-
 @dataclass(frozen=True, eq=False)
 class ElasticModel:
     """Assembled stiffness and per-element material data.

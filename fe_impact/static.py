@@ -32,8 +32,9 @@ from scipy.spatial import cKDTree
 
 from .case import Case
 from .contact import ContactPair, ContactSurface, nodal_pressure
-from .elasticity import ElasticModel, build_model, effective_modulus, von_mises
+from .elasticity import ElasticModel, build_model, von_mises
 from .errors import CaseError, ContactError
+from .hertz import effective_modulus
 from .linalg import SPDSolver, condensed_compliance
 from .mesh import FEMesh, load_mesh
 

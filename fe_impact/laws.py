@@ -27,6 +27,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import OptimizeResult, minimize_scalar
 
 from fe_impact.errors import SolverError
+from fe_impact.hertz import _require_positive
 
 logger = logging.getLogger(__name__)
 
@@ -38,14 +39,6 @@ DenseOutput = Callable[[ArrayLike], np.ndarray]
 def _as_output(value: np.ndarray) -> FloatOrArray:
     """Return a Python float for 0-d results, the array otherwise."""
     return float(value) if value.ndim == 0 else value
-
-
-def _require_positive(name: str, value: float) -> float:
-    """Return ``value`` as a float, or raise ValueError naming it when not > 0."""
-    value = float(value)
-    if not np.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    return value
 
 
 def _require_non_negative(name: str, value: float) -> float:

@@ -306,11 +306,6 @@ def _gap_jacobian(mesh: FEMesh, snodes, Ns, mnodes, Nm, normal, valid) -> sp.csr
     return sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(n, ndof))
 
 
-def surface_nodes(surface: ContactSurface, faces: np.ndarray) -> np.ndarray:
-    """Unique point indices of the given faces."""
-    return np.unique(surface.faces[faces])
-
-
 def nodal_pressure(mesh: FEMesh, state: GapState, pressure: np.ndarray) -> np.ndarray:
     """Scatter the slave-node pressure into an (n_points,) array, zero elsewhere."""
     out = np.zeros(mesh.n_points)

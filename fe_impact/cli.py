@@ -74,7 +74,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     print(f"{case.path.name}: setting up (mesh, assembly, factorisation)", flush=True)
     solver = StaticSolver(case)
     info = (f"{solver.model.n_dofs} DOFs, P{solver.mesh.order}, "
-            f"{len(solver.zone.dofs)} contact-zone DOFs")
+            f"{len(solver.zone_dofs)} contact-zone DOFs")
     print(f"  {info} ({time.perf_counter() - t0:.1f} s)", flush=True)
 
     def progress(i: int, step) -> None:

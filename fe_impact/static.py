@@ -28,25 +28,16 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.optimize import nnls
-from scipy.spatial import cKDTree
 
 from .case import Case
-from .contact import ContactPair, ContactSurface, nodal_pressure
+from .contact import nodal_pressure
 from .elasticity import ElasticModel, build_model, von_mises
 from .errors import CaseError, ContactError
-from .hertz import effective_modulus
 from .linalg import SPDSolver, condensed_compliance
 from .mesh import FEMesh, load_mesh
+from .zone import ContactZone, contact_pairs
 
 logger = logging.getLogger(__name__)
-
-#: Auto penalty = PENALTY_FACTOR * E* / h (h: median contact-face edge). The
-#: penetration/approach ratio of a Hertzian patch is p0/(eps delta) = 2 E*/(pi a eps).
-#: Measured on the sphere-on-block validation: 0.6% at a = 1.1 h, 0.12% at a = 2.2 h.
-#: A stiffer penalty brings back point-to-point pressure oscillation (7% peak-pressure
-#: error at factor 1000 against 2% at 300, a = 2.2 h).
-PENALTY_FACTOR = 300.0
-
 
 @dataclass(frozen=True)
 class StepResult:
@@ -75,16 +66,6 @@ class StaticResult:
     info: dict
 
 
-@dataclass
-class _Zone:
-    """Candidate contact zone of each pair and its condensed compliance."""
-
-    slave_faces: list[np.ndarray]
-    master_faces: list[np.ndarray]
-    dofs: np.ndarray = None      # indices into the free DOFs, sorted
-    G: np.ndarray = None         # compliance on those DOFs
-
-
 class StaticSolver:
     """Set up once per case; :meth:`run` solves the load steps."""
 
@@ -105,9 +86,10 @@ class StaticSolver:
         self.K_fd = K[self.free][:, self.fixed].tocsr()
         self.solver = SPDSolver(self.K_ff)
         self.timings["factorisation"] = time.perf_counter() - t
-        self.pairs = self._contact_pairs()
+        self.pairs = contact_pairs(case, self.mesh, self.model)
         t = time.perf_counter()
-        self.zone = self._initial_zone()
+        self.zone = ContactZone.initial(self.mesh, self.pairs,
+                                        [self._search_distance(s) for s in case.contacts])
         self._condense()
         self.timings["condensation"] = time.perf_counter() - t
 
@@ -142,28 +124,6 @@ class StaticSolver:
         values[dofs] = vals[None, :]
         owner.update(dict.fromkeys(dofs.tolist(), surface))
 
-    def _contact_pairs(self) -> list[ContactPair]:
-        pairs = []
-        for spec in self.case.contacts:
-            slave = ContactSurface.from_mesh(self.mesh, spec.slave)
-            master = ContactSurface.from_mesh(self.mesh, spec.master)
-            penalty = spec.penalty
-            if penalty is None:
-                penalty = PENALTY_FACTOR * self._pair_modulus(slave, master) / min(
-                    _face_size(self.mesh, slave), _face_size(self.mesh, master))
-            pairs.append(ContactPair(slave, master, penalty))
-            logger.info("contact %s -> %s: penalty %.3g Pa/m", spec.slave, spec.master, penalty)
-        return pairs
-
-    def _pair_modulus(self, slave: ContactSurface, master: ContactSurface) -> float:
-        props = []
-        for s in (slave, master):
-            mats = self.model.material[_elements_touching(self.mesh, s.faces[:, 0])]
-            m = min((self.case.materials[i] for i in np.unique(mats)),
-                    key=lambda m: m.youngs_modulus)
-            props.append((m.youngs_modulus, m.poisson_ratio))
-        return effective_modulus(*props[0], *props[1])
-
     def _search_distance(self, spec) -> float:
         if spec.search_distance is not None:
             return spec.search_distance
@@ -172,40 +132,13 @@ class StaticSolver:
         # zone grows by itself if a face outside it touches.
         return 1.25 * reach
 
-    def _initial_zone(self) -> _Zone:
-        zero = np.zeros((self.mesh.n_points, 3))
-        slave_faces, master_faces = [], []
-        for spec, pair in zip(self.case.contacts, self.pairs, strict=True):
-            all_s = np.arange(len(pair.slave.faces))
-            st = pair.gap_state(self.mesh, zero, all_s, np.arange(len(pair.master.faces)))
-            s = max(self._search_distance(spec), 1e-3 * _face_size(self.mesh, pair.slave))
-            near = all_s[_face_min_gap(pair, st, all_s) < s]
-            slave_faces.append(near)
-            master_faces.append(self._master_near(pair, self.mesh.points[
-                np.unique(pair.slave.faces[near])], s))
-        return _Zone(slave_faces, master_faces)
-
-    def _master_near(self, pair: ContactPair, points: np.ndarray, s: float) -> np.ndarray:
-        if len(points) == 0:
-            return np.zeros(0, dtype=np.int64)
-        x = self.mesh.points
-        cent = x[pair.master.faces[:, :3]].mean(axis=1)
-        radius = s + 2.0 * _face_size(self.mesh, pair.master, stat=np.max)
-        hits = cKDTree(points).query_ball_point(cent, r=radius, return_length=True)
-        return np.flatnonzero(hits > 0)
-
     def _condense(self) -> None:
-        nodes = [pair.slave.faces[f].ravel() for pair, f in zip(self.pairs, self.zone.slave_faces,
-                                                                 strict=True)]
-        nodes += [pair.master.faces[f].ravel() for pair, f in zip(self.pairs,
-                                                                  self.zone.master_faces,
-                                                                  strict=True)]
-        pts = np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, dtype=np.int64)
+        pts = self.zone.points()
         dofs = (3 * self.mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
         free = self.free_index[dofs]
-        self.zone.dofs = np.unique(free[free >= 0])
-        self.zone.G = condensed_compliance(self.K_ff, self.zone.dofs)
-        logger.info("contact zone: %d DOFs condensed", len(self.zone.dofs))
+        self.zone_dofs = np.unique(free[free >= 0])
+        self.G = condensed_compliance(self.K_ff, self.zone_dofs)
+        logger.info("contact zone: %d DOFs condensed", len(self.zone_dofs))
 
     # -- load steps -----------------------------------------------------------
     def run(self, step_hook: Callable[[int, StepResult], None] | None = None) -> StaticResult:
@@ -221,7 +154,7 @@ class StaticSolver:
                 step_hook(i, step)
         self.timings["steps"] = t_contact
         info = {"n_dofs": int(self.model.n_dofs), "n_free_dofs": int(len(self.free)),
-                "n_contact_dofs": int(len(self.zone.dofs)), "element_order": self.mesh.order,
+                "n_contact_dofs": int(len(self.zone_dofs)), "element_order": self.mesh.order,
                 "n_elements": int(len(self.mesh.cells)), "n_points": int(self.mesh.n_points),
                 "factor_nonzeros": self.solver.factor_nnz}
         return StaticResult(steps, self.mesh, self.model, [p.penalty for p in self.pairs],
@@ -245,8 +178,8 @@ class StaticSolver:
                            "[[contacts]] search_distance")
 
     def _contact_iterations(self, u0: np.ndarray):
-        zone, tol = self.zone, self.case.analysis.tolerance
-        cdofs = self.free[zone.dofs]
+        tol = self.case.analysis.tolerance
+        cdofs = self.free[self.zone_dofs]
         u = u0.copy()
         lam, active, total = None, None, 0
         for it in range(1, self.case.analysis.max_iterations + 1):
@@ -258,10 +191,10 @@ class StaticSolver:
             ok = np.isfinite(gap)
             h = np.where(ok, gap - B @ (u[cdofs] - u0[cdofs]), 0.0)
             lam = np.zeros(len(gap))
-            lam[ok], n_as = solve_penalty_lcp(B[ok], zone.G, h[ok], eps_w[ok],
+            lam[ok], n_as = solve_penalty_lcp(B[ok], self.G, h[ok], eps_w[ok],
                                               None if active is None else active[ok])
             total += n_as
-            u_new = u0[cdofs] + zone.G @ (B.T @ lam)
+            u_new = u0[cdofs] + self.G @ (B.T @ lam)
             change = np.abs(u_new - u[cdofs]).max(initial=0.0)
             scale = np.abs(u_new - u0[cdofs]).max(initial=0.0)
             new_active = lam > 0
@@ -275,9 +208,7 @@ class StaticSolver:
                            "[analysis] max_iterations or check the penalty")
 
     def _gap_states(self, u: np.ndarray):
-        up = self.model.point_values(u)
-        return [p.gap_state(self.mesh, up, sf, mf) for p, sf, mf in
-                zip(self.pairs, self.zone.slave_faces, self.zone.master_faces, strict=True)]
+        return self.zone.gap_states(self.mesh, self.model.point_values(u))
 
     def _recover(self, u_d, rhs0, states, lam) -> np.ndarray:
         B = sp.vstack([s.B for s in states]).tocsr() if states else None
@@ -291,27 +222,10 @@ class StaticSolver:
 
     def _grow_zone(self, u: np.ndarray) -> bool:
         """Enlarge the zone if faces outside it penetrate; True if it grew."""
-        up = self.model.point_values(u)
-        grew = False
-        for k, pair in enumerate(self.pairs):
-            outside = np.setdiff1d(np.arange(len(pair.slave.faces)), self.zone.slave_faces[k])
-            if len(outside) == 0:
-                continue
-            st = pair.gap_state(self.mesh, up, outside, np.arange(len(pair.master.faces)))
-            bad = outside[_face_min_gap(pair, st, outside) < 0]
-            if len(bad):
-                logger.warning("contact %s: %d faces outside the search zone touch; "
-                               "enlarging it", pair.slave.name, len(bad))
-                self.zone.slave_faces[k] = np.union1d(self.zone.slave_faces[k], bad)
-                s = 2.0 * _face_size(self.mesh, pair.slave, stat=np.max)
-                self.zone.master_faces[k] = np.union1d(
-                    self.zone.master_faces[k],
-                    self._master_near(pair, up[np.unique(pair.slave.faces[bad])]
-                                      + self.mesh.points[np.unique(pair.slave.faces[bad])], s))
-                grew = True
-        if grew:
+        if self.zone.grow(self.mesh, self.model.point_values(u)):
             self._condense()
-        return grew
+            return True
+        return False
 
     def _step_result(self, i, u, states, lam, its, ai) -> StepResult:
         forces, areas, pmax, pen = [], [], 0.0, 0.0
@@ -407,20 +321,3 @@ def _active_set(C: np.ndarray, h: np.ndarray, eps_w: np.ndarray, active, max_ite
     L = np.linalg.cholesky(M)
     lam, _ = nnls(L.T, -sla.solve_triangular(L, h, lower=True))
     return lam, max_iter
-
-
-def _face_size(mesh: FEMesh, surface: ContactSurface, stat=np.median) -> float:
-    """Typical edge length of a surface's triangles (vertex to vertex), m."""
-    x = mesh.points[surface.faces[:, :3]]
-    edges = np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2)
-    return float(stat(edges))
-
-
-def _face_min_gap(pair: ContactPair, state, faces: np.ndarray) -> np.ndarray:
-    """Smallest nodal gap of each face (inf where none is opposite the master)."""
-    pos = np.searchsorted(state.nodes, pair.slave.faces[faces])
-    return state.gap[pos].min(axis=1)
-
-
-def _elements_touching(mesh: FEMesh, points: np.ndarray) -> np.ndarray:
-    return np.flatnonzero(np.isin(mesh.cells[:, :4], points).any(axis=1))

@@ -29,6 +29,28 @@ Example (all lengths in metres, stresses in Pa)::
     [analysis]
     type = "static"
 
+A transient impact (``type = "dynamic"``) replaces ``[[displacements]]`` by
+initial velocities and rigid bodies::
+
+    [analysis]
+    type = "dynamic"
+    integrator = "newmark"          # or "explicit"
+    duration = 1.0e-4               # s
+    time_step = "auto"              # or a value in s
+    output_interval = 1.0e-6        # s, for fields and history
+
+    [[initial_velocities]]
+    volumes = ["sphere"]
+    value = [0.0, 0.0, -1.0]        # m/s
+
+    [[rigid_bodies]]
+    surface = "hemisphere_top"
+    motion = "translation"          # or "rotation"
+    direction = [0.0, 0.0, 1.0]     # translation direction, or rotation axis
+    point = [0.0, 0.0, 0.0]         # a point on the rotation axis, m
+    inertia = 0.5                   # kg, or kg m^2 for a rotation
+    initial_velocity = -1.0         # m/s or rad/s along/about the direction
+
 Parsing checks every key and value; :meth:`Case.check_groups` then checks the
 group names against a loaded mesh.
 """
@@ -45,8 +67,11 @@ from .errors import CaseError, MeshError
 from .mesh import UNITS, FEMesh
 
 COMPONENTS = {"x": 0, "y": 1, "z": 2}
-ANALYSIS_TYPES = ("static",)
-_TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "analysis"}
+ANALYSIS_TYPES = ("static", "dynamic")
+INTEGRATORS = ("newmark", "explicit")
+MOTIONS = ("translation", "rotation")
+_TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "analysis",
+             "initial_velocities", "rigid_bodies"}
 
 
 @dataclass(frozen=True)
@@ -57,6 +82,8 @@ class MaterialSpec:
     youngs_modulus: float
     poisson_ratio: float
     density: float
+    yield_strength: float | None = None    # Pa; None: elastic
+    hardening_modulus: float = 0.0         # Pa, linear isotropic hardening
 
 
 @dataclass(frozen=True)
@@ -87,10 +114,49 @@ class DisplacementSpec:
 
 
 @dataclass(frozen=True)
+class InitialVelocitySpec:
+    """Uniform initial velocity (m/s) of the listed volume groups."""
+
+    volumes: tuple[str, ...]
+    value: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class RigidBodySpec:
+    """A surface tied to a rigid body with one degree of freedom.
+
+    ``translation``: the surface nodes move by ``q * direction``; ``rotation``:
+    by ``theta * direction x (x - point)`` (small rotation about the axis
+    through ``point``). ``inertia`` is a mass (kg) or a moment of inertia
+    (kg m^2) added to that of the tied nodes.
+    """
+
+    surface: str
+    motion: str
+    direction: tuple[float, float, float]
+    point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    inertia: float = 0.0
+    initial_velocity: float = 0.0
+
+
+@dataclass(frozen=True)
 class AnalysisSpec:
+    """``[analysis]``: solution type and its controls (times in s)."""
+
     type: str = "static"
     max_iterations: int = 30
     tolerance: float = 1e-6
+    integrator: str = "newmark"
+    duration: float | None = None
+    time_step: float | None = None          # None: automatic
+    output_interval: float | None = None    # None: duration / 100
+    hht_alpha: float = 0.0
+    safety_factor: float = 0.9              # explicit: dt = safety * stable limit
+    energy_limit: float = 0.05              # stop if energy grows by more (relative)
+
+    @property
+    def dynamic(self) -> bool:
+        return self.type == "dynamic"
 
 
 @dataclass(frozen=True)
@@ -105,6 +171,8 @@ class Case:
     supports: tuple[SupportSpec, ...] = ()
     displacements: tuple[DisplacementSpec, ...] = ()
     analysis: AnalysisSpec = field(default_factory=AnalysisSpec)
+    initial_velocities: tuple[InitialVelocitySpec, ...] = ()
+    rigid_bodies: tuple[RigidBodySpec, ...] = ()
 
     @property
     def n_steps(self) -> int:
@@ -123,6 +191,11 @@ class Case:
                 _group(mesh.surface, s.surface, f"supports[{i}].surface")
             for i, d in enumerate(self.displacements):
                 _group(mesh.surface, d.surface, f"displacements[{i}].surface")
+            for i, v in enumerate(self.initial_velocities):
+                for name in v.volumes:
+                    _group(mesh.volume, name, f"initial_velocities[{i}].volumes")
+            for i, b in enumerate(self.rigid_bodies):
+                _group(mesh.surface, b.surface, f"rigid_bodies[{i}].surface")
         except MeshError as exc:
             raise CaseError(f"{self.path.name}: {exc}") from exc
         assigned = [v for m in self.materials for v in m.volumes]
@@ -165,6 +238,14 @@ def parse_case(data: dict[str, Any], path: Path) -> Case:
     if not mesh_file.is_file():
         raise CaseError(f"{path.name}: [mesh] file = '{mesh['file']}': no such file "
                         f"(looked for {mesh_file})")
+    analysis = _analysis(r, data.get("analysis", {}))
+    if analysis.dynamic and data.get("displacements"):
+        raise CaseError(f"{path.name}: [[displacements]] apply to static analysis; a dynamic "
+                        "case moves the bodies with [[initial_velocities]] and [[rigid_bodies]]")
+    if not analysis.dynamic:
+        for key in ("initial_velocities", "rigid_bodies"):
+            if data.get(key):
+                raise CaseError(f"{path.name}: [[{key}]] needs [analysis] type = \"dynamic\"")
     return Case(
         path=path, mesh_file=mesh_file, unit=unit,
         materials=tuple(_material(r, t, f"materials[{i}]")
@@ -174,18 +255,51 @@ def parse_case(data: dict[str, Any], path: Path) -> Case:
         supports=tuple(_support(r, t, f"supports[{i}]")
                        for i, t in enumerate(r.array(data, "supports"))),
         displacements=_displacements(r, r.array(data, "displacements")),
-        analysis=_analysis(r, data.get("analysis", {})),
+        analysis=analysis,
+        initial_velocities=tuple(_initial_velocity(r, t, f"initial_velocities[{i}]")
+                                 for i, t in enumerate(r.array(data, "initial_velocities"))),
+        rigid_bodies=tuple(_rigid_body(r, t, f"rigid_bodies[{i}]")
+                           for i, t in enumerate(r.array(data, "rigid_bodies"))),
     )
 
 
 def _material(r: _Reader, t: dict, where: str) -> MaterialSpec:
-    r.keys(t, where, {"volumes", "youngs_modulus", "poisson_ratio", "density"},
+    r.keys(t, where, {"volumes", "youngs_modulus", "poisson_ratio", "density",
+                      "yield_strength", "hardening_modulus"},
            required={"volumes", "youngs_modulus", "poisson_ratio"})
     E = r.number(t, where, "youngs_modulus", low=0.0, low_open=True)
     nu = r.number(t, where, "poisson_ratio", low=-1.0, high=0.5, low_open=True,
                   high_open=True)
     rho = r.number(t, where, "density", low=0.0, low_open=True, default=7860.0)
-    return MaterialSpec(tuple(r.strings(t, where, "volumes")), E, nu, rho)
+    yield_ = None
+    if "yield_strength" in t:
+        yield_ = r.number(t, where, "yield_strength", low=0.0, low_open=True)
+    hard = r.number(t, where, "hardening_modulus", low=0.0, high=E, high_open=True,
+                    default=0.0, hint="(below the Young's modulus)")
+    return MaterialSpec(tuple(r.strings(t, where, "volumes")), E, nu, rho, yield_, hard)
+
+
+def _initial_velocity(r: _Reader, t: dict, where: str) -> InitialVelocitySpec:
+    r.keys(t, where, {"volumes", "value"}, required={"volumes", "value"})
+    return InitialVelocitySpec(tuple(r.strings(t, where, "volumes")),
+                               r.vector(t, where, "value", "m/s"))
+
+
+def _rigid_body(r: _Reader, t: dict, where: str) -> RigidBodySpec:
+    r.keys(t, where, {"surface", "motion", "direction", "point", "inertia",
+                      "initial_velocity"}, required={"surface", "motion", "direction"})
+    motion = r.choice(t, where, "motion", MOTIONS)
+    d = r.vector(t, where, "direction", "")
+    norm = math.sqrt(sum(c * c for c in d))
+    if norm == 0.0:
+        raise r.fail(where, "direction", t["direction"], "must be a non-zero vector")
+    point = r.vector(t, where, "point", "m") if "point" in t else (0.0, 0.0, 0.0)
+    inertia = r.number(t, where, "inertia", low=0.0, default=0.0,
+                       hint="(kg, or kg m^2 for a rotation)")
+    v0 = r.number(t, where, "initial_velocity", default=0.0,
+                  hint="(m/s, or rad/s for a rotation)")
+    return RigidBodySpec(r.string(t, where, "surface"), motion,
+                         tuple(c / norm for c in d), point, inertia, v0)
 
 
 def _contact(r: _Reader, t: dict, where: str) -> ContactSpec:
@@ -238,18 +352,45 @@ def _displacements(r: _Reader, tables: list) -> tuple[DisplacementSpec, ...]:
     return tuple(out)
 
 
+_STATIC_KEYS = {"type", "max_iterations", "tolerance"}
+_DYNAMIC_KEYS = _STATIC_KEYS | {"integrator", "duration", "time_step", "output_interval",
+                                "hht_alpha", "safety_factor", "energy_limit"}
+
+
 def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
     if not isinstance(t, dict):
         raise CaseError(f"{r.file}: [analysis] must be a table")
-    r.keys(t, "analysis", {"type", "max_iterations", "tolerance"})
     kind = r.choice(t, "analysis", "type", ANALYSIS_TYPES, default="static")
+    r.keys(t, "analysis", _DYNAMIC_KEYS if kind == "dynamic" else _STATIC_KEYS,
+           required={"duration"} if kind == "dynamic" else set())
     iters = t.get("max_iterations", 30)
     if not isinstance(iters, int) or isinstance(iters, bool) or iters < 1:
         raise CaseError(f"{r.file}: [analysis] max_iterations = {iters!r}: must be an "
                         "integer >= 1")
     tol = r.number(t, "analysis", "tolerance", low=0.0, high=1.0, low_open=True,
                    default=1e-6)
-    return AnalysisSpec(kind, iters, tol)
+    if kind == "static":
+        return AnalysisSpec(kind, iters, tol)
+    w = "analysis"
+    integrator = r.choice(t, w, "integrator", INTEGRATORS, default="newmark")
+    duration = r.number(t, w, "duration", low=0.0, low_open=True, hint="(s)")
+    dt = None
+    if t.get("time_step", "auto") != "auto":
+        dt = r.number(t, w, "time_step", low=0.0, high=duration, low_open=True,
+                      hint='(s, at most the duration) or "auto"')
+    out_dt = None
+    if "output_interval" in t:
+        out_dt = r.number(t, w, "output_interval", low=0.0, high=duration, low_open=True,
+                          hint="(s, at most the duration)")
+    alpha = r.number(t, w, "hht_alpha", low=-1.0 / 3.0, high=0.0, default=0.0,
+                     hint="(HHT-alpha; 0 is Newmark's average acceleration)")
+    if alpha != 0.0 and integrator != "newmark":
+        raise r.fail(w, "hht_alpha", alpha, 'applies to integrator = "newmark" only')
+    safety = r.number(t, w, "safety_factor", low=0.0, high=1.0, low_open=True, default=0.9)
+    energy = r.number(t, w, "energy_limit", low=0.0, low_open=True, default=0.05,
+                      hint="(relative energy growth that stops the run)")
+    return AnalysisSpec(kind, iters, tol, integrator, duration, dt, out_dt, alpha, safety,
+                        energy)
 
 
 def _is_real(v: Any) -> bool:
@@ -306,6 +447,12 @@ class _Reader:
         if not isinstance(v, list) or not v or not all(isinstance(s, str) and s for s in v):
             raise self.fail(where, key, v, "must be a non-empty list of group names")
         return v
+
+    def vector(self, t: dict, where: str, key: str, unit: str) -> tuple[float, float, float]:
+        v = t[key]
+        if not isinstance(v, list) or len(v) != 3 or not all(_is_real(c) for c in v):
+            raise self.fail(where, key, v, f"must be a list of three numbers {unit}".rstrip())
+        return tuple(float(c) for c in v)
 
     def choice(self, t: dict, where: str, key: str, choices: tuple, default=None) -> str:
         v = t.get(key, default)

@@ -48,9 +48,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="more log output (-vv for debug)")
     p.add_argument("--debug", action="store_true", help="show tracebacks for errors")
     sub = p.add_subparsers(title="commands", metavar="COMMAND")
-    s = sub.add_parser("solve", help="solve a case file (static contact)",
-                       description="Solve a TOML case file; writes summary.json and VTU "
-                                   "fields to --out.")
+    s = sub.add_parser("solve", help="solve a case file (static contact or transient impact)",
+                       description="Solve a TOML case file ([analysis] type = \"static\" or "
+                                   "\"dynamic\"); writes summary.json, VTU fields with a PVD "
+                                   "series and, for an impact, history.csv and plots to --out.")
     s.add_argument("case", type=Path, help="the case file (.toml)")
     s.add_argument("--out", type=Path, required=True, help="output folder")
     s.set_defaults(func=_cmd_solve)
@@ -70,6 +71,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     from .static import StaticSolver
 
     case = load_case(args.case)
+    if case.analysis.dynamic:
+        return _solve_dynamic(case, args.out)
     t0 = time.perf_counter()
     print(f"{case.path.name}: setting up (mesh, assembly, factorisation)", flush=True)
     solver = StaticSolver(case)
@@ -86,6 +89,50 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     result = solver.run(step_hook=progress)
     out = write_static_results(args.out, case, result)
     print(f"wrote {out} ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _solve_dynamic(case, out: Path) -> int:
+    from tqdm import tqdm
+
+    from .dynamic import DynamicSolver
+    from .errors import SolverError
+    from .results import DynamicWriter
+
+    t0 = time.perf_counter()
+    a = case.analysis
+    print(f"{case.path.name}: setting up (mesh, assembly, contact zone, "
+          f"{'stable step' if a.integrator == 'explicit' else 'factorisation'})", flush=True)
+    solver = DynamicSolver(case)
+    n_steps = max(1, round(a.duration / solver.dt))
+    print(f"  {solver.model.n_dofs} DOFs, P{solver.mesh.order}, {a.integrator}, time step "
+          f"{solver.dt:.4g} s x {n_steps} steps ({time.perf_counter() - t0:.1f} s)", flush=True)
+    writer = DynamicWriter(out, case, solver.mesh, solver.model.material)
+    bar = tqdm(total=1000, desc="  integrating", unit="permille", leave=False,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}")
+
+    def progress(fraction: float) -> None:
+        bar.update(int(1000 * fraction) - bar.n)
+
+    try:
+        result = solver.run(frame_hook=writer.frame, progress=progress)
+    except (SolverError, KeyboardInterrupt) as exc:
+        bar.close()
+        partial = solver.result()
+        writer.finish(partial, status="stopped", error=str(exc) or "interrupted")
+        raise
+    bar.close()
+    path = writer.finish(result)
+    m = result.measurements
+
+    def fmt(v, scale=1.0, spec=".4g"):
+        return "-" if v is None else format(v * scale, spec)
+
+    print(f"  peak force {fmt(m['peak_force'])} N, max approach "
+          f"{fmt(m['max_approach'], 1e6)} um, contact {fmt(m['contact_duration'], 1e6)} us, "
+          f"restitution {fmt(m['restitution'])}, "
+          f"energy error {fmt(m['energy_error'], 100, '.3f')}%")
+    print(f"wrote {path} ({time.perf_counter() - t0:.1f} s)")
     return 0
 
 

@@ -116,3 +116,38 @@ def von_mises(model: ElasticModel, u: np.ndarray) -> np.ndarray:
     vm = np.sqrt(1.5 * s2) * 2.0 * lam_mu[:, 1][:, None]
     dx = model.basis.dx
     return (vm * dx).sum(axis=1) / dx.sum(axis=1)
+
+
+def assemble_mass(model: ElasticModel) -> sp.csr_matrix:
+    """Consistent mass matrix ``int rho u . v`` (kg), exact for affine elements."""
+    from skfem import Basis, BilinearForm, ElementTetP1, ElementTetP2, ElementVector, asm
+    from skfem.helpers import dot
+
+    order = model.mesh.order
+    elem = ElementTetP2() if order == 2 else ElementTetP1()
+    basis = Basis(model.mesh.skfem_mesh, ElementVector(elem), intorder=2 * order)
+    rho = np.repeat(model.element_field("density")[:, None], basis.X.shape[1], axis=1)
+
+    @BilinearForm
+    def mass(u, v, w):
+        return w.rho * dot(u, v)
+
+    return asm(mass, basis, rho=rho).tocsr()
+
+
+def lumped_mass(M: sp.csr_matrix) -> np.ndarray:
+    """HRZ lumping: the diagonal of ``M`` scaled to conserve each component's mass.
+
+    For affine elements of one type, the element diagonals are the same
+    fraction of the element mass everywhere, so scaling the assembled diagonal
+    is element-wise HRZ (Hinton, Rock and Zienkiewicz 1976). All entries are
+    positive for P1 and P2 tetrahedra, unlike row sums for P2, whose vertex
+    entries are negative.
+    """
+    diag = M.diagonal()
+    out = np.empty_like(diag)
+    for c in range(3):
+        rows = slice(c, None, 3)
+        total = M[rows][:, rows].sum()
+        out[rows] = diag[rows] * (total / diag[rows].sum())
+    return out

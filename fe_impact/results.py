@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from . import __version__
 from .case import Case
-from .io import write_json, write_pvd, write_vtu
+from .io import write_csv, write_json, write_pvd, write_vtu
 from .static import StaticResult, StepResult
 
 SUMMARY_SCHEMA = "fe-impact/static-summary/1"
@@ -59,3 +61,106 @@ def write_static_results(out: str | Path, case: Case, result: StaticResult) -> P
         "fields": {"series": "static.pvd", "frames": [f for _, f in frames]},
     }
     return write_json(out / "summary.json", summary)
+
+
+DYNAMIC_SCHEMA = "fe-impact/dynamic-summary/1"
+HISTORY_UNITS = {"time": "s", "contact_force": "N", "approach": "m", "normal_velocity": "m/s",
+                 "kinetic_energy": "J", "strain_energy": "J", "contact_energy": "J",
+                 "total_energy": "J"}
+
+
+class DynamicWriter:
+    """Writes a transient run as it goes: VTU frames, the PVD series and, at the end,
+    ``history.csv``, ``summary.json`` and the plots.
+
+    The PVD collection is rewritten (atomically) after every frame, so a run
+    stopped part-way leaves a readable series of the frames done so far.
+    """
+
+    def __init__(self, out: str | Path, case: Case, mesh, material) -> None:
+        self.out = Path(out)
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.case, self.mesh, self.material = case, mesh, material
+        self.frames: list[tuple[float, str]] = []
+
+    def frame(self, frame) -> None:
+        name = f"frame_{len(self.frames):04d}.vtu"
+        write_vtu(self.out / name, self.mesh,
+                  point_data={"displacement": frame.u, "velocity": frame.v,
+                              "contact_pressure": frame.pressure},
+                  cell_data={"von_mises": frame.von_mises, "material": self.material})
+        self.frames.append((frame.time, name))
+        write_pvd(self.out / "impact.pvd", self.frames)
+
+    def finish(self, result, status: str = "completed", error: str | None = None) -> Path:
+        """Write history, summary and plots; ``status`` says how the run ended."""
+        hist = result.output_history
+        keys = list(HISTORY_UNITS)
+        write_csv(self.out / "history.csv", [f"{k} [{HISTORY_UNITS[k]}]" for k in keys],
+                  np.column_stack([hist[k] for k in keys]).tolist() if len(hist["time"])
+                  else [])
+        plots = plot_impact(self.out, result.history) if len(result.history["time"]) > 1 else []
+        summary = {
+            "schema": DYNAMIC_SCHEMA,
+            "fe_impact_version": __version__,
+            "status": status,
+            "error": error,
+            "case": str(self.case.path),
+            "mesh": str(self.case.mesh_file),
+            "units": {"peak_force": "N", "max_approach": "m", "contact_duration": "s",
+                      "restitution": "-", "energy_error": "-", "impact_velocity": "m/s",
+                      "rebound_velocity": "m/s", **{f"history.{k}": u for k, u in
+                                                     HISTORY_UNITS.items()}},
+            "notes": ("contact_force is the total normal force on the modelled part (a "
+                      "symmetric model carries only its share). approach: closing "
+                      "displacement of the two sides at the initial contact point along the "
+                      "initial normal, minus the initial gap; a side is its rigid body if it "
+                      "has one, else its mass-weighted translation along the normal, and a "
+                      "supported side is the fixed reference. restitution = -(relative normal "
+                      "velocity after separation) / (before first touch). energy_error = "
+                      "max |E(t) - E(0)| / E(0), E = kinetic + strain + penalty energy."),
+            **result.measurements,
+            "model": result.info,
+            "timings_s": result.timings,
+            "history": {k: hist[k] for k in keys},
+            "fields": {"series": "impact.pvd", "frames": [f for _, f in self.frames]},
+            "plots": plots,
+        }
+        return write_json(self.out / "summary.json", summary)
+
+
+def plot_impact(out: Path, history: dict) -> list[str]:
+    """Force against time and against approach (PNG); returns the file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .io import atomic_path
+
+    t, F, d = history["time"], history["contact_force"], history["approach"]
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    ax[0].plot(t * 1e6, F, lw=1.2)
+    ax[0].set(xlabel="time (us)", ylabel="contact force (N)", title="Force against time")
+    on = d > -0.05 * max(d.max(), 1e-30)
+    ax[1].plot(d[on] * 1e6, F[on], lw=1.2)
+    ax[1].set(xlabel="approach (um)", ylabel="contact force (N)",
+              title="Force against approach")
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    with atomic_path(out / "force.png") as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    E = history
+    fig, a = plt.subplots(figsize=(6, 4))
+    for k in ("kinetic_energy", "strain_energy", "contact_energy", "total_energy"):
+        a.plot(t * 1e6, E[k], label=k.replace("_", " "))
+    a.set(xlabel="time (us)", ylabel="energy (J)", title="Energy balance")
+    a.legend()
+    a.grid(alpha=0.3)
+    fig.tight_layout()
+    with atomic_path(out / "energy.png") as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
+    plt.close(fig)
+    return ["force.png", "energy.png"]

@@ -130,3 +130,40 @@ def _add_size_field(model, spec: SphereBlockSpec) -> None:
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: fast and robust
     logger.debug("size field: %.3g m within %.3g m of contact", spec.h_contact, spec.r_fine)
+
+
+def build_two_blocks(path: str | Path, size: float = 1e-3, gap: float = 1e-6,
+                     order: int = 1) -> Path:
+    """Two stacked cubes of edge ``size`` (m), the upper ``gap`` above the lower.
+
+    Meshed with one element size equal to the edge, so a P1 mesh has only the
+    cube corners as nodes: tying every boundary face of the upper cube to a
+    rigid body and fixing the lower one leaves a single degree of freedom on
+    a linear penalty spring (``eps * size^2``), an impact with a closed-form
+    half-sine solution. Groups: volumes ``upper``, ``lower``; surfaces
+    ``upper_all`` and ``lower_all`` (whole boundaries), ``upper_bottom`` and
+    ``lower_top`` (the facing squares).
+    """
+    import gmsh
+
+    with gmsh_session("two_blocks") as model:
+        occ = model.occ
+        lower = occ.addBox(0, 0, -size, size, size, size)
+        upper = occ.addBox(0, 0, gap, size, size, size)
+        occ.synchronize()
+        model.addPhysicalGroup(3, [upper], name="upper")
+        model.addPhysicalGroup(3, [lower], name="lower")
+        for name, vol, face_z in (("upper", upper, gap), ("lower", lower, 0.0)):
+            faces = [t for _, t in model.getBoundary([(3, vol)], oriented=False)]
+            model.addPhysicalGroup(2, faces, name=f"{name}_all")
+            facing = [t for t in faces
+                      if abs(model.getBoundingBox(2, t)[2] - face_z) < 1e-3 * size
+                      and abs(model.getBoundingBox(2, t)[5] - face_z) < 1e-3 * size]
+            model.addPhysicalGroup(2, facing, name=f"{name}_bottom" if name == "upper"
+                                   else f"{name}_top")
+        gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        model.mesh.generate(3)
+        if order == 2:
+            model.mesh.setOrder(2)
+        return write_msh(path)

@@ -1,0 +1,726 @@
+"""Transient elastodynamics with penalty contact: explicit and Newmark integration.
+
+The bodies are linear elastic; contact is the only nonlinearity. Unknowns are
+reduced coordinates ``z``: the free DOFs plus one DOF per rigid body, with
+``u = T z`` (supported components are zero, nodes of a rigid body's surface
+follow its translation or small rotation). The equations of motion are
+
+    M_r z'' + K_r z = B_r^T lambda(z),   M_r = T^T M T + diag(inertia), K_r = T^T K T,
+
+with the penalty forces ``lambda_a = eps w_a <-g_a>`` on the weighted nodal
+gaps ``g = g_ref + B_r (z - z_ref)``, linearised about the last projection of
+the slave nodes on the master surface and re-projected whenever the contact
+zone has moved by more than a small fraction of an element.
+
+Integrators
+-----------
+``explicit``
+    Central difference (velocity Verlet) with the HRZ-lumped mass; the
+    stable step ``2 / omega_max`` is computed by Lanczos iteration on
+    ``M^-1/2 (K + K_contact) M^-1/2``, with every zone node in contact.
+``newmark``
+    Implicit Newmark average acceleration (beta = 1/4, gamma = 1/2), or
+    HHT-alpha with ``hht_alpha < 0``; consistent mass. ``K_eff`` is
+    factorised once; the contact zone is condensed with a Schur complement,
+    so contact in each step is a small dense complementarity problem solved
+    exactly (as in the static solver).
+
+Measurements
+------------
+Each side of the first contact pair (the bodies owning the slave and the
+master surface) is summarised by one generalised coordinate: its rigid body's
+motion if it has one, otherwise a translation along the contact normal. The
+side's displacement and velocity are the mass-weighted averages of that mode
+(momentum / generalised mass, so a free body's value stays constant after
+separation); a side whose supports block the mode is the fixed reference (0).
+The approach is the closing displacement of the two sides at the initial
+contact point along the initial contact normal, minus the initial gap.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .case import Case, RigidBodySpec
+from .contact import GapState
+from .elasticity import assemble_mass, build_model, lumped_mass, von_mises
+from .errors import CaseError, ContactError, SolverError
+from .linalg import SPDSolver, condensed_compliance
+from .mesh import FEMesh, load_mesh
+from .static import solve_penalty_lcp
+from .zone import (
+    PENALTY_FACTOR,
+    PENALTY_FACTOR_EXPLICIT,
+    ContactZone,
+    contact_pairs,
+    face_size,
+)
+
+logger = logging.getLogger(__name__)
+
+#: Automatic Newmark step: this many steps over the duration (at least), so a
+#: contact lasting a third of the run is resolved by about 70 steps.
+NEWMARK_STEPS = 200
+#: Re-project the slave nodes when the zone has moved by this fraction of the
+#: smallest contact-face size since the last projection.
+REPROJECT_FRACTION = 0.05
+
+
+# -- kinematics ---------------------------------------------------------------
+
+
+def rigid_mode(spec: RigidBodySpec, x: np.ndarray) -> np.ndarray:
+    """Displacement of points ``x`` (n, 3) per unit rigid-body coordinate."""
+    d = np.asarray(spec.direction)
+    if spec.motion == "translation":
+        return np.broadcast_to(d, x.shape).copy()
+    return np.cross(d, x - np.asarray(spec.point))
+
+
+@dataclass(frozen=True, eq=False)
+class Kinematics:
+    """Map ``u = T z`` between reduced coordinates and all DOFs.
+
+    Attributes
+    ----------
+    T : csr_matrix, shape (n_dofs, n_free + n_rigid)
+    free : DOFs that are unknowns of their own (columns ``0..n_free-1``)
+    fixed : DOFs held at zero by supports
+    rigid : the rigid-body specs; body ``k`` is column ``n_free + k``
+    """
+
+    T: sp.csr_matrix
+    free: np.ndarray
+    fixed: np.ndarray
+    rigid: tuple[RigidBodySpec, ...]
+
+    @property
+    def n(self) -> int:
+        return self.T.shape[1]
+
+    @property
+    def n_free(self) -> int:
+        return len(self.free)
+
+    @classmethod
+    def build(cls, case: Case, mesh: FEMesh, n_dofs: int) -> Kinematics:
+        fixed = np.zeros(n_dofs, dtype=bool)
+        for s in case.supports:
+            pts = mesh.surface_points(s.surface)
+            for c in s.fix:
+                fixed[3 * mesh.point_dof[pts] + c] = True
+        tied = -np.ones(n_dofs, dtype=np.int64)
+        coef = np.zeros(n_dofs)
+        for k, body in enumerate(case.rigid_bodies):
+            pts = mesh.surface_points(body.surface)
+            dofs = (3 * mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
+            clash = tied[dofs] >= 0
+            if clash.any():
+                other = case.rigid_bodies[int(tied[dofs][clash][0])].surface
+                raise CaseError(f"{case.path.name}: rigid_bodies[{k}] surface '{body.surface}' "
+                                f"shares {int(clash.sum() // 3) or 1} nodes with '{other}'; "
+                                "a node can follow one rigid body only")
+            c = rigid_mode(body, mesh.points[pts]).ravel()
+            scale = np.abs(c).max(initial=0.0)
+            moved = fixed[dofs] & (np.abs(c) > 1e-9 * max(scale, 1e-300))
+            if moved.any():
+                raise CaseError(f"{case.path.name}: rigid_bodies[{k}] ({body.motion} of "
+                                f"'{body.surface}') moves {int(moved.sum())} DOFs that "
+                                "[[supports]] fix; remove the support or change the motion")
+            tied[dofs] = k
+            coef[dofs] = c
+        is_tied = tied >= 0
+        fixed &= ~is_tied
+        free = np.flatnonzero(~fixed & ~is_tied)
+        n_free = len(free)
+        rows = np.concatenate([free, np.flatnonzero(is_tied)])
+        cols = np.concatenate([np.arange(n_free), n_free + tied[is_tied]])
+        vals = np.concatenate([np.ones(n_free), coef[is_tied]])
+        T = sp.csr_matrix((vals, (rows, cols)), shape=(n_dofs, n_free + len(case.rigid_bodies)))
+        return cls(T, free, np.flatnonzero(fixed), case.rigid_bodies)
+
+
+# -- measurement probes ------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Side:
+    """One body of the measured contact pair, reduced to one coordinate."""
+
+    name: str
+    weights: np.ndarray | None   # q = weights . z (None: a fixed reference, q = 0)
+    lever: float                 # normal displacement at the contact point per unit q
+    rigid_body: int | None
+
+    def normal_displacement(self, z: np.ndarray) -> float:
+        return 0.0 if self.weights is None else self.lever * float(self.weights @ z)
+
+
+def _side_points(mesh: FEMesh, model, surface_points: np.ndarray) -> tuple[np.ndarray, list]:
+    """Points and volume names of the volume groups touching a surface."""
+    touched = np.isin(mesh.cells[:, :4], surface_points).any(axis=1)
+    names = [n for n, el in mesh.volumes.items() if touched[el].any()]
+    cells = np.concatenate([mesh.volumes[n] for n in names])
+    return np.unique(mesh.cells[cells]), names
+
+
+def _make_side(label: str, mesh: FEMesh, kin: Kinematics, M_r: sp.spmatrix, surface: str,
+               x_c: np.ndarray, normal: np.ndarray, model) -> Side:
+    pts, names = _side_points(mesh, model, mesh.surface_points(surface))
+    dof_of = 3 * mesh.point_dof
+    body = None
+    for k, spec in enumerate(kin.rigid):
+        if np.isin(mesh.surface_points(spec.surface), pts).all():
+            body = k
+            break
+    n_dofs = kin.T.shape[0]
+    phi = np.zeros(n_dofs)
+    if body is None:
+        mode = np.broadcast_to(normal, (len(pts), 3))
+        lever = 1.0
+    else:
+        spec = kin.rigid[body]
+        mode = rigid_mode(spec, mesh.points[pts])
+        lever = float(rigid_mode(spec, x_c[None, :])[0] @ normal)
+    dofs = (dof_of[pts][:, None] + np.arange(3)).ravel()
+    phi[dofs] = mode.ravel()
+    name = f"{label} ({', '.join(names)})"
+    if np.abs(phi[kin.fixed]).max(initial=0.0) > 1e-9 * np.abs(phi).max():
+        return Side(name, None, 0.0, None)
+    phi_z = np.zeros(kin.n)
+    phi_z[:kin.n_free] = phi[kin.free]
+    if body is not None:
+        phi_z[kin.n_free + body] = 1.0
+    Mphi = M_r @ phi_z
+    return Side(name, Mphi / float(phi_z @ Mphi), lever, body)
+
+
+# -- contact -----------------------------------------------------------------------
+
+
+class ContactModel:
+    """Penalty forces on linearised weighted gaps, re-projected as the bodies move."""
+
+    def __init__(self, mesh: FEMesh, model, kin: Kinematics, zone: ContactZone,
+                 tolerance: float) -> None:
+        self.mesh, self.model, self.kin, self.zone = mesh, model, kin, zone
+        self.tolerance = tolerance
+        self.n_projections = 0
+        self.update(np.zeros(kin.n))
+
+    def _point_values(self, z: np.ndarray) -> np.ndarray:
+        return self.model.point_values(self.kin.T @ z)
+
+    def update(self, z: np.ndarray) -> None:
+        """Project the zone's slave nodes on the configuration ``z``."""
+        self.states: list[GapState] = self.zone.gap_states(self.mesh, self._point_values(z))
+        B = sp.vstack([s.B for s in self.states]).tocsr()
+        self.B = (B @ self.kin.T).tocsr()
+        self.g_ref = np.concatenate([s.gap for s in self.states])
+        self.active_rows = np.isfinite(self.g_ref)
+        self.g_ref = np.where(self.active_rows, self.g_ref, 0.0)
+        self.B = sp.diags(self.active_rows.astype(float)) @ self.B
+        self.eps_w = np.concatenate([p.penalty * s.weight for p, s in
+                                     zip(self.zone.pairs, self.states, strict=True)])
+        self.eps_w = np.where(self.active_rows, self.eps_w, 0.0)
+        self.sizes = [len(s.gap) for s in self.states]
+        pts = self.zone.points()
+        dofs = (3 * self.mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
+        self.T_zone = self.kin.T[dofs]
+        self.z_ref = z.copy()
+        self.n_projections += 1
+
+    def moved(self, z: np.ndarray) -> bool:
+        """True if the zone moved by more than the re-projection tolerance."""
+        du = (self.T_zone @ (z - self.z_ref)).reshape(-1, 3)
+        du -= du.mean(axis=0)
+        return float(np.abs(du).max(initial=0.0)) > self.tolerance
+
+    def gaps(self, z: np.ndarray) -> np.ndarray:
+        return self.g_ref + self.B @ (z - self.z_ref)
+
+    def forces(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nodal penalty forces ``lambda`` (N) and the gaps they come from."""
+        g = self.gaps(z)
+        return self.eps_w * np.maximum(-g, 0.0), g
+
+    def energy(self, lam: np.ndarray) -> float:
+        """Penalty potential sum(eps w <-g>^2 / 2) = sum(lam^2 / (2 eps w))."""
+        on = lam > 0
+        return float(0.5 * np.sum(lam[on] ** 2 / self.eps_w[on]))
+
+    def pair_forces(self, lam: np.ndarray) -> list[float]:
+        out, start = [], 0
+        for n in self.sizes:
+            out.append(float(lam[start:start + n].sum()))
+            start += n
+        return out
+
+    def pressure(self, lam: np.ndarray) -> np.ndarray:
+        """Nodal contact pressure (Pa) on all mesh points."""
+        p = np.zeros(self.mesh.n_points)
+        start = 0
+        for st, n in zip(self.states, self.sizes, strict=True):
+            lk = lam[start:start + n]
+            start += n
+            p[st.nodes] = np.maximum(p[st.nodes], np.where(lk > 0, lk / st.weight, 0.0))
+        return p
+
+
+class SurfaceMonitor:
+    """Linearised gaps of every slave node, to see faces outside the zone coming close."""
+
+    def __init__(self, mesh: FEMesh, kin: Kinematics, zone: ContactZone) -> None:
+        zero = np.zeros((mesh.n_points, 3))
+        self.mesh, self.zone = mesh, zone
+        self.pairs = []
+        for pair in zone.pairs:
+            st = pair.gap_state(mesh, zero, np.arange(len(pair.slave.faces)),
+                                np.arange(len(pair.master.faces)))
+            ok = np.isfinite(st.gap)
+            self.pairs.append((st.nodes[ok], st.gap[ok], (st.B[ok] @ kin.T).tocsr()))
+        self.margin = 0.5 * min(face_size(mesh, p.slave) for p in zone.pairs)
+
+    def close_outside(self, z: np.ndarray) -> bool:
+        for k, (nodes, g0, B) in enumerate(self.pairs):
+            inside = np.isin(nodes, self.zone.pairs[k].slave.faces[self.zone.slave_faces[k]])
+            g = g0[~inside] + B[~inside] @ z
+            if g.size and g.min() < self.margin:
+                return True
+        return False
+
+
+# -- results -----------------------------------------------------------------------
+
+
+@dataclass
+class Frame:
+    """Fields at one output time."""
+
+    time: float
+    u: np.ndarray          # (n_points, 3) m
+    v: np.ndarray          # (n_points, 3) m/s
+    pressure: np.ndarray   # (n_points,) Pa
+    von_mises: np.ndarray  # (n_elements,) Pa
+
+
+@dataclass
+class DynamicResult:
+    history: dict[str, np.ndarray]     # every step
+    output_history: dict[str, np.ndarray]  # at the output interval
+    measurements: dict
+    info: dict
+    timings: dict[str, float]
+    mesh: FEMesh = field(repr=False)
+    model: object = field(repr=False)
+    frames: list[float] = field(default_factory=list)
+
+
+HISTORY_KEYS = ("time", "contact_force", "approach", "normal_velocity", "kinetic_energy",
+                "strain_energy", "contact_energy", "total_energy")
+
+
+# -- solver --------------------------------------------------------------------------
+
+
+class DynamicSolver:
+    """Set up once per case; :meth:`run` integrates to the case's duration."""
+
+    def __init__(self, case: Case, mesh: FEMesh | None = None) -> None:
+        if not case.analysis.dynamic:
+            raise CaseError(f"{case.path.name}: [analysis] type = '{case.analysis.type}': the "
+                            "transient solver needs type = \"dynamic\"")
+        if not case.contacts:
+            raise CaseError(f"{case.path.name}: an impact needs at least one [[contacts]] pair")
+        self.case = case
+        a = case.analysis
+        self.timings: dict[str, float] = {}
+        t = time.perf_counter()
+        self.mesh = mesh if mesh is not None else load_mesh(case.mesh_file, case.unit)
+        case.check_groups(self.mesh)
+        self.timings["mesh"] = time.perf_counter() - t
+        t = time.perf_counter()
+        self.model = build_model(self.mesh, case.materials)
+        M = assemble_mass(self.model)
+        self.kin = Kinematics.build(case, self.mesh, self.model.n_dofs)
+        T = self.kin.T
+        self.K = (T.T @ self.model.K @ T).tocsr()
+        inertia = np.zeros(self.kin.n)
+        inertia[self.kin.n_free:] = [b.inertia for b in case.rigid_bodies]
+        self.explicit = a.integrator == "explicit"
+        if self.explicit:
+            m = lumped_mass(M)
+            self.m = np.asarray(T.T.multiply(T.T) @ m).ravel() + inertia
+            self.M = sp.diags(self.m).tocsr()
+        else:
+            self.M = (T.T @ M @ T + sp.diags(inertia)).tocsr()
+        self.timings["assembly"] = time.perf_counter() - t
+        self.pairs = contact_pairs(case, self.mesh, self.model, PENALTY_FACTOR_EXPLICIT
+                                   if self.explicit else PENALTY_FACTOR)
+        h_min = min(face_size(self.mesh, p.slave) for p in self.pairs)
+        t = time.perf_counter()
+        self.zone = ContactZone.initial(self.mesh, self.pairs,
+                                        [self._search_distance(s, p) for s, p in
+                                         zip(case.contacts, self.pairs, strict=True)])
+        self.contact = ContactModel(self.mesh, self.model, self.kin, self.zone,
+                                    REPROJECT_FRACTION * h_min)
+        self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone)
+        self.timings["contact_setup"] = time.perf_counter() - t
+        self._probe()
+        self.v0 = self._initial_velocity()
+        t = time.perf_counter()
+        self.dt_stable = self._stable_step() if self.explicit else None
+        self.dt = self._time_step()
+        if self.explicit:
+            self.timings["stable_step"] = time.perf_counter() - t
+        else:
+            self._factorise()
+            self.timings["factorisation"] = time.perf_counter() - t
+
+    # -- set-up --------------------------------------------------------------------
+    def _search_distance(self, spec, pair) -> float:
+        if spec.search_distance is not None:
+            return spec.search_distance
+        st = pair.gap_state(self.mesh, np.zeros((self.mesh.n_points, 3)),
+                            np.arange(len(pair.slave.faces)), np.arange(len(pair.master.faces)))
+        g0 = float(np.min(st.gap))
+        if not np.isfinite(g0):
+            raise ContactError(f"contact {pair.slave.name} -> {pair.master.name}: no slave "
+                               "node lies opposite the master surface")
+        # The zone grows by itself when faces outside it come close.
+        return max(g0, 0.0) + 4.0 * face_size(self.mesh, pair.slave)
+
+    def _probe(self) -> None:
+        """Initial contact point and normal of the first pair, and the two sides."""
+        pair = self.pairs[0]
+        st = self.contact.states[0]
+        k = int(np.argmin(np.where(np.isfinite(st.gap), st.gap, np.inf)))
+        self.x_contact = st.point[k].copy()
+        self.normal = st.normal[k].copy()
+        self.initial_gap = float(st.gap[k])
+        spec = self.case.contacts[0]
+        self.slave_side = _make_side("slave", self.mesh, self.kin, self.M, spec.slave,
+                                     self.x_contact, self.normal, self.model)
+        self.master_side = _make_side("master", self.mesh, self.kin, self.M, spec.master,
+                                      self.x_contact, self.normal, self.model)
+        del pair
+
+    def _initial_velocity(self) -> np.ndarray:
+        v = np.zeros(self.model.n_dofs)
+        for spec in self.case.initial_velocities:
+            cells = np.concatenate([self.mesh.volume(n) for n in spec.volumes])
+            pts = np.unique(self.mesh.cells[cells])
+            for c in range(3):
+                v[3 * self.mesh.point_dof[pts] + c] = spec.value[c]
+        vz = np.zeros(self.kin.n)
+        vz[:self.kin.n_free] = v[self.kin.free]
+        vz[self.kin.n_free:] = [b.initial_velocity for b in self.case.rigid_bodies]
+        return vz
+
+    def _stable_step(self) -> float:
+        """Critical central-difference step 2/omega_max, contact penalty included."""
+        c = self.contact
+        Kc = (c.B.T @ sp.diags(c.eps_w) @ c.B).tocsr()
+        s = 1.0 / np.sqrt(self.m)
+        A = sp.diags(s) @ (self.K + Kc) @ sp.diags(s)
+        if A.shape[0] < 10:
+            lam = float(np.linalg.eigvalsh(A.toarray()).max())
+        else:
+            lam = spla.eigsh(A, k=1, which="LA", tol=1e-4, return_eigenvectors=False,
+                             v0=np.ones(A.shape[0]))[0]
+        if lam <= 0:
+            raise SolverError("the model has no stiffness: nothing limits the time step; "
+                              "give [analysis] time_step")
+        return 2.0 / math.sqrt(lam)
+
+    def _time_step(self) -> float:
+        a = self.case.analysis
+        out = a.output_interval or a.duration / 100.0
+        if self.explicit:
+            if a.time_step is not None:
+                if a.time_step > self.dt_stable:
+                    raise CaseError(
+                        f"{self.case.path.name}: [analysis] time_step = {a.time_step:.4g} s is "
+                        f"above the explicit stability limit {self.dt_stable:.4g} s; use at "
+                        f"most that, or \"auto\" ({a.safety_factor} x the limit)")
+                return a.time_step
+            return a.safety_factor * self.dt_stable
+        dt = a.time_step if a.time_step is not None else min(out, a.duration / NEWMARK_STEPS)
+        if a.time_step is None:
+            dt = out / math.ceil(out / dt - 1e-9)   # a whole number of steps per output
+        return dt
+
+    def _factorise(self) -> None:
+        a = self.case.analysis
+        alpha = a.hht_alpha
+        self.beta = (1.0 - alpha) ** 2 / 4.0
+        self.gamma = 0.5 - alpha
+        c0 = 1.0 / (self.beta * self.dt ** 2)
+        self.K_eff = ((1.0 + alpha) * self.K + c0 * self.M).tocsr()
+        self.solver = SPDSolver(self.K_eff)
+        self._condense()
+
+    def _condense(self) -> None:
+        cols = np.unique(self.contact.T_zone.indices)
+        self.cond = cols
+        self.G = condensed_compliance(self.K_eff, cols)
+        logger.info("contact zone: %d reduced DOFs condensed", len(cols))
+
+    # -- integration ---------------------------------------------------------------
+    def run(self, frame_hook: Callable[[Frame], None] | None = None,
+            progress: Callable[[float], None] | None = None) -> DynamicResult:
+        """Integrate over the case's duration.
+
+        ``frame_hook(frame)`` receives the fields at every output time (and at
+        t = 0); ``progress(fraction)`` is called now and then.
+        """
+        t0 = time.perf_counter()
+        a = self.case.analysis
+        n_steps = max(1, int(round(a.duration / self.dt)))
+        out_dt = a.output_interval or a.duration / 100.0
+        step = self._explicit_steps if self.explicit else self._newmark_steps
+        hist = {k: [] for k in HISTORY_KEYS}
+        out_idx: list[int] = []
+        self._frames: list[float] = []
+        state = {"next_out": 0.0}
+        self._energy0 = None
+        self.n_zone_growth = 0
+
+        mass = self.m if self.explicit else None
+
+        def record(n: int, t: float, z, v, lam, strain: float) -> None:
+            ke = 0.5 * float(v @ (mass * v) if mass is not None else v @ (self.M @ v))
+            ce = self.contact.energy(lam)
+            total = ke + strain + ce
+            if self._energy0 is None:
+                self._energy0 = total
+            hist["time"].append(t)
+            hist["contact_force"].append(float(lam.sum()))
+            hist["approach"].append(self._approach(z))
+            hist["normal_velocity"].append(self._normal_velocity(v))
+            hist["kinetic_energy"].append(ke)
+            hist["strain_energy"].append(strain)
+            hist["contact_energy"].append(ce)
+            hist["total_energy"].append(total)
+            self._check(n, t, total, z)
+            if t >= state["next_out"] - 0.5 * self.dt or n == n_steps:
+                out_idx.append(len(hist["time"]) - 1)
+                state["next_out"] += out_dt
+                self._frames.append(t)
+                if frame_hook is not None:
+                    frame_hook(self._frame(t, z, v, lam))
+                if progress is not None:
+                    progress(min(t / a.duration, 1.0))
+
+        try:
+            step(n_steps, record)
+        finally:
+            self.timings["integration"] = time.perf_counter() - t0
+            self.history = {k: np.asarray(v) for k, v in hist.items()}
+            self.output_index = np.asarray(out_idx, dtype=np.int64)
+        return self.result()
+
+    def _check(self, n: int, t: float, total: float, z: np.ndarray) -> None:
+        e0 = self._energy0
+        if not math.isfinite(total) or not np.isfinite(z[:1]).all():
+            raise SolverError(f"the solution became NaN/inf at t = {t:.6g} s (step {n}); "
+                              "reduce the time step")
+        if e0 > 0 and total > (1.0 + self.case.analysis.energy_limit) * e0:
+            raise SolverError(f"energy grew to {total / e0:.4g} x its initial value at "
+                              f"t = {t:.6g} s (step {n}), beyond [analysis] energy_limit = "
+                              f"{self.case.analysis.energy_limit:g}; reduce the time step")
+
+    def _approach(self, z: np.ndarray) -> float:
+        return -(self.slave_side.normal_displacement(z)
+                 - self.master_side.normal_displacement(z)) - self.initial_gap
+
+    def _normal_velocity(self, v: np.ndarray) -> float:
+        """Relative normal velocity slave - master (negative while closing)."""
+        return (self.slave_side.normal_displacement(v)
+                - self.master_side.normal_displacement(v))
+
+    def _frame(self, t, z, v, lam) -> Frame:
+        u = self.kin.T @ z
+        return Frame(t, self.model.point_values(u), self.model.point_values(self.kin.T @ v),
+                     self.contact.pressure(lam), von_mises(self.model, u))
+
+    def _watch_zone(self, z: np.ndarray) -> bool:
+        """Grow the zone if faces outside it come close; True if it grew."""
+        if not self.monitor.close_outside(z):
+            return False
+        up = self.model.point_values(self.kin.T @ z)
+        if not self.zone.grow(self.mesh, up, margin=2.0 * self.monitor.margin):
+            return False
+        self.n_zone_growth += 1
+        self.contact.update(z)
+        if not self.explicit:
+            self._condense()
+        return True
+
+    def _explicit_steps(self, n_steps: int, record) -> None:
+        dt, K, minv, c = self.dt, self.K, 1.0 / self.m, self.contact
+        z = np.zeros(self.kin.n)
+        v = self.v0.copy()
+        f_int = np.zeros_like(z)
+        lam, _ = c.forces(z)
+        acc = minv * (c.B.T @ lam)
+        record(0, 0.0, z, v, lam, 0.0)
+        check_every = 10
+        for n in range(1, n_steps + 1):
+            v += 0.5 * dt * acc
+            z += dt * v
+            if n % check_every == 0:
+                if c.moved(z):
+                    c.update(z)
+                self._watch_zone(z)
+            f_int = K @ z
+            lam, _ = c.forces(z)
+            acc = minv * (c.B.T @ lam - f_int)
+            v += 0.5 * dt * acc
+            record(n, n * dt, z, v, lam, 0.5 * float(z @ f_int))
+
+    def _newmark_steps(self, n_steps: int, record) -> None:
+        dt, K, M, c = self.dt, self.K, self.M, self.contact
+        alpha = self.case.analysis.hht_alpha
+        beta, gamma = self.beta, self.gamma
+        c0, c1, c2 = 1.0 / (beta * dt ** 2), 1.0 / (beta * dt), 1.0 / (2.0 * beta) - 1.0
+        z = np.zeros(self.kin.n)
+        v = self.v0.copy()
+        lam, _ = c.forces(z)
+        f_c = c.B.T @ lam
+        acc = np.zeros_like(z)
+        if np.any(lam > 0):
+            acc = SPDSolver(M).solve(f_c - K @ z)
+        record(0, 0.0, z, v, lam, 0.0)
+        active = None
+        max_it = self.case.analysis.max_iterations
+        for n in range(1, n_steps + 1):
+            Kz = K @ z
+            rhs0 = M @ (c0 * z + c1 * v + c2 * acc) + alpha * (Kz - f_c)
+            z_star = self.solver.solve(rhs0)
+            for _ in range(max_it):
+                lam, z_new, active = self._newmark_contact(z_star, rhs0, alpha, active)
+                if not c.moved(z_new):
+                    break
+                c.update(z_new)
+            else:
+                raise ContactError(f"contact did not settle within {max_it} re-projections at "
+                                   f"t = {n * dt:.6g} s; raise [analysis] max_iterations")
+            f_c = c.B.T @ lam
+            acc_new = c0 * (z_new - z) - c1 * v - c2 * acc
+            v = v + dt * ((1.0 - gamma) * acc + gamma * acc_new)
+            z, acc = z_new, acc_new
+            if self._watch_zone(z):
+                active = None
+            record(n, n * dt, z, v, lam, 0.5 * float(z @ (K @ z)))
+
+    def _newmark_contact(self, z_star, rhs0, alpha, active):
+        """Contact forces of one Newmark step by the condensed complementarity problem."""
+        c = self.contact
+        h = c.gaps(z_star)
+        if not np.any(h < 0) and (active is None or not active.any()):
+            return np.zeros(len(h)), z_star, None
+        ok = c.active_rows
+        Bc = c.B[:, self.cond]
+        lam = np.zeros(len(h))
+        lam[ok], _ = solve_penalty_lcp(Bc[ok], (1.0 + alpha) * self.G, h[ok], c.eps_w[ok],
+                                       None if active is None or len(active) != len(h)
+                                       else active[ok])
+        if not np.any(lam > 0):
+            return lam, z_star, lam > 0
+        z_new = self.solver.solve(rhs0 + (1.0 + alpha) * (c.B.T @ lam))
+        return lam, z_new, lam > 0
+
+    # -- measurements ----------------------------------------------------------------
+    def result(self) -> DynamicResult:
+        """Measurements and history of the steps done so far."""
+        h = self.history
+        meas = impact_measurements(h, self.initial_gap)
+        info = {
+            "integrator": self.case.analysis.integrator,
+            "hht_alpha": self.case.analysis.hht_alpha,
+            "time_step": self.dt,
+            "stable_time_step": self.dt_stable,
+            "steps": int(len(h["time"]) - 1),
+            "mass": "HRZ lumped" if self.explicit else "consistent",
+            "n_dofs": int(self.model.n_dofs),
+            "n_reduced_dofs": int(self.kin.n),
+            "n_elements": int(len(self.mesh.cells)),
+            "n_points": int(self.mesh.n_points),
+            "element_order": self.mesh.order,
+            "penalty": [p.penalty for p in self.pairs],
+            "contact_zone_nodes": int(len(self.contact.g_ref)),
+            "projections": int(self.contact.n_projections),
+            "zone_growths": int(self.n_zone_growth),
+            "contact_point": self.x_contact.tolist(),
+            "contact_normal": self.normal.tolist(),
+            "initial_gap": self.initial_gap,
+            "sides": {"slave": self.slave_side.name, "master": self.master_side.name},
+        }
+        out = {k: v[self.output_index] for k, v in h.items()} if len(h["time"]) else h
+        return DynamicResult(h, out, meas, info, dict(self.timings), self.mesh, self.model,
+                             list(self._frames))
+
+
+def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> dict:
+    """Peak force, approach, contact duration, restitution and energy error of a history.
+
+    The contact starts at the first step with a force and ends at the first
+    step after the peak force where the force is zero again (single nodes may
+    chatter on and off at first touch); both ends are interpolated linearly
+    in the approach, which is zero at first touch and at separation. The
+    restitution compares the relative normal velocity at the end of the run
+    (or just before the bodies touch again) with that before first touch.
+    """
+    t, F = history["time"], history["contact_force"]
+    E = history["total_energy"]
+    e0 = E[0] if len(E) else 0.0
+    out = {"peak_force": float(F.max(initial=0.0)),
+           "time_of_peak_force": float(t[int(np.argmax(F))]) if len(F) else None,
+           "max_approach": float(history["approach"].max(initial=-np.inf)) if len(F) else None,
+           "energy_error": float(np.abs(E - e0).max() / e0) if e0 > 0 else None,
+           "contact_duration": None, "first_touch": None, "separation": None,
+           "restitution": None, "impact_velocity": None, "rebound_velocity": None,
+           "contacts": 0}
+    on = F > 0
+    if not on.any():
+        return out
+    i0 = int(np.argmax(on))
+    ipk = int(np.argmax(F))
+    rest = ~on[ipk:]
+    i1 = ipk + int(np.argmax(rest)) if rest.any() else None
+    d = history["approach"]
+
+    def cross(i: int) -> float:
+        # the approach crosses zero between steps i-1 and i
+        a, b = d[i - 1], d[i]
+        s = 0.0 if b == a else min(max(-a / (b - a), 0.0), 1.0)
+        return float(t[i - 1] + s * (t[i] - t[i - 1]))
+
+    out["first_touch"] = cross(i0) if i0 > 0 else float(t[0])
+    starts = np.flatnonzero(on[1:] & ~on[:-1]) + 1
+    out["contacts"] = int(len(starts) + (1 if on[0] else 0))
+    vn = history["normal_velocity"]
+    v_before = float(vn[max(i0 - 1, 0)])
+    out["impact_velocity"] = -v_before
+    if i1 is not None:
+        # first step with zero force: separation lies in (i1-1, i1]
+        a, b = d[i1 - 1], d[i1]
+        s = 0.0 if b == a else min(max(a / (a - b), 0.0), 1.0)
+        out["separation"] = float(t[i1 - 1] + s * (t[i1] - t[i1 - 1]))
+        out["contact_duration"] = out["separation"] - out["first_touch"]
+        later = starts[starts > i1]
+        j = int(later[0] - 1) if len(later) else len(t) - 1
+        v_after = float(vn[j])
+        out["rebound_velocity"] = v_after
+        if v_before < 0:
+            out["restitution"] = -v_after / v_before
+    return out

@@ -247,9 +247,9 @@ class StaticSolver:
                           self.model.point_values(u), pressure, von_mises(self.model, u))
 
 
-def solve_penalty_lcp(B: sp.csr_matrix, G: np.ndarray, h: np.ndarray, eps_w: np.ndarray,
-                      active: np.ndarray | None = None,
-                      max_iter: int = 60) -> tuple[np.ndarray, int]:
+def solve_penalty_lcp(B: sp.csr_matrix | None, G: np.ndarray | None, h: np.ndarray,
+                      eps_w: np.ndarray, active: np.ndarray | None = None,
+                      max_iter: int = 60, C: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Contact forces with ``lam = eps_w <-(h + C lam)>_+``, ``C = B G B^T``.
 
     This is the linear complementarity problem ``0 <= lam _|_ M lam + h >= 0``
@@ -266,6 +266,8 @@ def solve_penalty_lcp(B: sp.csr_matrix, G: np.ndarray, h: np.ndarray, eps_w: np.
     ----------
     active : bool array, optional
         Warm start for the active set (from a previous iteration).
+    C : ndarray, optional
+        ``B G B^T`` if already known (then ``B`` and ``G`` are not used).
 
     Returns
     -------
@@ -285,9 +287,12 @@ def solve_penalty_lcp(B: sp.csr_matrix, G: np.ndarray, h: np.ndarray, eps_w: np.
     total = 0
     while True:
         idx = np.flatnonzero(rows)
-        Bs = B[idx]
-        BG = Bs @ G
-        sub, its = _active_set(np.asarray(Bs @ BG.T).T, h[idx], eps_w[idx],
+        if C is None:
+            BG = B[idx] @ G
+            Cs = np.asarray(B[idx] @ BG.T).T
+        else:
+            Cs = C[np.ix_(idx, idx)]
+        sub, its = _active_set(Cs, h[idx], eps_w[idx],
                                None if active is None else active[idx], max_iter)
         total += its
         lam[:] = 0.0
@@ -295,7 +300,7 @@ def solve_penalty_lcp(B: sp.csr_matrix, G: np.ndarray, h: np.ndarray, eps_w: np.
         rest = np.flatnonzero(~rows)
         if len(rest) == 0:
             return lam, total
-        w_rest = h[rest] + B[rest] @ (BG.T @ sub)
+        w_rest = h[rest] + (B[rest] @ (BG.T @ sub) if C is None else C[np.ix_(rest, idx)] @ sub)
         missed = rest[w_rest < 0]
         if len(missed) == 0:
             return lam, total

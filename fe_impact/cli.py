@@ -8,7 +8,9 @@ clear line and exit with status 2; nothing else prints a traceback unless
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
+import os
 import sys
 import time
 from pathlib import Path
@@ -34,6 +36,9 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"fe-impact: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into e.g. `head`
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - silence the flush at exit
+        return 0
     except KeyboardInterrupt:
         print("fe-impact: interrupted; finished results are kept", file=sys.stderr)
         return 130
@@ -55,7 +60,13 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("case", type=Path, help="the case file (.toml)")
     s.add_argument("--out", type=Path, required=True, help="output folder")
     s.set_defaults(func=_cmd_solve)
+    for module in _COMMAND_MODULES:
+        importlib.import_module(module, __package__).register(sub)
     return p
+
+
+#: Modules that add their own subcommands with ``register(subparsers)``.
+_COMMAND_MODULES = (".switching.command",)
 
 
 def _configure_logging(verbose: int) -> None:

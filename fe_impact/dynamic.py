@@ -397,7 +397,7 @@ class DynamicSolver:
             raise ContactError(f"contact {pair.slave.name} -> {pair.master.name}: no slave "
                                "node lies opposite the master surface")
         # The zone grows by itself when faces outside it come close.
-        return max(g0, 0.0) + 4.0 * face_size(self.mesh, pair.slave)
+        return max(g0, 0.0) + face_size(self.mesh, pair.slave)
 
     def _probe(self) -> None:
         """Initial contact point and normal of the first pair, and the two sides."""

@@ -1,0 +1,412 @@
+"""IMPACT-law parameters per stage and impact speed: calibration file or closed forms.
+
+The torsional model applies the ADAMS ``IMPACT`` law (seed eq. 11,
+`fe_impact.laws.ImpactLaw`) to every tooth pair. Its parameters
+``(k, exponent, cmax, d)`` depend on the stage and on the impact speed, so
+the model keeps, for each stage and each kind of impact (``"mesh"``: tooth
+contact at mesh-in or rattle within the backlash; ``"switch"``: the first
+contact after a ratio switch), a table of parameters against impact speed
+(`LawTable`). At each contact onset the kernel interpolates the table at
+the measured closing speed, linearly in ``log(speed)``, and clamps outside
+the table's range.
+
+Sources, in order of preference (`laws_for`):
+
+1. a calibration file written by the calibration pipeline, schema
+   ``fe-impact/calibration/1`` (`load_calibration`)::
+
+       {"schema": "fe-impact/calibration/1",
+        "units": {"k": "N/m^exponent", "cmax": "N s/m", "d": "m", ...},
+        "cases": [{"stage": 1, "face_teeth": 56, "kind": "mesh",
+                   "impact_speed": 0.12, "effective_mass": 0.05,
+                   "fe": {...}, "impact": {"k": ..., "exponent": ...,
+                   "cmax": ..., "d": ...}, "closed_form": {...}}, ...]}
+
+   Only ``stage``, ``kind``, ``impact_speed`` and ``impact`` are used;
+   ``face_teeth``, when given, must match the gear set.
+2. closed forms (`closed_form_laws`): Hertz stiffness of the contact ellipse
+   (`fe_impact.hertz.ellipse_contact`), exponent 1.5, ``cmax`` from seed eq.
+   13 (`fe_impact.laws.closed_form_cmax`) with the restitution of seed eq. 14
+   and the approach of eq. 16, ``d`` from eq. 17
+   (`fe_impact.laws.closed_form_penetration_depth`).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import numbers
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fe_impact import hertz, laws
+from fe_impact.errors import CalibrationError
+from fe_impact.gears.gearset import GearSet
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "CALIBRATION_FILE",
+    "KINDS",
+    "SCHEMA",
+    "LawSet",
+    "LawTable",
+    "closed_form_laws",
+    "contact_radii",
+    "load_calibration",
+    "laws_for",
+    "seed_restitution",
+]
+
+SCHEMA = "fe-impact/calibration/1"
+#: File name looked for in the working directory when no file is given.
+CALIBRATION_FILE = "calibration.json"
+#: Impact kinds, in the order of the kernel's tables.
+KINDS = ("mesh", "switch")
+_PARAMETERS = ("k", "exponent", "cmax", "d")
+#: Impact speeds of the closed-form tables [m/s]: rattle at 1e-5 m/s up to
+#: switching impacts at several m/s, 4 points per decade.
+CLOSED_FORM_SPEEDS = np.logspace(-5.0, 1.0, 25)
+#: Reference load for the Hertz stiffness: any load gives the same K.
+_REFERENCE_LOAD = 100.0
+
+
+@dataclass(frozen=True, eq=False)
+class LawTable:
+    """IMPACT-law parameters against impact speed, for one stage and kind.
+
+    Attributes
+    ----------
+    stage : int
+        Stage number, from 1.
+    kind : str
+        One of `KINDS`.
+    impact_speed : ndarray, shape (n,)
+        Increasing closing speeds [m/s], > 0.
+    k, exponent, cmax, d : ndarray, shape (n,)
+        Parameters of `fe_impact.laws.ImpactLaw` at those speeds (SI).
+    source : str
+        Where the numbers come from (file name or "closed form").
+    """
+
+    stage: int
+    kind: str
+    impact_speed: np.ndarray
+    k: np.ndarray
+    exponent: np.ndarray
+    cmax: np.ndarray
+    d: np.ndarray
+    source: str
+
+    def __post_init__(self) -> None:
+        speed = np.asarray(self.impact_speed, dtype=float)
+        if speed.ndim != 1 or speed.size == 0 or np.any(speed <= 0) or np.any(np.diff(speed) <= 0):
+            raise CalibrationError(
+                f"stage {self.stage} {self.kind!r}: impact speeds must be positive and strictly "
+                f"increasing, got {speed.tolist()}"
+            )
+
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """Lowest and highest tabulated impact speed [m/s]."""
+        return float(self.impact_speed[0]), float(self.impact_speed[-1])
+
+    def as_rows(self) -> np.ndarray:
+        """Kernel layout, shape (n, 5): ``log(speed), k, exponent, cmax, d``."""
+        return np.column_stack([np.log(self.impact_speed), self.k, self.exponent,
+                                self.cmax, self.d])
+
+    def law(self, impact_speed: float) -> laws.ImpactLaw:
+        """Parameters at ``impact_speed`` [m/s], linear in ``log(speed)``.
+
+        Outside the tabulated range the nearest end is used and a warning is
+        logged.
+        """
+        if not impact_speed > 0.0:
+            raise CalibrationError(f"impact_speed = {impact_speed!r} m/s must be > 0")
+        low, high = self.speed_range
+        if not low <= impact_speed <= high:
+            logger.warning(
+                "stage %d %s impact at %.4g m/s is outside the calibrated range "
+                "[%.4g, %.4g] m/s (%s): parameters clamped to the nearest case",
+                self.stage, self.kind, impact_speed, low, high, self.source,
+            )
+        x = math.log(min(max(impact_speed, low), high))
+        log_speed = np.log(self.impact_speed)
+        values = [float(np.interp(x, log_speed, getattr(self, p))) for p in _PARAMETERS]
+        return laws.ImpactLaw(*values)
+
+
+@dataclass(frozen=True)
+class LawSet:
+    """Law tables for every stage and kind of a gear set.
+
+    Attributes
+    ----------
+    tables : dict
+        ``(stage, kind) -> LawTable``, stage from 1, kind in `KINDS`.
+    source : str
+        Summary of the sources, for reports.
+    """
+
+    tables: Mapping[tuple[int, str], LawTable]
+    source: str
+    notes: tuple[str, ...] = field(default=())
+
+    def table(self, stage: int, kind: str = "mesh") -> LawTable:
+        """The table of ``stage`` (from 1) and ``kind``."""
+        try:
+            return self.tables[(stage, kind)]
+        except KeyError:
+            known = sorted({s for s, _ in self.tables})
+            raise CalibrationError(
+                f"no law table for stage {stage!r}, kind {kind!r}; stages {known}, "
+                f"kinds {list(KINDS)}"
+            ) from None
+
+    def law(self, stage: int, impact_speed: float, kind: str = "mesh") -> laws.ImpactLaw:
+        """IMPACT law of ``stage`` and ``kind`` at ``impact_speed`` [m/s]."""
+        return self.table(stage, kind).law(impact_speed)
+
+    @property
+    def n_stages(self) -> int:
+        return len({s for s, _ in self.tables})
+
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """Tables padded into one array, shape (n_stages, 2, n_max, 5), and row counts."""
+        n_stages = self.n_stages
+        rows = {key: t.as_rows() for key, t in self.tables.items()}
+        n_max = max(r.shape[0] for r in rows.values())
+        out = np.zeros((n_stages, len(KINDS), n_max, 5))
+        counts = np.zeros((n_stages, len(KINDS)), dtype=np.int64)
+        for (stage, kind), r in rows.items():
+            j = KINDS.index(kind)
+            out[stage - 1, j, : r.shape[0]] = r
+            counts[stage - 1, j] = r.shape[0]
+        return out, counts
+
+
+# -- closed forms ---------------------------------------------------------------------
+def contact_radii(gearset: GearSet, stage_index: int) -> tuple[float, float]:
+    """Principal relative radii ``(Rx, Ry)`` [m] of the design contact point.
+
+    Profile direction: the pinion involute at the pitch point,
+    ``r_p sin(alpha0)``, against the face gear, which is flat like a rack.
+    Lengthwise: the curvature mismatch from the shaper, about
+    ``(1/r_p - 1/r_s) sin^2(psi_c) / sin(alpha0)`` with
+    ``tan(psi_c) = (N_s / N_2) cos(alpha0)`` (DESIGN.md section 3, an
+    estimate), plus the pinion's parabolic lengthwise crowning
+    ``delta_l (2u/b)^2``, curvature ``8 delta_l / b^2``.
+    """
+    p, stage = gearset.pinion, gearset.stages[stage_index]
+    alpha = math.radians(p.pressure_angle_deg)
+    r_p = p.pitch_radius
+    r_s = 0.5 * p.module * stage.shaper_teeth
+    psi_c = math.atan(stage.shaper_teeth / stage.teeth * math.cos(alpha))
+    mismatch = (1.0 / r_p - 1.0 / r_s) * math.sin(psi_c) ** 2 / math.sin(alpha)
+    crowning = 8.0 * p.lengthwise_crowning / p.face_width**2
+    curvature = mismatch + crowning
+    if curvature <= 0.0:
+        raise CalibrationError(
+            f"stage {stage_index + 1}: no lengthwise curvature (shaper_teeth = pinion teeth "
+            "and no crowning): line contact has no Hertz point-contact stiffness"
+        )
+    return r_p * math.sin(alpha), 1.0 / curvature
+
+
+def seed_restitution(impact_speed: float, yield_speed: float) -> float:
+    """Seed eq. 14: ``e = 1 - 0.035 ln(j) j^0.1645`` for ``j = v / v_y > 1``, else 1."""
+    j = impact_speed / yield_speed
+    if j <= 1.0:
+        return 1.0
+    return max(1.0 - 0.035 * math.log(j) * j**0.1645, 1e-3)
+
+
+def _closed_form_table(gearset: GearSet, stage_index: int, effective_mass: float,
+                       kind: str) -> LawTable:
+    material = gearset.material
+    E_star = hertz.effective_modulus(material.youngs_modulus, material.poisson_ratio)
+    Rx, Ry = contact_radii(gearset, stage_index)
+    contact = hertz.ellipse_contact(_REFERENCE_LOAD, Rx, Ry, E_star)
+    k = _REFERENCE_LOAD / contact.delta**1.5
+    v_y = hertz.yield_onset_speed(material.yield_strength, material.density, E_star)
+    speeds = CLOSED_FORM_SPEEDS
+    delta = (5.0 * effective_mass * speeds**2 / (4.0 * k)) ** 0.4  # eq. 16
+    force = k * delta**1.5
+    cmax = [laws.closed_form_cmax(k, seed_restitution(v, v_y), v, dm)
+            for v, dm in zip(speeds, delta, strict=True)]
+    d = [laws.closed_form_penetration_depth(f, math.sqrt(Rx * Ry), E_star) for f in force]
+    n = speeds.size
+    return LawTable(stage_index + 1, kind, speeds, np.full(n, k), np.full(n, 1.5),
+                    np.asarray(cmax), np.asarray(d), "closed form")
+
+
+def closed_form_laws(gearset: GearSet, effective_masses: Sequence[float]) -> LawSet:
+    """Closed-form IMPACT parameters (seed eqs. 12-17) for every stage.
+
+    Parameters
+    ----------
+    gearset : GearSet
+    effective_masses : sequence of float
+        Per stage, the effective mass along the line of action of one mesh
+        [kg] (seed eq. 16's ``m_k``).
+    """
+    if len(effective_masses) != len(gearset.stages):
+        raise ValueError(f"need {len(gearset.stages)} effective masses, got "
+                         f"{len(effective_masses)}")
+    tables = {}
+    for i, mass in enumerate(effective_masses):
+        for kind in KINDS:
+            tables[(i + 1, kind)] = _closed_form_table(gearset, i, mass, kind)
+    return LawSet(tables, "closed form (seed eqs. 12-17, Hertz ellipse)")
+
+
+# -- calibration file ---------------------------------------------------------------------
+def _number(where: str, key: str, value: Any, *, positive: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise CalibrationError(f"{where}: {key} = {value!r} must be a finite number")
+    if (positive and value <= 0.0) or value < 0.0:
+        bound = "> 0" if positive else ">= 0"
+        raise CalibrationError(f"{where}: {key} = {value!r} must be {bound}")
+    return float(value)
+
+
+def _parse_case(case: Any, index: int, gearset: GearSet) -> tuple[int, str, float, tuple]:
+    where = f"cases[{index}]"
+    if not isinstance(case, Mapping):
+        raise CalibrationError(f"{where} must be an object, got {type(case).__name__}")
+    for key in ("stage", "kind", "impact_speed", "impact"):
+        if key not in case:
+            raise CalibrationError(f"{where}: missing key {key!r}")
+    stage = case["stage"]
+    n = len(gearset.stages)
+    if isinstance(stage, bool) or not isinstance(stage, numbers.Integral) or not 1 <= stage <= n:
+        raise CalibrationError(f"{where}: stage = {stage!r} must be an integer in 1..{n}")
+    teeth = case.get("face_teeth")
+    expected = gearset.stages[stage - 1].teeth
+    if teeth is not None and teeth != expected:
+        raise CalibrationError(
+            f"{where}: face_teeth = {teeth!r} but stage {stage} of gear set "
+            f"{gearset.name!r} has {expected} teeth"
+        )
+    kind = case["kind"]
+    if kind not in KINDS:
+        raise CalibrationError(f"{where}: kind = {kind!r}; pick one of {list(KINDS)}")
+    speed = _number(where, "impact_speed", case["impact_speed"])
+    impact = case["impact"]
+    if not isinstance(impact, Mapping):
+        raise CalibrationError(f"{where}: impact must be an object with keys {_PARAMETERS}")
+    missing = [p for p in _PARAMETERS if p not in impact]
+    if missing:
+        raise CalibrationError(f"{where}: impact is missing {missing[0]!r}; "
+                               f"needs {list(_PARAMETERS)}")
+    values = tuple(_number(where, f"impact.{p}", impact[p], positive=p != "cmax")
+                   for p in _PARAMETERS)
+    return stage, kind, speed, values
+
+
+def _tables_from_cases(parsed: list[tuple[int, str, float, tuple]], source: str
+                       ) -> dict[tuple[int, str], LawTable]:
+    grouped: dict[tuple[int, str], list[tuple[float, tuple]]] = {}
+    for stage, kind, speed, values in parsed:
+        grouped.setdefault((stage, kind), []).append((speed, values))
+    tables = {}
+    for (stage, kind), rows in grouped.items():
+        rows.sort(key=lambda r: r[0])
+        speeds = np.array([r[0] for r in rows])
+        repeated = speeds[1:][np.diff(speeds) <= 0.0]
+        if repeated.size:
+            raise CalibrationError(
+                f"{source}: two stage {stage} {kind!r} cases at impact_speed = "
+                f"{repeated[0]!r} m/s; keep one per speed"
+            )
+        columns = np.array([r[1] for r in rows]).T
+        tables[(stage, kind)] = LawTable(stage, kind, speeds, *columns, source=source)
+    return tables
+
+
+def load_calibration(path: str | Path, gearset: GearSet,
+                     effective_masses: Sequence[float] | None = None) -> LawSet:
+    """Read a calibration file (schema ``fe-impact/calibration/1``).
+
+    A stage with cases of one kind only uses them for the other kind too; a
+    stage without any case falls back to the closed forms (which need
+    ``effective_masses``). Both are logged as warnings.
+
+    Raises
+    ------
+    CalibrationError
+        Missing file, invalid JSON, wrong schema, or an invalid case; the
+        message names the file, the case and the key.
+    """
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError as exc:
+        raise CalibrationError(f"{path}: calibration file not found") from exc
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise CalibrationError(f"{path}: not valid JSON: {exc}") from exc
+    if not isinstance(data, Mapping):
+        raise CalibrationError(f"{path}: top level must be an object")
+    schema = data.get("schema")
+    if schema != SCHEMA:
+        raise CalibrationError(f"{path}: schema = {schema!r}; expected {SCHEMA!r}")
+    cases = data.get("cases")
+    if not isinstance(cases, list) or not cases:
+        raise CalibrationError(f"{path}: 'cases' must be a non-empty list")
+    try:
+        parsed = [_parse_case(c, i, gearset) for i, c in enumerate(cases)]
+    except CalibrationError as exc:
+        raise CalibrationError(f"{path}: {exc}") from exc
+    tables = _tables_from_cases(parsed, path.name)
+    notes = []
+    fallback = None
+    for stage in range(1, len(gearset.stages) + 1):
+        present = [k for k in KINDS if (stage, k) in tables]
+        if not present:
+            if effective_masses is None:
+                raise CalibrationError(f"{path}: no case for stage {stage}")
+            if fallback is None:
+                fallback = closed_form_laws(gearset, effective_masses)
+            for kind in KINDS:
+                tables[(stage, kind)] = fallback.table(stage, kind)
+            notes.append(f"stage {stage}: no calibrated case, closed-form parameters used")
+        for kind in KINDS:
+            if (stage, kind) not in tables:
+                tables[(stage, kind)] = tables[(stage, present[0])]
+                notes.append(f"stage {stage}: no {kind!r} case, {present[0]!r} cases used")
+    for note in notes:
+        logger.warning("%s: %s", path, note)
+    logger.info("read %d calibration cases from %s", len(parsed), path)
+    return LawSet(tables, f"calibration file {path}", tuple(notes))
+
+
+def laws_for(gearset: GearSet, effective_masses: Sequence[float],
+             calibration: str | Path | None = None, *, search: bool = True) -> LawSet:
+    """The law tables a run uses: the given file, else `CALIBRATION_FILE`, else closed forms.
+
+    Parameters
+    ----------
+    gearset : GearSet
+    effective_masses : sequence of float
+        Per-stage effective mass of one mesh [kg], for the closed forms.
+    calibration : path, optional
+        A calibration file; it must exist.
+    search : bool
+        Look for `CALIBRATION_FILE` in the working directory when no file is
+        given.
+    """
+    if calibration is not None:
+        return load_calibration(calibration, gearset, effective_masses)
+    if search and Path(CALIBRATION_FILE).is_file():
+        return load_calibration(CALIBRATION_FILE, gearset, effective_masses)
+    logger.warning(
+        "no calibration file (%s not given or found): using closed-form IMPACT parameters "
+        "(Hertz stiffness, seed eqs. 13-17)", CALIBRATION_FILE,
+    )
+    return closed_form_laws(gearset, effective_masses)

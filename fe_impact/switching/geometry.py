@@ -1,0 +1,361 @@
+"""Kinematics of a pinion on a face-gear ring, as seen by the torsional model.
+
+A face gear meshing with a spur pinion behaves, at each radius ``L`` of its
+face, like a rack whose pressure angle ``alpha_L`` satisfies
+``cos(alpha_L) = r_2 cos(alpha0) / L`` (DESIGN.md section 3; Litvin,
+NASA/CR-2000-209909, section 1.5). The face-gear point at ``L`` moves at
+``omega_2 L`` along the pinion's transverse plane, and its speed along the
+contact normal is ``omega_2 L cos(alpha_L) = omega_2 r_2 cos(alpha0)``, the
+same at every radius. Hence the mesh coordinate along the line of action
+
+    x = r_bp theta_p - r_b2 theta_2,   r_bp = r_p cos(alpha0),
+                                       r_b2 = r_2 cos(alpha0)
+
+is exact for any contact radius on the face (``r_2`` is the pitch radius
+``m N_2 / 2``), the conjugate speed ratio is ``omega_p / omega_2 = r_2 / r_p
+= N_2 / N_p``, and a normal force ``F`` gives the torques ``F r_bp`` and
+``F r_b2``. The tooth-pair geometry along the line of action (start and end
+of contact, contact ratio, what happens at the tooth tips) is that of the
+pinion with a rack of pressure angle ``alpha0`` and addendum ``ha* m``,
+i.e. the face gear at its design radius ``L = r_2``.
+
+Roll coordinate ``s``: distance along the line of action from the pinion's
+base-circle tangency point. Contact of a tooth pair runs from ``s_start``
+(face-gear tip) to ``s_end`` (pinion tip). Outside that range the pair can
+still touch at a tip corner: the face-gear tip corner on the extended pinion
+involute before ``s_start`` (approach), the pinion tip corner on the rack
+flank after ``s_end`` (recess). The corner gaps, measured in mesh-coordinate
+units, are computed exactly from the planar geometry here and tabulated
+(`CornerGap`); a loaded mesh closes them early, which is what makes each
+tooth pair's mesh-in an impact.
+
+SI units: m, rad, s.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import CubicSpline
+from scipy.optimize import brentq
+
+from fe_impact.gears.gearset import GearSet
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "CornerGap",
+    "MeshGeometry",
+    "default_backlash",
+    "mesh_geometry",
+    "seed_switching_speed",
+    "switching_speed",
+]
+
+#: Largest corner gap tabulated [m]. A tooth pair whose corner gap exceeds it
+#: is not looked at; approaches in these drives stay below ~30 um.
+CORNER_GAP_CAP = 100e-6
+#: Nodes of the corner-gap tables, uniform in ``xi = sqrt(delta / delta_max)``
+#: (the approach-side gap behaves like delta^2 with a non-analytic correction
+#: near the base circle, which ``xi`` makes smooth enough for a cubic spline).
+CORNER_GAP_NODES = 513
+
+
+def _rotate(angle: NDArray, points: NDArray) -> NDArray:
+    """Rotate points, shape (..., 2), counter-clockwise by ``angle`` (broadcast)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * points[..., 0] - s * points[..., 1],
+                     s * points[..., 0] + c * points[..., 1]], axis=-1)
+
+
+@dataclass(frozen=True)
+class _RackPinionFrame:
+    """Planar pinion-on-rack geometry in the pinion's transverse plane.
+
+    Pinion centre at the origin, turning counter-clockwise (positive); rack
+    pitch line ``y = r_p`` moving towards ``-x``. The drive line of action
+    leaves the base-circle tangency ``T`` in direction ``d``; the pinion
+    pushes the rack along ``d``.
+    """
+
+    pitch_radius: float
+    alpha: float
+    rack_addendum: float
+    pinion_tip_radius: float
+
+    @property
+    def base_radius(self) -> float:
+        return self.pitch_radius * math.cos(self.alpha)
+
+    @property
+    def direction(self) -> NDArray:
+        return np.array([-math.cos(self.alpha), math.sin(self.alpha)])
+
+    @property
+    def tangency(self) -> NDArray:
+        r, a = self.pitch_radius, self.alpha
+        return np.array([r * math.sin(a) * math.cos(a), r * math.cos(a) ** 2])
+
+    @property
+    def s_start(self) -> float:
+        """Where the rack tip line ``y = r_p - ha m`` crosses the line of action."""
+        a = self.alpha
+        return self.pitch_radius * math.sin(a) - self.rack_addendum / math.sin(a)
+
+    @property
+    def s_end(self) -> float:
+        """Where the pinion tip circle crosses the line of action."""
+        return math.sqrt(self.pinion_tip_radius**2 - self.base_radius**2)
+
+    def on_line(self, s: ArrayLike) -> NDArray:
+        return self.tangency + np.multiply.outer(np.asarray(s, dtype=float), self.direction)
+
+    def flank_polar_angle(self, radius: NDArray) -> NDArray:
+        """Polar angle, in the pinion frame at rotation 0, of the drive involute.
+
+        The involute is the one on the line of action at ``s_start`` when the
+        pinion angle is 0; the pinion frame is the fixed frame at that angle.
+        """
+        s = np.sqrt(radius**2 - self.base_radius**2)
+        point = _rotate(-(s - self.s_start) / self.base_radius, self.on_line(s))
+        return np.arctan2(point[..., 1], point[..., 0])
+
+    def approach_gap(self, delta: ArrayLike) -> NDArray:
+        """Gap of the rack tip corner to the pinion involute, ``delta`` before ``s_start``.
+
+        In mesh-coordinate units: turning the pinion by ``dtheta`` moves its
+        involute by ``r_b dtheta`` along every base tangent, so the gap is
+        ``r_b`` times the polar angle between the corner and the involute at
+        the corner's radius.
+        """
+        theta = -np.asarray(delta, dtype=float) / self.base_radius
+        rack_shift = np.stack([-self.pitch_radius * theta, np.zeros_like(theta)], axis=-1)
+        corner = _rotate(-theta, self.on_line(self.s_start) + rack_shift)
+        radius = np.hypot(corner[..., 0], corner[..., 1])
+        angle = np.arctan2(corner[..., 1], corner[..., 0])
+        return self.base_radius * (angle - self.flank_polar_angle(radius))
+
+    def recess_gap(self, delta: ArrayLike) -> NDArray:
+        """Gap of the pinion tip corner to the rack flank, ``delta`` after ``s_end``.
+
+        The rack flank is a plane normal to ``d``; moving the rack changes the
+        mesh coordinate and this distance equally.
+        """
+        d = self.direction
+        tip = _rotate(np.array(-(self.s_end - self.s_start) / self.base_radius),
+                      self.on_line(self.s_end))
+        s = self.s_end + np.asarray(delta, dtype=float)
+        theta = (s - self.s_start) / self.base_radius
+        return self.on_line(s) @ d - _rotate(theta, np.broadcast_to(tip, theta.shape + (2,))) @ d
+
+
+@dataclass(frozen=True)
+class CornerGap:
+    """Tabulated tip-corner gap ``g(delta)`` beyond one end of the contact path.
+
+    ``g`` is stored against ``xi = sqrt(delta / delta_max)`` as nodal values
+    and slopes of a C1 cubic Hermite interpolant (from a cubic spline of the
+    exact geometry); the torsional kernel evaluates the same interpolant.
+
+    Attributes
+    ----------
+    delta_max : float
+        Roll distance [m] at which the gap reaches `CORNER_GAP_CAP`.
+    values, slopes : ndarray, shape (CORNER_GAP_NODES,)
+        ``g`` [m] and ``dg/dxi`` [m] at the nodes ``xi = linspace(0, 1, n)``.
+    """
+
+    delta_max: float
+    values: NDArray
+    slopes: NDArray
+
+    @classmethod
+    def from_function(cls, gap, delta_max: float, n: int = CORNER_GAP_NODES) -> CornerGap:
+        xi = np.linspace(0.0, 1.0, n)
+        spline = CubicSpline(xi, gap(delta_max * xi**2))
+        values = spline(xi)
+        values[0] = 0.0
+        return cls(delta_max, values, spline(xi, 1))
+
+    def __call__(self, delta: ArrayLike) -> tuple[NDArray, NDArray]:
+        """``g(delta)`` [m] and ``dg/d delta`` [-] (the kernel's interpolant)."""
+        delta = np.clip(np.asarray(delta, dtype=float), 0.0, self.delta_max)
+        xi = np.sqrt(delta / self.delta_max)
+        n = self.values.size - 1
+        i = np.minimum((xi * n).astype(int), n - 1)
+        w, step = xi * n - i, 1.0 / n
+        h00, h10 = 2 * w**3 - 3 * w**2 + 1, w**3 - 2 * w**2 + w
+        h01, h11 = -2 * w**3 + 3 * w**2, w**3 - w**2
+        g = (h00 * self.values[i] + h10 * step * self.slopes[i]
+             + h01 * self.values[i + 1] + h11 * step * self.slopes[i + 1])
+        dg_dw = ((6 * w**2 - 6 * w) * self.values[i] + (3 * w**2 - 4 * w + 1) * step
+                 * self.slopes[i] + (6 * w - 6 * w**2) * self.values[i + 1]
+                 + (3 * w**2 - 2 * w) * step * self.slopes[i + 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            slope = np.where(xi > 0.0, dg_dw * n / (2.0 * self.delta_max * xi), 0.0)
+        return g, slope
+
+
+@dataclass(frozen=True)
+class MeshGeometry:
+    """Line-of-action geometry of the pinion on a face gear at its design radius.
+
+    Attributes
+    ----------
+    base_radius : float
+        Pinion base radius ``r_bp = r_p cos(alpha0)`` [m].
+    pitch_radius : float
+        Pinion pitch radius ``r_p`` [m].
+    pressure_angle : float
+        ``alpha0`` [rad].
+    base_pitch : float
+        ``p_b = pi m cos(alpha0)`` [m], the roll between successive tooth pairs.
+    s_start, s_end : float
+        Active contact path along the line of action, from the base
+        tangency [m].
+    approach, recess : CornerGap
+        Tip-corner gaps before ``s_start`` and after ``s_end``.
+    """
+
+    base_radius: float
+    pitch_radius: float
+    pressure_angle: float
+    base_pitch: float
+    s_start: float
+    s_end: float
+    approach: CornerGap
+    recess: CornerGap
+
+    @property
+    def contact_ratio(self) -> float:
+        """``(s_end - s_start) / p_b`` [-]: mean number of tooth pairs in contact."""
+        return (self.s_end - self.s_start) / self.base_pitch
+
+    @property
+    def s_pitch(self) -> float:
+        """Pitch point ``r_p sin(alpha0)`` [m], where sliding reverses."""
+        return self.pitch_radius * math.sin(self.pressure_angle)
+
+    def gap(self, s: ArrayLike) -> tuple[NDArray, NDArray]:
+        """Tooth-pair gap ``g(s)`` [m] and ``dg/ds`` [-]; 0 on the active path.
+
+        Beyond the tabulated ranges the gap is reported as `CORNER_GAP_CAP`
+        with zero slope (the pair is out of reach).
+        """
+        s = np.asarray(s, dtype=float)
+        g_in, dg_in = self.approach(self.s_start - s)
+        g_out, dg_out = self.recess(s - self.s_end)
+        g = np.where(s < self.s_start, g_in, np.where(s > self.s_end, g_out, 0.0))
+        dg = np.where(s < self.s_start, -dg_in, np.where(s > self.s_end, dg_out, 0.0))
+        return g, dg
+
+    def pair_count(self, roll: float) -> int:
+        """Tooth pairs on the active path when the pinion has rolled ``roll`` [m]."""
+        phase = roll % self.base_pitch
+        length = self.s_end - self.s_start
+        return int(np.floor((length - phase) / self.base_pitch)) + 1
+
+
+def mesh_geometry(gearset: GearSet) -> MeshGeometry:
+    """Line-of-action geometry of ``gearset``'s pinion with its face gears.
+
+    The same for every stage: each face gear is a rack of pressure angle
+    ``alpha0`` at its design radius, with the face-gear tip at ``ha* m``
+    above the pitch plane (`fe_impact.gears.facegear`).
+    """
+    p = gearset.pinion
+    alpha = math.radians(p.pressure_angle_deg)
+    frame = _RackPinionFrame(
+        pitch_radius=p.pitch_radius,
+        alpha=alpha,
+        rack_addendum=p.addendum_coeff * p.module,
+        pinion_tip_radius=p.pitch_radius + p.addendum_coeff * p.module,
+    )
+    if frame.s_start <= 0.0:
+        raise ValueError(
+            f"the face-gear tip reaches below the pinion base circle (s_start = "
+            f"{frame.s_start * 1e3:.3f} mm): the pinion is undercut/interferes"
+        )
+    tables = []
+    for gap in (frame.approach_gap, frame.recess_gap):
+        delta_max = brentq(lambda d, f=gap: float(f(d)) - CORNER_GAP_CAP,
+                           1e-9, 0.5 * p.module * p.teeth, xtol=1e-15)
+        tables.append(CornerGap.from_function(gap, delta_max))
+    return MeshGeometry(
+        base_radius=frame.base_radius,
+        pitch_radius=p.pitch_radius,
+        pressure_angle=alpha,
+        base_pitch=math.pi * p.module * math.cos(alpha),
+        s_start=frame.s_start,
+        s_end=frame.s_end,
+        approach=tables[0],
+        recess=tables[1],
+    )
+
+
+def default_backlash(module: float, pinion_pitch_radius: float, face_pitch_radius: float) -> float:
+    """Total normal backlash ``j_n`` [m] recommended for industrial gears.
+
+    ``j_n,min = (2/3) (0.06 + 0.0005 a + 0.03 m)`` mm with ``a`` and ``m`` in
+    mm (ISO/TR 10064-2:1996, AGMA 2002; minimum backlash for industrial
+    drives). A face-gear drive has no centre distance; ``a = r_p + r_2``, the
+    pinion-axis-to-ring distance scale, is used. 0.14-0.15 mm for the seed's
+    stages.
+    """
+    a_mm = (pinion_pitch_radius + face_pitch_radius) * 1e3
+    return (2.0 / 3.0) * (0.06 + 0.0005 * a_mm + 0.03 * module * 1e3) * 1e-3
+
+
+def switching_speed(pinion_speed: float, teeth_pinion: int, teeth_from: int, teeth_to: int,
+                    pinion_base_radius: float) -> float:
+    """Closing speed at the first contact after a ratio switch [m/s].
+
+    Rigid kinematics of the rings on one output: before the switch the output
+    turns at ``omega_p N_p / N_from``; the new ring's speed along the line of
+    action is ``r_b,to omega_out = r_bp omega_p N_to / N_from``, so the teeth
+    close at ``r_bp omega_p |N_to / N_from - 1|`` (no load, no drag, constant
+    pinion speed between the switch and the contact).
+
+    Parameters
+    ----------
+    pinion_speed : float
+        ``omega_p`` [rad/s].
+    teeth_pinion, teeth_from, teeth_to : int
+        ``N_p``; face-gear teeth of the ring left and of the ring engaged.
+    pinion_base_radius : float
+        ``r_bp`` [m].
+    """
+    del teeth_pinion  # the ratio cancels: kept for symmetry with seed_switching_speed
+    return abs(pinion_base_radius * pinion_speed * (teeth_to / teeth_from - 1.0))
+
+
+def seed_switching_speed(pinion_speed: float, pinion_pitch_radius: float,
+                         face_pitch_radius: float, ratio: float, pressure_angle: float) -> float:
+    """Seed eq. 5: ``v_s = w_c r_c (1 + 1/q) [1 - cos(a' + g') / cos(a)]`` [m/s].
+
+    With the seed's definitions ``s = r_c tan(alpha)``,
+    ``alpha' = arctan(s / r_c)`` (= ``alpha``) and
+    ``gamma' = arccos(r_c^2 / (sqrt(r_c^2 + r_f^2) sqrt(r_c^2 + s^2)))``.
+
+    Parameters
+    ----------
+    pinion_speed : float
+        ``omega_c`` [rad/s].
+    pinion_pitch_radius, face_pitch_radius : float
+        ``r_c`` and ``r_f`` [m], reference radii of the pinion and the working
+        face gear.
+    ratio : float
+        ``q_cfi``, taken as ``N_f / N_c`` of the working (newly engaged) pair.
+    pressure_angle : float
+        ``alpha`` [rad].
+    """
+    rc, rf = pinion_pitch_radius, face_pitch_radius
+    s = rc * math.tan(pressure_angle)
+    alpha_c = math.atan(s / rc)
+    gamma_c = math.acos(rc**2 / (math.hypot(rc, rf) * math.hypot(rc, s)))
+    factor = 1.0 - math.cos(alpha_c + gamma_c) / math.cos(pressure_angle)
+    return pinion_speed * rc * (1.0 + 1.0 / ratio) * factor

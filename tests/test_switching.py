@@ -1,0 +1,359 @@
+"""Lumped multistage ratio-switching model: kinematics, laws, conservation, CLI.
+
+Each test compares with a truth computed independently of the kernel
+(`fe_impact.laws`, rigid-body kinematics, momentum and energy theorems, the
+seed's printed values), with the tolerance justified where it is set.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import re
+
+import numpy as np
+import pytest
+
+from fe_impact import laws
+from fe_impact.errors import CalibrationError, CaseError
+from fe_impact.gears import default_gearset
+from fe_impact.switching import (
+    PRESETS,
+    DriveModel,
+    Friction,
+    LawSet,
+    LawTable,
+    Segment,
+    StageSchedule,
+    load_calibration,
+    mechanical_energy,
+    mesh_geometry,
+    seed_switching_speed,
+    series_statistics,
+    simulate,
+    switching_speed,
+)
+from fe_impact.switching import _kernel as K
+from fe_impact.switching.command import register
+from fe_impact.switching.geometry import _RackPinionFrame
+from fe_impact.switching.seed_tables import SEED_TABLES
+
+RPM = 2.0 * math.pi / 60.0
+GEARSET = default_gearset()
+#: No excitation and no losses outside the contact law.
+QUIET = dict(transmission_error=0.0, drag_torque=0.0, friction=None, coupling_damping_ratio=0.0)
+#: Error control far below the checked tolerances.
+TIGHT = dict(rtol=1e-10, length_tol=1e-13, speed_tol=1e-10)
+
+
+def _law_set(k: float, cmax: float, d: float, exponent: float = 1.5) -> LawSet:
+    """The same IMPACT law for every stage, kind and speed."""
+    tables = {}
+    for stage in (1, 2, 3):
+        for kind in ("mesh", "switch"):
+            tables[(stage, kind)] = LawTable(stage, kind, np.array([1.0]), np.array([k]),
+                                             np.array([exponent]), np.array([cmax]),
+                                             np.array([d]), "test")
+    return LawSet(tables, "test")
+
+
+# -- kinematics and geometry ------------------------------------------------------------------
+def test_contact_path_and_corner_gaps():
+    geo = mesh_geometry(GEARSET)
+    p = GEARSET.pinion
+    m, alpha = p.module, math.radians(p.pressure_angle_deg)
+    r_p, r_b, r_a = p.pitch_radius, p.pitch_radius * math.cos(alpha), p.pitch_radius + m
+    # Textbook contact ratio of a pinion on a rack (Litvin & Fuentes, ch. 10):
+    # [sqrt(r_a^2 - r_b^2) - r_p sin a + ha m / sin a] / (pi m cos a) = 1.7623 for z = 19.
+    textbook = (math.sqrt(r_a**2 - r_b**2) - r_p * math.sin(alpha) + m / math.sin(alpha)) / (
+        math.pi * m * math.cos(alpha))
+    assert geo.contact_ratio == pytest.approx(textbook, rel=1e-12)  # same closed form: round-off
+    # two pairs for the first (eps - 1) of each base pitch, one pair for the rest
+    assert [geo.pair_count(f * geo.base_pitch) for f in (0.1, 0.7, 0.8, 0.95)] == [2, 2, 1, 1]
+    # The tables reproduce the exact planar geometry they are built from; the spline in
+    # sqrt(delta) is good to ~1e-5 relative, far below the um-level approaches it gates.
+    frame = _RackPinionFrame(r_p, alpha, m, r_a)
+    for table, exact in ((geo.approach, frame.approach_gap), (geo.recess, frame.recess_gap)):
+        delta = np.linspace(0.02, 1.0, 50) * table.delta_max
+        g, slope = table(delta)
+        np.testing.assert_allclose(g, exact(delta), rtol=1e-4)
+        # slope against a central difference of the exact gap (step 1e-9 m: truncation
+        # ~1e-9 relative, round-off ~1e-7)
+        fd = (exact(delta + 1e-9) - exact(delta - 1e-9)) / 2e-9
+        np.testing.assert_allclose(slope, fd, rtol=1e-3, atol=1e-6)
+        # A tip corner leaves the flank tangentially: the gap starts quadratically.
+        assert table(np.array(1e-7))[0] < 1e-12
+
+
+def test_kernel_law_is_the_adams_impact_law():
+    law = laws.ImpactLaw(k=6.5e10, exponent=1.5, cmax=2e3, d=2e-6)
+    for h, hd in [(1e-7, 0.1), (1e-6, -0.05), (3e-6, 0.2), (5e-6, -0.5), (-1e-6, 0.3)]:
+        force, energy = K.impact_law(h, hd, law.k, law.exponent, law.cmax, law.d)
+        # fe_impact.laws is an independent implementation of seed eq. 11 (round-off only)
+        assert force == pytest.approx(float(law.force(h, hd)), rel=1e-12, abs=1e-12)
+        # stored energy = integral of the elastic force, int_0^h k s^n ds
+        assert energy == pytest.approx(max(h, 0.0) ** 2.5 * law.k / 2.5, rel=1e-12)
+
+
+# -- conservation and balance laws ----------------------------------------------------------------
+def test_undamped_frictionless_run_conserves_energy():
+    # Free pinion (no input torque), rings rattling between both flanks at 0.04 m/s while
+    # the pinion rolls two base pitches, so tooth pairs enter and leave through their tip
+    # corners and the transmission error (kept, 2 um) moves the flanks: every force derives
+    # from a potential, so kinetic + web + contact energy is constant.
+    model = DriveModel(drive="torque", laws=_law_set(6.5e10, 0.0, 1e-6),
+                       **{**QUIET, "transmission_error": 2e-6}, **TIGHT)
+    schedule = StageSchedule((Segment(0.1, 1, 60.0),))
+    rates = [0.0, -0.5, -0.5, -0.5, -0.5]
+    run = simulate(model, schedule, initial_rates=rates, sample_interval=1e-4)
+    energy = mechanical_energy(run)
+    assert len(run.events) >= 10  # impacts on both flanks (20 in this run)
+    assert {-1, 1} <= set(run.events.flank.tolist())
+    # 1e-6 relative: the requested bound. The integrator's local error (rtol 1e-10 on the
+    # states) accumulated over ~5e4 steps stays below 1e-7 (6e-8 measured).
+    assert np.ptp(energy) / energy[0] < 1e-6
+
+
+def test_friction_only_dissipates():
+    # The same free rattle with Coulomb friction (seed eqs. 9-10): the friction power
+    # -mu F |v_slide| <= 0, so the energy never rises and has dropped by the end.
+    friction = Friction(static=0.05, dynamic=0.02)
+    model = DriveModel(drive="torque", laws=_law_set(6.5e10, 0.0, 1e-6),
+                       **{**QUIET, "friction": friction}, **TIGHT)
+    run = simulate(model, StageSchedule((Segment(0.1, 1, 60.0),)),
+                   initial_rates=[0.0, -0.5, -0.5, -0.5, -0.5], sample_interval=1e-4)
+    energy = mechanical_energy(run)
+    # rises no more than the frictionless run's numerical drift (< 1e-7, test above)
+    assert np.max(np.diff(energy)) / energy[0] < 1e-7
+    assert energy[-1] < energy[0] * (1.0 - 1e-6)
+    assert np.any(run.series["friction_torque_Nm"] != 0.0)
+
+
+def test_mean_mesh_force_is_load_over_base_radius():
+    # Stage 2 at 300 r/min carrying 2 N m plus 0.01 N m drag. Angular momentum of rings +
+    # output: dL/dt = n r_b F - T_load - T_drag, exactly (the ring lever is r_b for every
+    # tooth pair). So the time-mean force is (T_load + T_drag)/(n r_b) + dL/(n r_b T).
+    model = DriveModel(transmission_error=1e-6, friction=None)
+    load = 2.0
+    run = simulate(model, StageSchedule((Segment(0.3, 2, 300.0, load),)), sample_interval=1e-4)
+    mean_force = series_statistics(run)["2"]["impact_force"][0]
+    n, lever = model.pinions, model.base_levers[1]
+    s = run.series
+    inertias = [*model.ring_inertias, model.output_j]
+    speeds = [s["ring1_speed_rad_s"], s["ring2_speed_rad_s"], s["ring3_speed_rad_s"],
+              s["output_speed_rad_s"]]
+    momentum = sum(j * w for j, w in zip(inertias, speeds, strict=True))
+    duration = run.schedule.duration
+    static = (load + model.drag_torque) / (n * lever)
+    expected = static + (momentum[-1] - momentum[0]) / (n * lever * duration)
+    # The samples start at t = 0 and end one sample before T: the momentum change over the
+    # missing 1e-4 s is bounded by the force fluctuation (< 20 N) times 1e-4 s / T, <1e-2 N.
+    assert mean_force == pytest.approx(expected, abs=1e-2)
+    # and in steady operation that is torque / base radius to 0.5%
+    assert mean_force == pytest.approx(static, rel=5e-3)
+
+
+# -- impacts -------------------------------------------------------------------------------
+def test_single_impact_reproduces_calibration_case(tmp_path):
+    # A calibration case made from laws.simulate_impact: the same law at the same speed on
+    # the same effective mass must give back its restitution and peak force.
+    model = DriveModel(drive="torque", coupling_stiffness=(1e-6,) * 3, engage_position=0.999,
+                       mesh_phase=0.88, max_step=1e-6, **QUIET, **TIGHT)
+    mass = model.effective_mass(1)
+    speed = 0.05
+    law = laws.ImpactLaw(k=6.5e10, exponent=1.5, cmax=1.5e3, d=1e-6)
+    truth = laws.simulate_impact(law, mass, speed)
+    assert 0.4 < truth.restitution < 0.8  # a lossy but not dead impact (0.59)
+    cases = [{"stage": s, "face_teeth": t, "kind": "mesh", "speed_rpm": 0.0,
+              "impact_speed": speed, "effective_mass": mass,
+              "fe": {"peak_force": truth.force_max, "restitution": truth.restitution},
+              "impact": {"k": law.k, "exponent": law.exponent, "cmax": law.cmax, "d": law.d}}
+             for s, t in ((1, 56), (2, 68), (3, 80))]
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps({"schema": "fe-impact/calibration/1", "units": {},
+                                "cases": cases}))
+    model = model.with_laws(load_calibration(path, GEARSET))
+    # ring (and output) closing the drive flank at `speed`; pinion initially at rest
+    rate = -speed / model.base_levers[0]
+    run = simulate(model, StageSchedule((Segment(1e-3, 1, 0.0),)),
+                   initial_rates=[0.0, rate, 0.0, 0.0, rate])
+    hit = run.events.select(kind="rattle")
+    assert len(hit) == 1
+    # closing speed: 0.07 um of free flight at constant speed; the onset is located on the
+    # step's Hermite interpolant, which the contact force inside that step perturbs by a
+    # few 1e-6 (see test_switching_impact_speed)
+    assert hit.speed[0] == pytest.approx(speed, rel=1e-5)
+    # restitution: integrator error (rtol 1e-10) and Hermite location of the separation
+    # (~(h/t_c)^3 with 1 us steps in a 180 us contact) are both < 1e-5
+    assert hit.restitution[0] == pytest.approx(truth.restitution, rel=1e-4)
+    # peak force: sampled at step ends, (pi h / t_c)^2 / 8 ~ 4e-5 below the true peak
+    assert hit.force[0] == pytest.approx(truth.force_max, rel=2e-4)
+    assert hit.approach[0] == pytest.approx(truth.delta_max, rel=2e-4)
+
+
+@pytest.mark.parametrize("rpm", [100.0, 1000.0])
+def test_switching_impact_speed(rpm):
+    # Unloaded rings turning with the output at the stage-1 ratio; at the switch the pinion
+    # enters ring 2 in the middle of its backlash. Until the first contact nothing acts, so
+    # the closing speed is the kinematic mismatch r_bp w_p (68/56 - 1), on the coast flank
+    # (ring 2's teeth run faster than the pinion's).
+    model = DriveModel(ramp_time=1e-3, **QUIET, **TIGHT)
+    schedule = StageSchedule((Segment(0.01, 1, rpm), Segment(0.02, 2, rpm)))
+    run = simulate(model, schedule)
+    hit = run.events.select(kind="switch")
+    assert len(hit) == 1 and hit.flank[0] == -1
+    omega = rpm * RPM
+    # truth from gear dimensions only: r_bp = m z cos(a) / 2
+    p = GEARSET.pinion
+    r_bp = 0.5 * p.module * p.teeth * math.cos(math.radians(p.pressure_angle_deg))
+    kinematic = r_bp * omega * (68 / 56 - 1)
+    assert switching_speed(omega, 19, 56, 68, r_bp) == pytest.approx(kinematic, rel=1e-14)
+    # Free flight up to the contact: exact but for the location of the onset. The step that
+    # contains it already feels the force (~k h^1.5 after the onset), which the cubic
+    # Hermite of h does not represent: ~1e-6 relative here, checked to 1e-5.
+    assert hit.speed[0] == pytest.approx(kinematic, rel=1e-5)
+    # The seed's eq. 5, in its simplified form: alpha' = alpha for s = r_c tan(alpha), and
+    # gamma' = arccos(r_c cos(alpha) / sqrt(r_c^2 + r_f^2)).
+    r_c, r_f, a = p.pitch_radius, 0.5 * p.module * 68, math.radians(20.0)
+    gamma = math.acos(r_c * math.cos(a) / math.hypot(r_c, r_f))
+    eq5 = omega * r_c * (1 + 19 / 68) * (1 - math.cos(a + gamma) / math.cos(a))
+    assert seed_switching_speed(omega, r_c, r_f, 68 / 19, a) == pytest.approx(eq5, rel=1e-12)
+    # Eq. 5 is proportional to the pinion speed like the kinematics, with a geometric factor
+    # about 7 times larger (0.42 against 0.060 m/s at 100 r/min): see the report.
+    assert hit.speed[0] / eq5 == pytest.approx(0.143175, rel=1e-5)
+
+
+# -- calibration file -----------------------------------------------------------------------
+def _calibration(tmp_path, cases, schema="fe-impact/calibration/1"):
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps({"schema": schema, "cases": cases}))
+    return path
+
+
+def _case(stage, speed, k, kind="mesh"):
+    return {"stage": stage, "kind": kind, "impact_speed": speed,
+            "impact": {"k": k, "exponent": 1.5, "cmax": 10.0 * k / 1e10, "d": 1e-6}}
+
+
+def test_calibration_interpolates_in_log_speed_and_clamps(tmp_path, caplog):
+    cases = [_case(s, v, k) for s in (1, 2, 3) for v, k in ((0.01, 1e10), (1.0, 3e10))]
+    laws_set = load_calibration(_calibration(tmp_path, cases), GEARSET)
+    # at the geometric mean speed, half way in log(speed): the arithmetic mean
+    assert laws_set.law(2, 0.1).k == pytest.approx(2e10, rel=1e-12)
+    # a stage with only "mesh" cases uses them for "switch" too (and says so)
+    assert laws_set.law(2, 0.1, kind="switch").k == pytest.approx(2e10, rel=1e-12)
+    assert any("switch" in note for note in laws_set.notes)
+    with caplog.at_level(logging.WARNING, logger="fe_impact.switching.calibration"):
+        assert laws_set.law(1, 10.0).k == 3e10  # clamped to the fastest case
+    assert "outside the calibrated range" in caplog.text
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda d: d.update(schema="fe-impact/calib/0"), "schema = 'fe-impact/calib/0'"),
+        (lambda d: d["cases"][0].pop("impact"), "missing key 'impact'"),
+        (lambda d: d["cases"][0].update(kind="rattle"), "kind = 'rattle'"),
+        (lambda d: d["cases"][0].update(stage=4), "stage = 4 must be an integer in 1..3"),
+        (lambda d: d["cases"][0].update(face_teeth=60), "face_teeth = 60 but stage 1"),
+        (lambda d: d["cases"][0]["impact"].update(k=-1.0), "impact.k = -1.0 must be > 0"),
+        (lambda d: d["cases"].append(_case(1, 0.01, 2e10)), "two stage 1 'mesh' cases"),
+    ],
+)
+def test_calibration_rejects_bad_files(tmp_path, mutate, message):
+    data = {"schema": "fe-impact/calibration/1",
+            "cases": [_case(s, 0.01, 1e10) for s in (1, 2, 3)]}
+    mutate(data)
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(CalibrationError, match=re.escape(message)):
+        load_calibration(path, GEARSET)
+
+
+# -- presets and command ---------------------------------------------------------------------
+def _main(argv):
+    """The subcommand as the CLI will call it."""
+    parser = argparse.ArgumentParser(prog="fe-impact")
+    register(parser.add_subparsers())
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+def test_presets_follow_the_seed():
+    # seed 4.1: 100/300/1000 r/min, 5 s, no load; 4.2: 300 r/min, 50..1000 N mm on stage 2
+    for number in (1, 2, 3):
+        preset = PRESETS[f"table{number}"]
+        assert [c.condition for c in preset.cases] == list(SEED_TABLES[f"table{number}"]
+                                                           .conditions)
+        for case, rpm in zip(preset.cases, (100, 300, 1000), strict=True):
+            (seg,) = case.schedule.segments
+            assert (seg.stage, seg.speed_rpm, seg.load, seg.duration) == (number, rpm, 0, 5)
+    loads = [c.schedule.segments[0].load for c in PRESETS["table4"].cases]
+    assert loads == [0.05, 0.2, 0.5, 1.0]
+    speed = PRESETS["variable-speed"].cases[0].schedule
+    assert [(s.stage, s.speed_rpm) for s in speed.segments] == [(1, 100), (2, 300), (3, 1000)]
+    assert PRESETS["variable-load"].cases[0].schedule.duration == 20.0
+    # a transcription spot check: Table 2, 1000 r/min, minimum force printed "v3.178e+6"
+    assert SEED_TABLES["table2"].value("impact_force", "minimum", "1000 r/min") == -3.178e6
+
+
+def test_list_prints_every_preset(capsys):
+    assert _main(["switching", "--list"]) == 0
+    printed = capsys.readouterr().out
+    assert all(name in printed for name in PRESETS)
+
+
+@pytest.mark.parametrize(
+    ("argv", "error", "message"),
+    [
+        (["--preset", "table9", "--out", "x"], CaseError, "--preset = 'table9' is not a preset"),
+        (["--preset", "table1", "--out", "x", "--duration", "-1"], CaseError,
+         "--duration = -1.0 s must be a number > 0"),
+        (["--preset", "table1"], CaseError, "--out is required"),
+        (["--out", "x"], CaseError, "--preset is required"),
+        (["--preset", "table1", "--out", "x", "--calibration", "missing.json"],
+         CalibrationError, "--calibration = 'missing.json': no such file"),
+    ],
+)
+def test_bad_options(tmp_path, monkeypatch, argv, error, message):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(error) as info:
+        _main(["switching", *argv])
+    assert message in str(info.value)
+    if "preset = 'table9'" in message:
+        assert "table1" in str(info.value) and "variable-speed" in str(info.value)
+
+
+def test_command_writes_series_statistics_report_and_plots(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no calibration.json here: closed forms, with a warning
+    out = tmp_path / "out"
+    assert _main(["switching", "--preset", "variable-speed", "--duration", "0.6",
+                  "--out", str(out)]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert {"variable-speed_series.csv", "variable-speed_impacts.csv", "statistics.csv",
+            "statistics.json", "report.md", "elastic_displacement.png", "impact_speed.png",
+            "impact_force.png", "potential_energy.png", "impacts.png"} <= names
+    assert not [n for n in names if n.startswith(".")]  # atomic writes left no temporaries
+    summary = json.loads((out / "statistics.json").read_text())
+    rows = summary["comparison"]
+    # every seed value of section 5.1 appears beside a model value
+    seed = SEED_TABLES["section5.1"]
+    printed = {(r["condition"], r["quantity"], r["statistic"]): r for r in rows}
+    for (quantity, statistic), values in seed.values.items():
+        for condition, value in zip(seed.conditions, values, strict=True):
+            assert printed[(condition, quantity, statistic)]["seed"] == value
+    run = summary["cases"]["variable-speed"]["run"]
+    assert run["impacts"] >= 2  # at least the two switching impacts
+    assert "Where and why the numbers differ" in (out / "report.md").read_text()
+
+
+def test_benchmark_runs_on_a_coarse_setting():
+    # validation/bench_switching.py at 0.6 s: both switches happen and are recorded
+    from validation.bench_switching import run
+
+    record = run(duration=0.6)
+    assert record["simulated_s"] == pytest.approx(0.6)
+    assert record["impacts_by_kind"]["switch"] == 2
+    assert record["steps"] > 0 and record["wall_s"] > 0.0

@@ -160,6 +160,7 @@ class Side:
     weights: np.ndarray | None   # q = weights . z (None: a fixed reference, q = 0)
     lever: float                 # normal displacement at the contact point per unit q
     rigid_body: int | None
+    mass: float = math.inf       # generalised mass / lever^2: mass seen along the normal
 
     def normal_displacement(self, z: np.ndarray) -> float:
         return 0.0 if self.weights is None else self.lever * float(self.weights @ z)
@@ -201,7 +202,8 @@ def _make_side(label: str, mesh: FEMesh, kin: Kinematics, M_r: sp.spmatrix, surf
     if body is not None:
         phi_z[kin.n_free + body] = 1.0
     Mphi = M_r @ phi_z
-    return Side(name, Mphi / float(phi_z @ Mphi), lever, body)
+    gen = float(phi_z @ Mphi)
+    return Side(name, Mphi / gen, lever, body, gen / lever ** 2 if lever else math.inf)
 
 
 # -- contact -----------------------------------------------------------------------
@@ -545,6 +547,13 @@ class DynamicSolver:
                               f"t = {t:.6g} s (step {n}), beyond [analysis] energy_limit = "
                               f"{self.case.analysis.energy_limit:g}; reduce the time step")
 
+    @property
+    def effective_mass(self) -> float:
+        """``1/(1/m_s + 1/m_m)`` of the two sides along the contact normal (kg)."""
+        inv = sum(1.0 / s.mass for s in (self.slave_side, self.master_side)
+                  if math.isfinite(s.mass) and s.weights is not None)
+        return 1.0 / inv if inv > 0 else math.inf
+
     def _approach(self, z: np.ndarray) -> float:
         return -(self.slave_side.normal_displacement(z)
                  - self.master_side.normal_displacement(z)) - self.initial_gap
@@ -674,6 +683,7 @@ class DynamicSolver:
             "contact_normal": self.normal.tolist(),
             "initial_gap": self.initial_gap,
             "sides": {"slave": self.slave_side.name, "master": self.master_side.name},
+            "effective_mass": self.effective_mass,
         }
         out = {k: v[self.output_index] for k, v in h.items()} if len(h["time"]) else h
         return DynamicResult(h, out, meas, info, dict(self.timings), self.mesh, self.model,

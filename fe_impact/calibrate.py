@@ -1,0 +1,357 @@
+"""Calibration pipeline: FE tooth impacts at the operating speeds -> lumped IMPACT laws.
+
+For every stage and impact speed the pipeline
+
+1. meshes the pinion/face-gear tooth pair at the design contact position
+   (cached under ``cache/meshes`` by a hash of the parameters);
+2. runs the FE impact (rigid rotors on both hubs, closing at the impact speed);
+3. measures peak force, maximum approach, contact time, restitution and the
+   energy lost, and fits ``F = K delta^xi`` on the loading branch;
+4. fits the ADAMS IMPACT parameters (k, exponent, cmax, d) so that a
+   one-degree-of-freedom model with the same effective mass and impact speed
+   reproduces the FE force history and restitution, and puts the seed's
+   closed-form values (eq. 12-17) and the hysteresis models' chi beside them.
+
+Cases run as a sweep on Dask (a local cluster by default, or an existing
+``dask.distributed`` scheduler). Each finished case is written to
+``cases/<id>/result.json`` at once (atomically), so an interrupted run keeps
+its finished cases and a rerun computes only the missing ones.
+
+Impact speeds (the seed's eq. 4 and 5): in mesh, the seed's relative sliding
+speed ``v12 = sqrt((w_f r_f)^2 + (w_c r_c)^2) - sqrt((w_c r_c)^2 + (w_c r_c
+cos a)^2)`` (the middle line of eq. 4; its last line is not dimensionally
+consistent); with ``w_f r_f = w_c r_c`` this is ``w_c r_c (sqrt 2 - sqrt(1 +
+cos^2 a))``, the same for every stage. A ratio switch into stage ``i`` closes
+at eq. 5's ``v_s``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .errors import CalibrationError
+from .io import write_csv, write_json
+
+logger = logging.getLogger(__name__)
+
+SCHEMA = "fe-impact/calibration/1"
+OPERATING_SPEEDS_RPM = (100.0, 300.0, 1000.0)
+LEVELS = ("coarse", "default", "fine")
+INTEGRATORS = ("newmark", "explicit")
+KINDS = ("mesh", "switch")
+#: Nominal mesh load (N) at which the linearised mesh stiffness is reported.
+NOMINAL_LOAD = 100.0
+UNITS = {"impact_speed": "m/s", "speed_rpm": "r/min", "effective_mass": "kg",
+         "peak_force": "N", "max_approach": "m", "contact_time": "s", "restitution": "-",
+         "energy_lost": "-", "stiffness_k": "N/m^stiffness_exponent",
+         "mesh_stiffness": "N/m", "k": "N/m^exponent", "exponent": "-", "cmax": "N s/m",
+         "d": "m", "chi": "-", "seconds": "s"}
+
+
+@dataclass(frozen=True)
+class ImpactCase:
+    """One FE impact of the sweep."""
+
+    stage: int                 # 1-based stage number
+    face_teeth: int
+    kind: str                  # "mesh" (eq. 4) or "switch" (eq. 5, into this stage)
+    impact_speed: float        # m/s
+    speed_rpm: float | None = None
+
+    @property
+    def id(self) -> str:
+        rpm = f"{self.speed_rpm:g}rpm" if self.speed_rpm is not None else \
+            f"{self.impact_speed * 1e3:.4g}mms"
+        return f"stage{self.stage}_{self.kind}_{rpm}".replace(".", "p")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Options shared by all cases of a run (they enter the resume hash)."""
+
+    level: str = "default"
+    integrator: str = "newmark"
+    order: int = 2
+    gap: float = 2e-6            # m, initial gap at the contact point
+    roll_angle_deg: float = 0.0
+    nominal_load: float = NOMINAL_LOAD
+
+    def __post_init__(self) -> None:
+        if self.level not in LEVELS:
+            raise CalibrationError(f"level = {self.level!r}: pick one of {list(LEVELS)}")
+        if self.integrator not in INTEGRATORS:
+            raise CalibrationError(f"integrator = {self.integrator!r}: pick one of "
+                                   f"{list(INTEGRATORS)}")
+        if self.order not in (1, 2):
+            raise CalibrationError(f"order = {self.order!r}: must be 1 or 2")
+
+
+def mesh_impact_speed(pinion_pitch_radius: float, pressure_angle: float, rpm: float) -> float:
+    """Seed eq. 4 (middle line) with ``w_f r_f = w_c r_c``: the in-mesh impact speed, m/s."""
+    v = rpm * 2.0 * math.pi / 60.0 * pinion_pitch_radius
+    return v * (math.sqrt(2.0) - math.sqrt(1.0 + math.cos(pressure_angle) ** 2))
+
+
+def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
+               impact_speeds=None, switch: bool = False) -> list[ImpactCase]:
+    """The sweep: every stage at every speed (r/min via eq. 4/5, or impact speeds in m/s)."""
+    from .switching.geometry import seed_switching_speed
+
+    n = len(gearset.stages)
+    stages = list(stages or range(1, n + 1))
+    bad = [s for s in stages if not 1 <= s <= n]
+    if bad:
+        raise CalibrationError(f"--stages {bad}: the gear set has stages 1..{n}")
+    if speeds_rpm is not None and impact_speeds is not None:
+        raise CalibrationError("give --speeds (r/min) or --impact-speeds (m/s), not both")
+    for name, vals in (("--speeds", speeds_rpm), ("--impact-speeds", impact_speeds)):
+        if vals is not None and (not len(vals) or any(not v > 0 or not math.isfinite(v)
+                                                      for v in vals)):
+            raise CalibrationError(f"{name} {list(vals)}: need positive numbers")
+    pin = gearset.pinion
+    alpha = math.radians(pin.pressure_angle_deg) if hasattr(pin, "pressure_angle_deg") \
+        else pin.pressure_angle
+    cases = []
+    for s in stages:
+        teeth = gearset.stages[s - 1].teeth
+        if impact_speeds is not None:
+            cases += [ImpactCase(s, teeth, "mesh", float(v)) for v in impact_speeds]
+            continue
+        for rpm in speeds_rpm or OPERATING_SPEEDS_RPM:
+            v = mesh_impact_speed(pin.pitch_radius, alpha, rpm)
+            cases.append(ImpactCase(s, teeth, "mesh", v, float(rpm)))
+            if switch and s > 1:
+                w = rpm * 2.0 * math.pi / 60.0
+                r_f = gearset.stages[s - 1].pitch_radius if hasattr(
+                    gearset.stages[s - 1], "pitch_radius") else gearset.module * teeth / 2
+                vs = seed_switching_speed(w, pin.pitch_radius, r_f, teeth / pin.teeth, alpha)
+                cases.append(ImpactCase(s, teeth, "switch", vs, float(rpm)))
+    return cases
+
+
+def case_hash(case: ImpactCase, settings: Settings, gearset_text: str) -> str:
+    blob = json.dumps([asdict(case), asdict(settings), gearset_text, SCHEMA], sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+# -- one case (runs on a worker) -----------------------------------------------------
+
+
+def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
+             cache: str) -> dict:
+    """Mesh, solve and fit one impact; writes ``cases/<id>/result.json``; returns it."""
+    import tomllib
+
+    from threadpoolctl import threadpool_limits
+
+    from .case import load_case
+    from .dynamic import DynamicSolver
+    from .gears import gearset_from_dict
+    from .gears.toothmesh import build_pair
+    from .results import DynamicWriter
+
+    t0 = time.perf_counter()
+    folder = Path(out) / "cases" / case.id
+    gearset = gearset_from_dict(tomllib.loads(gearset_text))
+    key = case_hash(case, settings, gearset_text)
+    mesh_dir = Path(cache) / "meshes" / key
+    timings = {}
+    # One worker per core: keep the sparse solver on one thread.
+    with threadpool_limits(limits=1):
+        t = time.perf_counter()
+        pair = build_pair(gearset, case.stage, settings.roll_angle_deg, settings.level,
+                          settings.order, settings.gap, case.impact_speed, mesh_dir,
+                          integrator=settings.integrator)
+        timings["mesh"] = time.perf_counter() - t
+        t = time.perf_counter()
+        fe_case = load_case(pair.case)
+        solver = DynamicSolver(fe_case)
+        writer = DynamicWriter(folder / "fe", fe_case, solver.mesh, solver.model.material)
+        result = solver.run(frame_hook=writer.frame)
+        writer.finish(result)
+        timings["fe"] = time.perf_counter() - t
+    t = time.perf_counter()
+    record = measure_and_fit(case, result, solver.effective_mass, settings, pair)
+    timings["fit"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - t0
+    record.update({"id": case.id, "hash": key, "timings_s": timings,
+                   "model": {k: result.info[k] for k in ("n_dofs", "n_elements",
+                                                         "element_order", "integrator",
+                                                         "time_step", "steps")}})
+    write_json(folder / "result.json", record)
+    return record
+
+
+def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, pair) -> dict:
+    """Measurements of one FE impact and the fitted/closed-form law parameters."""
+    from . import fitting
+
+    m, h = result.measurements, result.history
+    if m["peak_force"] <= 0 or m["contact_duration"] is None:
+        raise CalibrationError(f"case {case.id}: the teeth did not touch and separate within "
+                               "the simulated time")
+    e = m["restitution"]
+    speed = m["impact_velocity"]
+    power = fitting.fit_power_law(h["approach"], h["contact_force"])
+    fe = {"peak_force": m["peak_force"], "max_approach": m["max_approach"],
+          "contact_time": m["contact_duration"], "restitution": e,
+          "energy_lost": 1.0 - e ** 2, "impact_velocity": speed,
+          "energy_error": m["energy_error"],
+          "stiffness_k": power.K, "stiffness_exponent": power.exponent,
+          "stiffness_fit_r2": power.r2,
+          "mesh_stiffness": fitting.mesh_stiffness(h["approach"], h["contact_force"],
+                                                   settings.nominal_load)}
+    fit = fitting.fit_impact_law(h["time"], h["contact_force"], h["approach"], mass, speed, e)
+    closed = fitting.closed_form_parameters(pair.effective_radius, pair.effective_modulus,
+                                            mass, speed, e)
+    return {
+        "stage": case.stage, "face_teeth": case.face_teeth, "kind": case.kind,
+        "speed_rpm": case.speed_rpm, "impact_speed": case.impact_speed,
+        "effective_mass": mass, "fe": fe,
+        "impact": {"k": fit.k, "exponent": fit.exponent, "cmax": fit.cmax, "d": fit.d},
+        "fit_quality": {k: v for k, v in _plain(fit).items()
+                        if k not in ("k", "exponent", "cmax", "d")},
+        "closed_form": _plain(closed),
+        "hysteresis_chi": _plain(fitting.hysteresis_chis(e)),
+        "differences": _plain(fitting.compare(fit, closed)),
+    }
+
+
+def _plain(obj) -> dict:
+    if hasattr(obj, "__dataclass_fields__"):
+        obj = asdict(obj)
+    return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in dict(obj).items()}
+
+
+# -- the sweep -----------------------------------------------------------------------
+
+
+@dataclass
+class Sweep:
+    """Cases of a run, split into finished (loaded from disk) and to do."""
+
+    cases: list[ImpactCase]
+    done: dict[str, dict] = field(default_factory=dict)
+
+    @property
+    def todo(self) -> list[ImpactCase]:
+        return [c for c in self.cases if c.id not in self.done]
+
+
+def load_finished(out: Path, cases: list[ImpactCase], settings: Settings,
+                  gearset_text: str) -> Sweep:
+    """Finished cases of an earlier run with the same parameters (resume)."""
+    sweep = Sweep(cases)
+    for c in cases:
+        path = out / "cases" / c.id / "result.json"
+        if path.is_file():
+            try:
+                rec = json.loads(path.read_text())
+            except json.JSONDecodeError:
+                continue
+            if rec.get("hash") == case_hash(c, settings, gearset_text):
+                sweep.done[c.id] = rec
+    return sweep
+
+
+def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,
+              cache: Path, workers: int | None = None, scheduler: str | None = None,
+              progress: Callable[[int, int, str], None] | None = None) -> Path:
+    """Run the sweep (resuming), then write calibration.json/.csv and the report."""
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    sweep = load_finished(out, cases, settings, gearset_text)
+    if sweep.done:
+        logger.info("resuming: %d of %d cases already finished", len(sweep.done), len(cases))
+    if progress is not None:
+        progress(len(sweep.done), len(cases), "")
+    todo = sweep.todo
+    if todo:
+        _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
+                  progress)
+    wall = time.perf_counter() - t0
+    records = [sweep.done[c.id] for c in cases]
+    from .report import write_calibration_report
+
+    doc = {
+        "schema": SCHEMA, "fe_impact_version": __version__, "units": UNITS,
+        "settings": asdict(settings), "wall_time_s": wall,
+        "notes": ("impact: ADAMS IMPACT parameters fitted jointly to the FE force history "
+                  "and restitution of a one-DOF model with the case's effective mass and "
+                  "impact speed; closed_form: the seed's eq. 12-17; fe: FE measurements "
+                  "(stiffness_k/stiffness_exponent fit F = K delta^xi on the loading branch)"),
+        "cases": records,
+    }
+    path = write_json(out / "calibration.json", doc)
+    header = ["id", "stage", "face_teeth", "kind", "speed_rpm", "impact_speed",
+              "effective_mass", "peak_force", "max_approach", "contact_time", "restitution",
+              "stiffness_k", "stiffness_exponent", "mesh_stiffness", "k", "exponent", "cmax",
+              "d", "closed_k", "closed_exponent", "closed_cmax", "closed_d", "seconds"]
+    rows = []
+    for r in records:
+        cf = r["closed_form"]
+        rows.append([r["id"], r["stage"], r["face_teeth"], r["kind"], r["speed_rpm"],
+                     r["impact_speed"], r["effective_mass"], r["fe"]["peak_force"],
+                     r["fe"]["max_approach"], r["fe"]["contact_time"], r["fe"]["restitution"],
+                     r["fe"]["stiffness_k"], r["fe"]["stiffness_exponent"],
+                     r["fe"]["mesh_stiffness"], r["impact"]["k"], r["impact"]["exponent"],
+                     r["impact"]["cmax"], r["impact"]["d"], cf.get("k"), cf.get("exponent"),
+                     cf.get("cmax"), cf.get("d"), r["timings_s"]["total"]])
+    write_csv(out / "calibration.csv", header, rows)
+    write_calibration_report(out, doc)
+    return path
+
+
+def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
+              progress) -> None:
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except OSError as exc:
+            raise CalibrationError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+        cluster = None
+    else:
+        n = workers or max(1, min(len(todo), _cores()))
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+        client = Client(cluster)
+    try:
+        futures = {client.submit(run_case, c, settings, gearset_text, str(out), str(cache),
+                                 key=f"fe-impact-{c.id}-{case_hash(c, settings, gearset_text)}",
+                                 pure=False): c for c in todo}
+        failures = []
+        for fut in as_completed(futures):
+            c = futures[fut]
+            try:
+                sweep.done[c.id] = fut.result()
+            except Exception as exc:  # a failed case does not stop the others
+                failures.append(f"{c.id}: {exc}")
+                logger.error("case %s failed: %s", c.id, exc)
+            if progress is not None:
+                progress(len(sweep.done), len(sweep.cases), c.id)
+        if failures:
+            raise CalibrationError(f"{len(failures)} case(s) failed (finished cases are kept; "
+                                   "rerun to retry): " + "; ".join(failures))
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _cores() -> int:
+    import os
+
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
+        (os.cpu_count() or 1)

@@ -1,0 +1,177 @@
+"""Calibration report: ``report.md`` with tables and PNG plots beside calibration.json."""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from .io import atomic_path
+
+logger = logging.getLogger(__name__)
+
+
+def _fmt(v, spec=".4g", scale=1.0) -> str:
+    return "-" if v is None else format(v * scale, spec)
+
+
+def write_calibration_report(out: Path, doc: dict) -> Path:
+    """Write ``report.md`` and its plots for a calibration document."""
+    cases = doc["cases"]
+    plots = []
+    for name, fn in (("force_time.png", _plot_histories), ("parameters.png", _plot_parameters),
+                     ("stress.png", _plot_stress)):
+        try:
+            if fn(out, cases, out / name):
+                plots.append(name)
+        except Exception as exc:  # a missing plot must not lose the tables
+            logger.warning("plot %s skipped: %s", name, exc)
+    lines = ["# fe-impact calibration", "",
+             f"Settings: level `{doc['settings']['level']}`, integrator "
+             f"`{doc['settings']['integrator']}`, P{doc['settings']['order']}, initial gap "
+             f"{doc['settings']['gap'] * 1e6:g} um. Wall time {doc['wall_time_s']:.0f} s.", "",
+             "## FE measurements", "",
+             "| case | v (m/s) | m_eff (kg) | F_max (N) | delta_max (um) | t_c (us) | e "
+             "| K (N/m^xi) | xi | fit R^2 | k_mesh at nominal load (N/m) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in cases:
+        fe = c["fe"]
+        lines.append(f"| {c['id']} | {c['impact_speed']:.4g} | {c['effective_mass']:.4g} | "
+                     f"{_fmt(fe['peak_force'])} | {_fmt(fe['max_approach'], '.4g', 1e6)} | "
+                     f"{_fmt(fe['contact_time'], '.4g', 1e6)} | {_fmt(fe['restitution'], '.4f')}"
+                     f" | {_fmt(fe['stiffness_k'], '.4g')} | "
+                     f"{_fmt(fe['stiffness_exponent'], '.3f')} | "
+                     f"{_fmt(fe['stiffness_fit_r2'], '.5f')} | {_fmt(fe['mesh_stiffness'])} |")
+    lines += ["", "## IMPACT parameters: fitted against the seed's closed forms (eq. 12-17)", "",
+              "| case | k | closed k | exponent | closed | cmax (N s/m) | closed | d (um) "
+              "| closed | force residual | restitution error |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in cases:
+        i, cf, q = c["impact"], c["closed_form"], c["fit_quality"]
+        lines.append(f"| {c['id']} | {_fmt(i['k'])} | {_fmt(cf.get('k'))} | "
+                     f"{_fmt(i['exponent'], '.3f')} | {_fmt(cf.get('exponent'), '.3f')} | "
+                     f"{_fmt(i['cmax'])} | {_fmt(cf.get('cmax'))} | "
+                     f"{_fmt(i['d'], '.4g', 1e6)} | {_fmt(cf.get('d'), '.4g', 1e6)} | "
+                     f"{_fmt(q.get('residual_force_rms'), '.2%')} | "
+                     f"{_fmt(q.get('restitution_error'), '.2e')} |")
+    lines += ["", "## Hysteresis models: chi for the measured restitution", ""]
+    models = sorted({k for c in cases for k in c["hysteresis_chi"]})
+    if models:
+        lines += ["| case | " + " | ".join(models) + " |",
+                  "|---|" + "---|" * len(models)]
+        for c in cases:
+            vals = [c["hysteresis_chi"].get(m) for m in models]
+            lines.append(f"| {c['id']} | " + " | ".join(
+                _fmt(v if not isinstance(v, dict) else v.get("chi"), ".4g") for v in vals)
+                + " |")
+    lines += ["", "## Time per case (s)", "", "| case | mesh | FE | fit | total | DOFs |",
+              "|---|---|---|---|---|---|"]
+    for c in cases:
+        t = c["timings_s"]
+        lines.append(f"| {c['id']} | {t['mesh']:.1f} | {t['fe']:.1f} | {t['fit']:.1f} | "
+                     f"{t['total']:.1f} | {c['model']['n_dofs']} |")
+    lines += [""] + [f"![{p}]({p})" for p in plots] + [""]
+    path = out / "report.md"
+    with atomic_path(path) as tmp:
+        tmp.write_text("\n".join(lines))
+    return path
+
+
+def _history(out: Path, case: dict) -> dict | None:
+    path = out / "cases" / case["id"] / "fe" / "summary.json"
+    if not path.is_file():
+        return None
+    return json.loads(path.read_text())
+
+
+def _plot_histories(out: Path, cases: list[dict], path: Path) -> bool:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .laws import ImpactLaw, simulate_impact
+
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
+    for c in cases:
+        s = _history(out, c)
+        if s is None:
+            continue
+        h = s["history"]
+        t, f, d = (np.asarray(h[k]) for k in ("time", "contact_force", "approach"))
+        t0 = s.get("first_touch") or 0.0
+        line, = ax[0].plot((t - t0) * 1e6, f, lw=1.2, label=f"{c['id']} FE")
+        i = c["impact"]
+        run = simulate_impact(ImpactLaw(i["k"], i["exponent"], i["cmax"], i["d"]),
+                              c["effective_mass"], c["fe"]["impact_velocity"])
+        ax[0].plot(run.time * 1e6, run.force, "--", color=line.get_color(), lw=1)
+        on = d > 0
+        ax[1].plot(d[on] * 1e6, f[on], color=line.get_color(), lw=1.2)
+        ax[1].plot(run.delta * 1e6, run.force, "--", color=line.get_color(), lw=1)
+    ax[0].set(xlabel="time from first touch (us)", ylabel="contact force (N)",
+              title="force against time: FE (solid), fitted IMPACT law (dashed)")
+    ax[1].set(xlabel="approach (um)", ylabel="contact force (N)",
+              title="force against approach (hysteresis loop)")
+    for a in ax:
+        a.grid(alpha=0.3)
+    ax[0].legend(fontsize=7)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return True
+
+
+def _plot_parameters(out: Path, cases: list[dict], path: Path) -> bool:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(2, 2, figsize=(11, 8))
+    keys = (("k", "k (N/m^exponent)"), ("exponent", "exponent"), ("cmax", "cmax (N s/m)"),
+            ("d", "d (m)"))
+    for stage in sorted({c["stage"] for c in cases}):
+        cs = sorted((c for c in cases if c["stage"] == stage), key=lambda c: c["impact_speed"])
+        v = [c["impact_speed"] for c in cs]
+        for a, (k, label) in zip(ax.ravel(), keys, strict=True):
+            line, = a.plot(v, [c["impact"][k] for c in cs], "o-", label=f"stage {stage} fit")
+            a.plot(v, [c["closed_form"].get(k, np.nan) for c in cs], "s--",
+                   color=line.get_color(), label=f"stage {stage} closed form")
+            a.set(xlabel="impact speed (m/s)", ylabel=label, xscale="log")
+    for a in ax.ravel():
+        a.grid(alpha=0.3)
+    ax[0, 0].legend(fontsize=7)
+    fig.suptitle("IMPACT parameters against impact speed")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return True
+
+
+def _plot_stress(out: Path, cases: list[dict], path: Path) -> bool:
+    """3-D von Mises field at peak force of the hardest impact (pyvista off-screen)."""
+    import pyvista as pv
+
+    c = max(cases, key=lambda c: c["fe"]["peak_force"])
+    s = _history(out, c)
+    if s is None or not s["fields"]["frames"]:
+        return False
+    times = np.asarray(s["history"]["time"])
+    k = int(np.argmin(np.abs(times - s["time_of_peak_force"])))
+    k = min(k, len(s["fields"]["frames"]) - 1)
+    grid = pv.read(out / "cases" / c["id"] / "fe" / s["fields"]["frames"][k])
+    pv.OFF_SCREEN = True
+    p = pv.Plotter(off_screen=True, window_size=(1000, 750))
+    p.add_mesh(grid, scalars="von_mises", cmap="turbo", show_edges=False,
+               scalar_bar_args={"title": "von Mises (Pa)"})
+    p.add_text(f"{c['id']}: von Mises stress at peak force "
+               f"{c['fe']['peak_force']:.4g} N", font_size=10)
+    p.view_isometric()
+    with atomic_path(path) as tmp:
+        p.screenshot(str(tmp))
+    p.close()
+    return True

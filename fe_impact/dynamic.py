@@ -634,9 +634,9 @@ class DynamicSolver:
             acc_new = c0 * (z_new - z) - c1 * v - c2 * acc
             v = v + dt * ((1.0 - gamma) * acc + gamma * acc_new)
             z, acc = z_new, acc_new
-            if self._watch_zone(z):
-                active = None
             record(n, n * dt, z, v, lam, 0.5 * float(z @ (K @ z)))
+            if self._watch_zone(z):   # new zone rows: forces are recomputed next step
+                active = None
 
     def _newmark_contact(self, z_star, rhs0, alpha, active):
         """Contact forces of one Newmark step by the condensed complementarity problem."""

@@ -1,0 +1,69 @@
+"""Calibration planning: impact speeds from the operating point and option checks."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from fe_impact.calibrate import ImpactCase, Settings, mesh_impact_speed, plan_cases
+from fe_impact.cli import main
+from fe_impact.errors import CalibrationError
+from fe_impact.gears import default_gearset
+
+
+def test_mesh_impact_speed_closed_form():
+    # Seed eq. 4 with w_f r_f = w_c r_c: v = w r (sqrt 2 - sqrt(1 + cos^2 20 deg)).
+    # At 1000 r/min and r = 28.5 mm: w r = 2.9845 m/s; factor 0.041981.
+    v = mesh_impact_speed(28.5e-3, math.radians(20.0), 1000.0)
+    assert v == pytest.approx(2.98451302 * (math.sqrt(2) - math.sqrt(1 + 0.88302222)),
+                              rel=1e-7)
+    assert v == pytest.approx(0.12529, rel=1e-4)
+    # linear in the speed
+    assert mesh_impact_speed(28.5e-3, math.radians(20.0), 100.0) == pytest.approx(v / 10)
+
+
+def test_default_plan_is_three_stages_by_three_speeds():
+    cases = plan_cases(default_gearset())
+    assert len(cases) == 9
+    assert {c.stage for c in cases} == {1, 2, 3}
+    assert {c.face_teeth for c in cases} == {56, 68, 80}
+    assert len({c.id for c in cases}) == 9
+    switch = plan_cases(default_gearset(), switch=True)
+    assert len(switch) == 9 + 6 and {c.kind for c in switch} == {"mesh", "switch"}
+
+
+@pytest.mark.parametrize("kwargs,pattern", [
+    ({"stages": [4]}, r"--stages \[4\]: the gear set has stages 1..3"),
+    ({"speeds_rpm": [100], "impact_speeds": [0.1]}, r"not both"),
+    ({"impact_speeds": [-0.1]}, r"--impact-speeds \[-0.1\]: need positive"),
+])
+def test_bad_plans(kwargs, pattern):
+    with pytest.raises(CalibrationError, match=pattern):
+        plan_cases(default_gearset(), **kwargs)
+
+
+@pytest.mark.parametrize("kwargs,pattern", [
+    ({"level": "huge"}, r"level = 'huge': pick one of \['coarse', 'default', 'fine'\]"),
+    ({"integrator": "rk4"}, r"integrator = 'rk4'"),
+])
+def test_bad_settings(kwargs, pattern):
+    with pytest.raises(CalibrationError, match=pattern):
+        Settings(**kwargs)
+
+
+@pytest.mark.parametrize("argv,pattern", [
+    (["--level", "huge"], "level = 'huge'"),
+    (["--stages", "0"], r"--stages \[0\]"),
+    (["--workers", "0"], "--workers 0: must be at least 1"),
+])
+def test_cli_rejects_bad_options(tmp_path, capsys, argv, pattern):
+    assert main(["calibrate", "--out", str(tmp_path / "o"), *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("fe-impact: error:") and pattern.replace("\\", "") in err
+    assert not (tmp_path / "o" / "calibration.json").exists()
+
+
+def test_case_ids_are_stable():
+    c = ImpactCase(2, 68, "mesh", 0.0387, 300.0)
+    assert c.id == "stage2_mesh_300rpm"

@@ -209,8 +209,14 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
           "energy_error": m["energy_error"],
           "stiffness_k": power.K, "stiffness_exponent": power.exponent,
           "stiffness_fit_r2": power.r2,
-          "mesh_stiffness": fitting.mesh_stiffness(h["approach"], h["contact_force"],
-                                                   settings.nominal_load)}
+          "nominal_load": settings.nominal_load}
+    try:
+        ks = fitting.mesh_stiffness(h["approach"], h["contact_force"], settings.nominal_load)
+        fe["mesh_stiffness"] = ks.from_data
+        fe["mesh_stiffness_power_law"] = ks.from_power_law
+    except CalibrationError as exc:   # nominal load above the peak force of this impact
+        logger.info("case %s: %s", case.id, exc)
+        fe["mesh_stiffness"] = fe["mesh_stiffness_power_law"] = None
     fit = fitting.fit_impact_law(h["time"], h["contact_force"], h["approach"], mass, speed, e)
     closed = fitting.closed_form_parameters(pair.effective_radius, pair.effective_modulus,
                                             mass, speed, e)
@@ -222,7 +228,7 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
         "fit_quality": {k: v for k, v in _plain(fit).items()
                         if k not in ("k", "exponent", "cmax", "d")},
         "closed_form": _plain(closed),
-        "hysteresis_chi": _plain(fitting.hysteresis_chis(e)),
+        "hysteresis_chi": {k: _plain(v) for k, v in fitting.hysteresis_chis(e).items()},
         "differences": _plain(fitting.compare(fit, closed)),
     }
 

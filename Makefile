@@ -25,6 +25,9 @@ test: $(STAMP)
 
 validate: $(STAMP)
 	$(BIN)/python validation/hertz_static.py --out out/hertz_static
+	$(BIN)/python validation/hertz_impact.py --out out/hertz_impact
+	$(BIN)/python validation/bench_static.py
+	$(BIN)/python validation/bench_dynamic.py
 
 clean:
 	rm -rf out .pytest_cache

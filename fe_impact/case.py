@@ -153,6 +153,7 @@ class AnalysisSpec:
     hht_alpha: float = 0.0
     safety_factor: float = 0.9              # explicit: dt = safety * stable limit
     energy_limit: float = 0.05              # stop if energy grows by more (relative)
+    plastic_zone: float | None = None       # m around the contact; None: automatic
 
     @property
     def dynamic(self) -> bool:
@@ -354,7 +355,7 @@ def _displacements(r: _Reader, tables: list) -> tuple[DisplacementSpec, ...]:
 
 _STATIC_KEYS = {"type", "max_iterations", "tolerance"}
 _DYNAMIC_KEYS = _STATIC_KEYS | {"integrator", "duration", "time_step", "output_interval",
-                                "hht_alpha", "safety_factor", "energy_limit"}
+                                "hht_alpha", "safety_factor", "energy_limit", "plastic_zone"}
 
 
 def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
@@ -389,8 +390,12 @@ def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
     safety = r.number(t, w, "safety_factor", low=0.0, high=1.0, low_open=True, default=0.9)
     energy = r.number(t, w, "energy_limit", low=0.0, low_open=True, default=0.05,
                       hint="(relative energy growth that stops the run)")
+    zone = None
+    if t.get("plastic_zone", "auto") != "auto":
+        zone = r.number(t, w, "plastic_zone", low=0.0, low_open=True,
+                        hint='(m, radius of the plastic zone around the contact) or "auto"')
     return AnalysisSpec(kind, iters, tol, integrator, duration, dt, out_dt, alpha, safety,
-                        energy)
+                        energy, zone)
 
 
 def _is_real(v: Any) -> bool:

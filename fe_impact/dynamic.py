@@ -313,6 +313,7 @@ class Frame:
     v: np.ndarray          # (n_points, 3) m/s
     pressure: np.ndarray   # (n_points,) Pa
     von_mises: np.ndarray  # (n_elements,) Pa
+    plastic_strain: np.ndarray | None = None  # (n_elements,) max equivalent plastic strain
 
 
 @dataclass
@@ -328,7 +329,7 @@ class DynamicResult:
 
 
 HISTORY_KEYS = ("time", "contact_force", "approach", "normal_velocity", "kinetic_energy",
-                "strain_energy", "contact_energy", "total_energy")
+                "strain_energy", "contact_energy", "plastic_dissipation", "total_energy")
 
 
 # -- solver --------------------------------------------------------------------------
@@ -378,6 +379,7 @@ class DynamicSolver:
         self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone)
         self.timings["contact_setup"] = time.perf_counter() - t
         self._probe()
+        self.plastic = self._plastic_zone()
         self.v0 = self._initial_velocity()
         t = time.perf_counter()
         self.dt_stable = self._stable_step() if self.explicit else None
@@ -415,6 +417,30 @@ class DynamicSolver:
         self.master_side = _make_side("master", self.mesh, self.kin, self.M, spec.master,
                                       self.x_contact, self.normal, self.model)
         del pair
+
+    def _plastic_zone(self):
+        """J2 plasticity on the elements near the contact, if a material has a yield strength.
+
+        Plastic strain is only tracked within ``[analysis] plastic_zone`` (m) of
+        the initial contact point; ``auto`` takes 1.5 x the extent of the
+        candidate slave faces (at least four faces). The run warns if the zone's boundary yields.
+        """
+        if not any(m.yield_strength is not None for m in self.case.materials):
+            return None
+        from .plasticity import PlasticZone, elements_near
+
+        radius = self.case.analysis.plastic_zone
+        if radius is None:
+            pair = self.pairs[0]
+            pts = self.mesh.points[np.unique(pair.slave.faces[self.zone.slave_faces[0]])]
+            radius = 1.5 * float(np.linalg.norm(pts - self.x_contact, axis=1).max(initial=0.0))
+            radius = max(radius, 4.0 * face_size(self.mesh, self.pairs[0].slave))
+        elements = elements_near(self.mesh, self.x_contact, radius)
+        zone = PlasticZone(self.model, elements, transform=self.kin.T)
+        logger.info("plastic zone: %d elements within %.3g m of the contact", zone.n_elements,
+                    radius)
+        self.plastic_radius = radius
+        return zone if zone.n_elements else None
 
     def _initial_velocity(self) -> np.ndarray:
         v = np.zeros(self.model.n_dofs)
@@ -496,14 +522,21 @@ class DynamicSolver:
         self._frames: list[float] = []
         state = {"next_out": 0.0}
         self._energy0 = None
+        self._warned_boundary = False
         self.n_zone_growth = 0
 
         mass = self.m if self.explicit else None
 
+        zone = self.plastic
+
         def record(n: int, t: float, z, v, lam, strain: float) -> None:
             ke = 0.5 * float(v @ (mass * v) if mass is not None else v @ (self.M @ v))
             ce = self.contact.energy(lam)
-            total = ke + strain + ce
+            dis = 0.0
+            if zone is not None:
+                strain += zone.energy_correction(z)
+                dis = zone.dissipation()
+            total = ke + strain + ce + dis
             if self._energy0 is None:
                 self._energy0 = total
             hist["time"].append(t)
@@ -513,6 +546,7 @@ class DynamicSolver:
             hist["kinetic_energy"].append(ke)
             hist["strain_energy"].append(strain)
             hist["contact_energy"].append(ce)
+            hist["plastic_dissipation"].append(dis)
             hist["total_energy"].append(total)
             self._check(n, t, total, z)
             if t >= state["next_out"] - 0.5 * self.dt or n == n_steps:
@@ -565,8 +599,17 @@ class DynamicSolver:
 
     def _frame(self, t, z, v, lam) -> Frame:
         u = self.kin.T @ z
+        vm = von_mises(self.model, u)
+        eqp = None
+        if self.plastic is not None:
+            vm[self.plastic.elements] = self.plastic.von_mises(z)
+            eqp = self.plastic.equivalent_plastic_strain("max")
+            if self.plastic.boundary_yielded() and not self._warned_boundary:
+                logger.warning("the plastic zone's boundary yields at t = %.4g s: raise "
+                               "[analysis] plastic_zone (now %.3g m)", t, self.plastic_radius)
+                self._warned_boundary = True
         return Frame(t, self.model.point_values(u), self.model.point_values(self.kin.T @ v),
-                     self.contact.pressure(lam), von_mises(self.model, u))
+                     self.contact.pressure(lam), vm, eqp)
 
     def _watch_zone(self, z: np.ndarray) -> bool:
         """Grow the zone if faces outside it come close; True if it grew."""
@@ -583,6 +626,7 @@ class DynamicSolver:
 
     def _explicit_steps(self, n_steps: int, record) -> None:
         dt, K, minv, c = self.dt, self.K, 1.0 / self.m, self.contact
+        zone = self.plastic
         z = np.zeros(self.kin.n)
         v = self.v0.copy()
         f_int = np.zeros_like(z)
@@ -597,11 +641,15 @@ class DynamicSolver:
                 if c.moved(z):
                     c.update(z)
                 self._watch_zone(z)
-            f_int = K @ z
+            Kz = K @ z
+            f_int = Kz
+            if zone is not None:
+                f_int = Kz - zone.update(z)
+                zone.commit()
             lam, _ = c.forces(z)
             acc = minv * (c.B.T @ lam - f_int)
             v += 0.5 * dt * acc
-            record(n, n * dt, z, v, lam, 0.5 * float(z @ f_int))
+            record(n, n * dt, z, v, lam, 0.5 * float(z @ Kz))
 
     def _newmark_steps(self, n_steps: int, record) -> None:
         dt, K, M, c = self.dt, self.K, self.M, self.contact
@@ -618,12 +666,18 @@ class DynamicSolver:
         record(0, 0.0, z, v, lam, 0.0)
         active = None
         max_it = self.case.analysis.max_iterations
+        zone = self.plastic
+        f_p = np.zeros_like(z)
+        self.plastic_iterations = 0
         for n in range(1, n_steps + 1):
             Kz = K @ z
-            rhs0 = M @ (c0 * z + c1 * v + c2 * acc) + alpha * (Kz - f_c)
-            z_star = self.solver.solve(rhs0)
+            rhs0 = M @ (c0 * z + c1 * v + c2 * acc) + alpha * (Kz - f_p - f_c)
             for _ in range(max_it):
-                lam, z_new, active = self._newmark_contact(z_star, rhs0, alpha, active)
+                if zone is None:
+                    lam, z_new, active = self._newmark_contact(self.solver.solve(rhs0), rhs0,
+                                                               alpha, active)
+                else:
+                    lam, z_new, active = self._newmark_plastic(rhs0, alpha, active, z, v, dt)
                 if not c.moved(z_new):
                     break
                 c.update(z_new)
@@ -631,12 +685,41 @@ class DynamicSolver:
                 raise ContactError(f"contact did not settle within {max_it} re-projections at "
                                    f"t = {n * dt:.6g} s; raise [analysis] max_iterations")
             f_c = c.B.T @ lam
+            if zone is not None:
+                zone.commit()
+                f_p = zone.plastic_force()
             acc_new = c0 * (z_new - z) - c1 * v - c2 * acc
             v = v + dt * ((1.0 - gamma) * acc + gamma * acc_new)
             z, acc = z_new, acc_new
             record(n, n * dt, z, v, lam, 0.5 * float(z @ (K @ z)))
             if self._watch_zone(z):   # new zone rows: forces are recomputed next step
                 active = None
+
+    def _newmark_plastic(self, rhs0, alpha, active, z, v, dt):
+        """One Newmark step with plasticity: modified Newton on the elastic K_eff.
+
+        ``z = step(F_p(z))`` with ``step`` one elastic solve (plastic force on
+        the right, contact condensed), accelerated by Anderson mixing.
+        """
+        from .plasticity import solve_fixed_point
+
+        state = {"active": active}
+
+        def step(f_p):
+            rhs = rhs0 + (1.0 + alpha) * f_p
+            lam, z_new, act = self._newmark_contact(self.solver.solve(rhs), rhs, alpha,
+                                                    state["active"])
+            state.update(lam=lam, active=act)
+            return z_new
+
+        try:
+            z_new, its = solve_fixed_point(step, self.plastic, z + dt * v, tol=1e-7,
+                                           max_iter=200, reference=z)
+        except RuntimeError as exc:
+            raise SolverError(f"plasticity did not converge in a Newmark step: {exc}; "
+                              "reduce the time step or use the explicit integrator") from None
+        self.plastic_iterations += its
+        return state["lam"], z_new, state["active"]
 
     def _newmark_contact(self, z_star, rhs0, alpha, active):
         """Contact forces of one Newmark step by the condensed complementarity problem."""
@@ -684,6 +767,14 @@ class DynamicSolver:
             "initial_gap": self.initial_gap,
             "sides": {"slave": self.slave_side.name, "master": self.master_side.name},
             "effective_mass": self.effective_mass,
+            "plasticity": None if self.plastic is None else {
+                "zone_elements": int(self.plastic.n_elements),
+                "zone_radius": self.plastic_radius,
+                "yielded_points": int(self.plastic.n_yielded),
+                "boundary_yielded": bool(self.plastic.boundary_yielded()),
+                "dissipation": float(self.plastic.dissipation()),
+                "max_equivalent_plastic_strain": float(
+                    self.plastic.equivalent_plastic_strain("max").max(initial=0.0))},
         }
         out = {k: v[self.output_index] for k, v in h.items()} if len(h["time"]) else h
         return DynamicResult(h, out, meas, info, dict(self.timings), self.mesh, self.model,

@@ -66,7 +66,7 @@ def write_static_results(out: str | Path, case: Case, result: StaticResult) -> P
 DYNAMIC_SCHEMA = "fe-impact/dynamic-summary/1"
 HISTORY_UNITS = {"time": "s", "contact_force": "N", "approach": "m", "normal_velocity": "m/s",
                  "kinetic_energy": "J", "strain_energy": "J", "contact_energy": "J",
-                 "total_energy": "J"}
+                 "plastic_dissipation": "J", "total_energy": "J"}
 
 
 class DynamicWriter:
@@ -88,7 +88,9 @@ class DynamicWriter:
         write_vtu(self.out / name, self.mesh,
                   point_data={"displacement": frame.u, "velocity": frame.v,
                               "contact_pressure": frame.pressure},
-                  cell_data={"von_mises": frame.von_mises, "material": self.material})
+                  cell_data={"von_mises": frame.von_mises, "material": self.material,
+                             **({} if frame.plastic_strain is None else
+                                {"equivalent_plastic_strain": frame.plastic_strain})})
         self.frames.append((frame.time, name))
         write_pvd(self.out / "impact.pvd", self.frames)
 
@@ -154,7 +156,8 @@ def plot_impact(out: Path, history: dict) -> list[str]:
     plt.close(fig)
     E = history
     fig, a = plt.subplots(figsize=(6, 4))
-    for k in ("kinetic_energy", "strain_energy", "contact_energy", "total_energy"):
+    for k in ("kinetic_energy", "strain_energy", "contact_energy", "plastic_dissipation",
+              "total_energy"):
         a.plot(t * 1e6, E[k], label=k.replace("_", " "))
     a.set(xlabel="time (us)", ylabel="energy (J)", title="Energy balance")
     a.legend()

@@ -281,16 +281,22 @@ class ContactModel:
 class SurfaceMonitor:
     """Linearised gaps of every slave node, to see faces outside the zone coming close."""
 
-    def __init__(self, mesh: FEMesh, kin: Kinematics, zone: ContactZone) -> None:
+    def __init__(self, mesh: FEMesh, kin: Kinematics, zone: ContactZone,
+                 reach: list[float]) -> None:
         zero = np.zeros((mesh.n_points, 3))
         self.mesh, self.zone = mesh, zone
         self.pairs = []
-        for pair in zone.pairs:
+        margins = []
+        for pair, s in zip(zone.pairs, reach, strict=True):
             st = pair.gap_state(mesh, zero, np.arange(len(pair.slave.faces)),
                                 np.arange(len(pair.master.faces)))
             ok = np.isfinite(st.gap)
             self.pairs.append((st.nodes[ok], st.gap[ok], (st.B[ok] @ kin.T).tocsr()))
-        self.margin = 0.5 * min(face_size(mesh, p.slave) for p in zone.pairs)
+            # Faces outside the zone started at least ``s - g0`` farther than the
+            # closest node; act when one has closed half of that.
+            margins.append(0.5 * max(s - float(np.min(st.gap[ok])), 0.0))
+        self.margin = min(min(margins), 0.5 * min(face_size(mesh, p.slave)
+                                                  for p in zone.pairs))
 
     def close_outside(self, z: np.ndarray) -> bool:
         for k, (nodes, g0, B) in enumerate(self.pairs):
@@ -371,12 +377,12 @@ class DynamicSolver:
                                    if self.explicit else PENALTY_FACTOR)
         h_min = min(face_size(self.mesh, p.slave) for p in self.pairs)
         t = time.perf_counter()
-        self.zone = ContactZone.initial(self.mesh, self.pairs,
-                                        [self._search_distance(s, p) for s, p in
-                                         zip(case.contacts, self.pairs, strict=True)])
+        self._reach = [self._search_distance(s, p) for s, p in
+                       zip(case.contacts, self.pairs, strict=True)]
+        self.zone = ContactZone.initial(self.mesh, self.pairs, self._reach)
         self.contact = ContactModel(self.mesh, self.model, self.kin, self.zone,
                                     REPROJECT_FRACTION * h_min)
-        self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone)
+        self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone, self._reach)
         self.timings["contact_setup"] = time.perf_counter() - t
         self._probe()
         self.plastic = self._plastic_zone()

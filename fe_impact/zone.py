@@ -120,13 +120,19 @@ class ContactZone:
 
 
 def master_near(mesh: FEMesh, pair: ContactPair, points: np.ndarray, s: float) -> np.ndarray:
-    """Master faces whose centroid lies within ``s`` plus two face sizes of ``points``."""
+    """Master faces that reach within ``s`` of any of ``points``.
+
+    A face qualifies when the nearest point is closer to its centroid than
+    ``s`` plus the face's own circumradius (plus a small slack), so large
+    far-field faces do not pull a wide ring of small faces into the zone.
+    """
     if len(points) == 0:
         return np.zeros(0, dtype=np.int64)
-    cent = mesh.points[pair.master.faces[:, :3]].mean(axis=1)
-    radius = s + 2.0 * face_size(mesh, pair.master, stat=np.max)
-    hits = cKDTree(points).query_ball_point(cent, r=radius, return_length=True)
-    return np.flatnonzero(hits > 0)
+    x = mesh.points[pair.master.faces[:, :3]]
+    cent = x.mean(axis=1)
+    reach = np.linalg.norm(x - cent[:, None, :], axis=2).max(axis=1)
+    dist, _ = cKDTree(points).query(cent)
+    return np.flatnonzero(dist <= s + 1.5 * reach)
 
 
 def face_size(mesh: FEMesh, surface: ContactSurface, stat=np.median) -> float:

@@ -97,7 +97,8 @@ def _configure_logging(verbose: int) -> None:
     level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     if verbose < 2:
-        logging.getLogger("skfem").setLevel(logging.WARNING)
+        for name in ("skfem", "distributed", "numba"):
+            logging.getLogger(name).setLevel(logging.WARNING)
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:

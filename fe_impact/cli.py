@@ -90,7 +90,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 #: Modules that add their own subcommands with ``register(subparsers)``.
-_COMMAND_MODULES = (".switching.command",)
+_COMMAND_MODULES = (".gears.command", ".switching.command")
 
 
 def _configure_logging(verbose: int) -> None:

@@ -1,0 +1,293 @@
+"""Meshes of the tooth pair: groups, gap, hubs, quality, case file, command.
+
+The mesh is read back with fe_impact's own reader (the solver's view of it)
+and checked against the gear geometry and the TCA, not against the builder's
+internals.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import tomllib
+
+import numpy as np
+import pytest
+
+from fe_impact import hertz
+from fe_impact.errors import FeImpactError, GeometryError, MeshError
+from fe_impact.gears import GearPair, build_pair, default_gearset
+from fe_impact.gears.command import register
+from fe_impact.gears.toothmesh import MIN_SICN, PairSpec, pair_key
+from fe_impact.mesh import load_mesh
+
+GAP = 5e-6
+SPEED = 0.1
+
+
+@pytest.fixture(scope="module")
+def gearset():
+    return default_gearset()
+
+
+@pytest.fixture(scope="module")
+def coarse(gearset, tmp_path_factory):
+    """Default stage-1 pair at level coarse, P2 (the CI-sized mesh), and its build time."""
+    out = tmp_path_factory.mktemp("pair_coarse")
+    t0 = time.perf_counter()
+    pair = build_pair(gearset, 1, 0.0, "coarse", 2, GAP, SPEED, out)
+    return pair, time.perf_counter() - t0
+
+
+@pytest.fixture(scope="module")
+def mesh(coarse):
+    pair, _ = coarse
+    return load_mesh(pair.mesh_path, unit="mm")
+
+
+def _local(points, origin, axes):
+    return (points - origin) @ np.asarray(axes).T
+
+
+def test_coarse_mesh_is_fast_and_small(coarse):
+    pair, seconds = coarse
+    # CI budget: "a few seconds" (measured 3-4 s on 2 cores; a retry with less
+    # anisotropy doubles it)
+    assert seconds < 30.0
+    assert 5_000 < pair.stats.n_dofs < 60_000
+    assert pair.stats.n_dofs == 3 * pair.stats.n_nodes
+
+
+def test_groups_and_elements(mesh, coarse):
+    pair, _ = coarse
+    assert set(mesh.volumes) == {"pinion", "face_gear"}
+    assert {"pinion_flank", "face_flank", "pinion_hub", "face_hub"} <= set(mesh.surfaces)
+    assert mesh.order == 2 and mesh.cells.shape[1] == 10
+    counts = pair.stats.n_elements
+    assert len(mesh.volume("pinion")) == counts["pinion"]
+    assert len(mesh.volume("face_gear")) == counts["face_gear"]
+    assert mesh.n_points == pair.stats.n_nodes
+
+
+def test_mesh_is_in_millimetres(coarse):
+    """The file holds mm (the case says unit = "mm"): the contact point at r_2 = 84 mm."""
+    import meshio
+
+    pair, _ = coarse
+    pts = meshio.read(pair.mesh_path).points
+    assert 70.0 < pts[:, 2].min() and pts[:, 2].max() < 100.0
+
+
+def _fit_quadratic(points):
+    """w = c0 + c1 s + c2 t + c3 s^2 + c4 s t + c5 t^2 by least squares; returns c."""
+    s, t, w = points.T
+    a = np.stack([np.ones_like(s), s, t, s * s, s * t, t * t], axis=1)
+    return np.linalg.lstsq(a, w, rcond=None)[0]
+
+
+def test_flanks_are_separated_by_the_gap_at_the_contact_point(mesh, coarse):
+    """Fit both flanks' nodes near the contact point by quadratics in the contact frame
+    (major, minor, normal from the TCA) and take the minimum of their difference.
+
+    The nodes lie on the exact flanks, so the only error is the quadratic fit over
+    the patch (|s| <= 0.8 mm, |t| <= 0.12 mm): the cubic terms of the pinion profile,
+    about kappa^2 t^3 ~ 1e4 * 1e-12 = 1e-8 m, a few per mille of the 5 um gap; the
+    gap itself is made by turning the pinion by h0 / l1, exact to O(h0^2 / R) ~ 1e-9 m.
+    """
+    pair, _ = coarse
+    c = pair.contact
+    axes = (pair.ellipse.major, pair.ellipse.minor, c.normal)
+    fits = {}
+    for name in ("pinion_flank", "face_flank"):
+        nodes = mesh.surface_points(name)
+        loc = _local(mesh.points[nodes], c.point, axes)
+        near = (np.abs(loc[:, 0]) < 0.8e-3) & (np.abs(loc[:, 1]) < 0.12e-3)
+        assert near.sum() >= 25
+        fits[name] = _fit_quadratic(loc[near])
+    g = fits["pinion_flank"] - fits["face_flank"]
+    hess = np.array([[2 * g[3], g[4]], [g[4], 2 * g[5]]])
+    st = np.linalg.solve(hess, -g[1:3])
+    gap = g[0] + g[1:3] @ st + 0.5 * st @ hess @ st
+    assert gap == pytest.approx(GAP, rel=0.01)
+    # the minimum is at the contact point (within a fraction of the element size)
+    assert np.all(np.abs(st) < 0.05e-3)
+
+
+def test_flank_nodes_lie_on_the_exact_flanks(mesh, coarse, gearset):
+    """Every face-flank node, P2 mid-edge nodes included, on FaceGearTooth.flank at its
+    own radius and height (above the involute band's lower end); 0.1 m coordinates:
+    a few ulp."""
+    pair, _ = coarse
+    face = GearPair.from_gearset(gearset, 1).face
+    angle = pair.contact.face_angle
+    c, s = np.cos(angle), np.sin(angle)
+    x = mesh.points[mesh.surface_points("face_flank")]
+    local = np.stack([c * x[:, 0] - s * x[:, 2], x[:, 1], s * x[:, 0] + c * x[:, 2]], axis=1)
+    low = max(face.height_range(face.face_inner)[0], face.height_range(face.face_outer)[0])
+    keep = local[:, 1] > low + 1e-5
+    exact = face.flank(np.hypot(local[keep, 0], local[keep, 2]), local[keep, 1]).points
+    assert np.abs(exact - local[keep]).max() < 1e-9  # mm file: rounding of 17 digits in mm
+
+
+def test_hub_faces_lie_where_expected(mesh, coarse, gearset):
+    """pinion_hub: the rim cylinder rho = r_root - 2 m about the pinion axis and the two
+    radial planes at +-pi/N_p from the tooth centre; face_hub: the plane
+    y = root - 2 m and the radial planes at +-pi/N_2 (rotated by phi_2).
+
+    Only the flanks are moved onto exact surfaces; other faces are carried by a
+    surface mesh through the stretch map (planes stay within a few micrometres,
+    measured 4.5 um) and mid-edge nodes are straight, so on the rim arc they sit on
+    the chord: sagitta h^2 / (8 r) with h up to the far size 3.75 mm, 94 um."""
+    pair, _ = coarse
+    summary = json.loads(pair.tca_path.read_text())
+    g = GearPair.from_gearset(gearset, 1)
+    p, f = g.pinion, g.face
+    planes = 10e-6
+    rim = p.root_radius - 2 * p.module
+    chord = (1.25 * 3e-3) ** 2 / (8 * rim) + planes
+    # pinion frame: undo Rz(pi + pi/(2 N_p) + phi) about (0, r_p, z0)
+    phi = summary["pinion_roll_angle_placed_rad"]
+    x = mesh.points[mesh.surface_points("pinion_hub")] - [0.0, p.pitch_radius, g.z0]
+    a = -(np.pi + np.pi / (2 * p.teeth) + phi)
+    xp = np.stack([np.cos(a) * x[:, 0] - np.sin(a) * x[:, 1],
+                   np.sin(a) * x[:, 0] + np.cos(a) * x[:, 1]], axis=1)
+    rho, sigma = np.hypot(*xp.T), np.arctan2(xp[:, 0], xp[:, 1])
+    on_rim = (rho > rim - chord) & (rho < rim + planes)
+    on_cut = np.abs(rho * (np.abs(sigma) - np.pi / p.teeth)) < planes
+    assert np.all(on_rim | on_cut) and on_rim.any() and on_cut.any()
+    # face gear
+    x = mesh.points[mesh.surface_points("face_hub")]
+    on_bottom = np.abs(x[:, 1] - (f.root_height - 2 * f.module)) < planes
+    on_planes = np.zeros(len(x), bool)
+    for side in (-1, 1):
+        ang = side * np.pi / f.teeth + pair.contact.face_angle
+        on_planes |= np.abs(x[:, 0] * np.cos(ang) - x[:, 2] * np.sin(ang)) < planes
+    assert np.all(on_bottom | on_planes) and on_bottom.any() and on_planes.any()
+
+
+def test_element_quality(mesh, coarse):
+    """Gmsh's minimum SICN above the builder's acceptance level, and, independently,
+    every tetrahedron's corner volume positive (Gmsh orders them positively)."""
+    pair, _ = coarse
+    assert pair.stats.min_sicn > MIN_SICN
+    assert pair.stats.mean_sicn > 0.3
+    p = mesh.points[mesh.cells[:, :4]]
+    vol = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0])
+    assert vol.min() > 0.0
+
+
+def test_case_file(coarse, gearset):
+    """Keys and values of case.toml against the gear set, the TCA and Hertz."""
+    pair, _ = coarse
+    case = tomllib.loads(pair.case_path.read_text())
+    tca = json.loads(pair.tca_path.read_text())
+    assert case["mesh"] == {"file": "pair.msh", "unit": "mm"}
+    # every number of the solver's keys is a TOML float, as the format shows them
+    numbers = [v for t in case["rigid_bodies"] for k, v in t.items() if k != "surface"
+               and k != "motion"]
+    assert all(isinstance(x, float) for v in numbers for x in (v if isinstance(v, list)
+                                                              else [v]))
+    mat = case["materials"][0]
+    assert mat["volumes"] == ["pinion", "face_gear"]
+    assert mat["youngs_modulus"] == 212e9 and mat["poisson_ratio"] == 0.289
+    assert mat["density"] == 7860.0 and mat["yield_strength"] == 835e6
+    assert case["contacts"] == [{"slave": "pinion_flank", "master": "face_flank",
+                                 "penalty": "auto"}]
+    pinion, face = case["rigid_bodies"]
+    assert pinion["surface"] == "pinion_hub" and face["surface"] == "face_hub"
+    assert pinion["direction"] == [0.0, 0.0, 1.0] and face["direction"] == [0.0, 1.0, 0.0]
+    assert pinion["point"] == [0.0, 0.0285, 0.0] and face["point"] == [0.0, 0.0, 0.0]
+    assert pinion["inertia"] == 1.96e-4 and face["inertia"] == 7.15e-3
+    # closing at the impact speed: (v_pinion - v_face) . n = -v_k, n into the pinion
+    x, n = np.array(tca["contact"]["point_m"]), np.array(tca["contact"]["normal"])
+    velocity = []
+    for body in (pinion, face):
+        arm = x - np.array(body["point"])
+        velocity.append(body["initial_velocity"] * np.cross(body["direction"], arm) @ n)
+    # the values are printed with 10 significant digits
+    assert velocity[0] - velocity[1] == pytest.approx(-SPEED, rel=1e-9)
+    # momentum split: m1 v1 + m2 v2 = 0 with m_i = I_i / l_i^2, l_i recomputed here
+    levers = [np.cross(b["direction"], x - np.array(b["point"])) @ n for b in (pinion, face)]
+    masses = [b["inertia"] / lev**2 for b, lev in zip((pinion, face), levers, strict=True)]
+    assert masses[0] * velocity[0] + masses[1] * velocity[1] == pytest.approx(0.0, abs=1e-9)
+    m_eff = masses[0] * masses[1] / (masses[0] + masses[1])
+    assert tca["masses"]["effective_mass"] == pytest.approx(m_eff, rel=1e-12)
+    # duration: 2.5 Hertz contact times of the effective mass on the equivalent radius
+    e_star = hertz.effective_modulus(212e9, 0.289)
+    hit = hertz.impact(m_eff, SPEED, tca["equivalent_radius_m"], e_star)
+    analysis = case["analysis"]
+    assert analysis["type"] == "dynamic" and analysis["integrator"] == "newmark"
+    assert analysis["time_step"] == "auto"
+    assert analysis["duration"] == pytest.approx(2.5 * hit.contact_time, rel=1e-9)
+    assert 0 < analysis["output_interval"] < analysis["duration"] / 50
+    assert tca["key"] == pair.key
+
+
+def test_key_and_reuse(coarse, gearset):
+    """Same inputs, same key; any change, another; reuse returns the files untouched."""
+    pair, _ = coarse
+    spec = PairSpec(stage=1, level="coarse", order=2, gap=GAP, impact_speed=SPEED)
+    assert pair_key(gearset, spec) == pair.key
+    other = PairSpec(stage=1, level="coarse", order=2, gap=2 * GAP, impact_speed=SPEED)
+    assert pair_key(gearset, other) != pair.key
+    stamp = pair.mesh_path.stat().st_mtime_ns
+    t0 = time.perf_counter()
+    again = build_pair(gearset, 1, 0.0, "coarse", 2, GAP, SPEED, pair.mesh_path.parent,
+                       reuse=True)
+    assert time.perf_counter() - t0 < 2.0  # TCA only, no meshing
+    assert again.key == pair.key and again.stats == pair.stats
+    assert pair.mesh_path.stat().st_mtime_ns == stamp
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, words",
+    [
+        ({"level": "medium"}, MeshError, "level"),
+        ({"order": 3}, MeshError, "order"),
+        ({"gap": -1e-6}, MeshError, "gap"),
+        ({"impact_speed": 0.0}, MeshError, "impact speed"),
+        ({"stage": 5}, GeometryError, "stage"),
+        ({"roll_angle_deg": 20.0}, GeometryError, "off the working flanks"),
+        ({"roll_angle_deg": 30.0}, GeometryError, "base circle"),
+        ({"n_face_teeth": 4}, MeshError, "n_face_teeth"),
+    ],
+)
+def test_invalid_options(gearset, tmp_path, kwargs, error, words):
+    args = {"stage": 1, "roll_angle_deg": 0.0, "level": "coarse", "order": 2, "gap": GAP,
+            "impact_speed": SPEED, **kwargs}
+    with pytest.raises(error, match=words):
+        build_pair(gearset, out_dir=tmp_path, **args)
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def _parser():
+    parser = argparse.ArgumentParser(prog="fe-impact")
+    register(parser.add_subparsers())
+    return parser
+
+
+def test_command_writes_mesh_case_summary_and_picture(tmp_path, capsys):
+    args = _parser().parse_args(["mesh", "--level", "coarse", "--order", "1", "--gap", "3",
+                                 "--impact-speed", "0.2", "--out", str(tmp_path)])
+    assert args.func(args) == 0
+    printed = capsys.readouterr().out
+    assert "Hertz ellipse" in printed and "DOFs" in printed and "wrote" in printed
+    for name in ("pair.msh", "case.toml", "tca.json", "pair.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    tca = json.loads((tmp_path / "tca.json").read_text())
+    assert tca["spec"]["gap"] == pytest.approx(3e-6) and tca["spec"]["order"] == 1
+    assert load_mesh(tmp_path / "pair.msh", unit="mm").order == 1
+    assert not list(tmp_path.glob(".*"))  # no temporary files left behind
+
+
+@pytest.mark.parametrize(
+    "argv, option",
+    [(["--level", "medium"], "--level"), (["--order", "3"], "--order"),
+     (["--gap", "-2"], "--gap"), (["--impact-speed", "0"], "--impact-speed"),
+     (["--stage", "7"], "--stage"), (["--face-teeth", "5"], "--face-teeth")],
+)
+def test_command_user_errors_name_the_option(tmp_path, argv, option):
+    args = _parser().parse_args(["mesh", *argv, "--out", str(tmp_path)])
+    with pytest.raises(FeImpactError, match=option):
+        args.func(args)

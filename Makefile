@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/python validation/hertz_static.py --out out/hertz_static
+	$(BIN)/fe-impact calibrate --level coarse --out out/calibration
 
 test: $(STAMP)
 	$(BIN)/ruff check .
@@ -26,6 +26,7 @@ test: $(STAMP)
 validate: $(STAMP)
 	$(BIN)/python validation/hertz_static.py --out out/hertz_static
 	$(BIN)/python validation/hertz_impact.py --out out/hertz_impact
+	$(BIN)/python validation/plastic_impact.py --out out/plastic_impact
 	$(BIN)/python validation/bench_static.py
 	$(BIN)/python validation/bench_dynamic.py
 

@@ -1,0 +1,48 @@
+"""End-to-end coarse calibration on a real local Dask cluster, and resuming it."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from fe_impact.cli import main
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    out = tmp_path_factory.mktemp("calibration")
+    argv = ["calibrate", "--stages", "1", "--impact-speeds", "0.05", "--level", "coarse",
+            "--workers", "1", "--out", str(out / "run"), "--cache", str(out / "cache")]
+    assert main(argv) == 0
+    return out, argv
+
+
+def test_calibration_outputs(calibrated):
+    out, _ = calibrated
+    doc = json.loads((out / "run" / "calibration.json").read_text())
+    assert doc["schema"] == "fe-impact/calibration/1"
+    (case,) = doc["cases"]
+    fe, law, tca_mass = case["fe"], case["impact"], case["effective_mass"]
+    # Elastic tooth impact below the yield speed: the FE restitution is close to 1
+    # (wave loss only) and the approach is the Hertz one within the mesh's few
+    # percent (the coarse contact mesh has 2-3 elements across the ellipse).
+    assert 0.98 < fe["restitution"] <= 1.0 + 1e-3
+    assert fe["max_approach"] == pytest.approx(case["closed_form"]["delta_max"], rel=0.15)
+    # The fitted law reproduces the FE history it was fitted to (relative RMS of force).
+    assert case["fit_quality"]["residual_force_rms"] < 0.05
+    assert 1.0 < law["exponent"] < 2.0 and law["k"] > 0 and tca_mass > 0
+    for name in ("calibration.csv", "report.md", "force_time.png", "parameters.png"):
+        assert (out / "run" / name).stat().st_size > 100, name
+    assert (out / "run" / "cases" / case["id"] / "fe" / "impact.pvd").exists()
+
+
+def test_rerun_resumes_without_recomputing(calibrated):
+    out, argv = calibrated
+    result = out / "run" / "cases" / "stage1_mesh_50mms" / "result.json"
+    stamp = result.stat().st_mtime_ns
+    (out / "run" / "calibration.json").unlink()     # as if stopped before the tables
+    assert main(argv) == 0
+    assert result.stat().st_mtime_ns == stamp         # the finished case was kept
+    doc = json.loads((out / "run" / "calibration.json").read_text())
+    assert doc["wall_time_s"] < 30.0                   # no FE impact was run again

@@ -122,8 +122,7 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
                                                       for v in vals)):
             raise CalibrationError(f"{name} {list(vals)}: need positive numbers")
     pin = gearset.pinion
-    alpha = math.radians(pin.pressure_angle_deg) if hasattr(pin, "pressure_angle_deg") \
-        else pin.pressure_angle
+    alpha = math.radians(pin.pressure_angle_deg)
     cases = []
     for s in stages:
         teeth = gearset.stages[s - 1].teeth
@@ -135,8 +134,7 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
             cases.append(ImpactCase(s, teeth, "mesh", v, float(rpm)))
             if switch and s > 1:
                 w = rpm * 2.0 * math.pi / 60.0
-                r_f = gearset.stages[s - 1].pitch_radius if hasattr(
-                    gearset.stages[s - 1], "pitch_radius") else gearset.module * teeth / 2
+                r_f = 0.5 * gearset.module * teeth
                 vs = seed_switching_speed(w, pin.pitch_radius, r_f, teeth / pin.teeth, alpha)
                 cases.append(ImpactCase(s, teeth, "switch", vs, float(rpm)))
     return cases

@@ -64,6 +64,7 @@ from .zone import (
     ContactZone,
     contact_pairs,
     face_size,
+    reference_states,
 )
 
 logger = logging.getLogger(__name__)
@@ -283,14 +284,11 @@ class SurfaceMonitor:
     """Linearised gaps of every slave node, to see faces outside the zone coming close."""
 
     def __init__(self, mesh: FEMesh, kin: Kinematics, zone: ContactZone,
-                 reach: list[float]) -> None:
-        zero = np.zeros((mesh.n_points, 3))
+                 reach: list[float], states: list) -> None:
         self.mesh, self.zone = mesh, zone
         self.pairs = []
         margins = []
-        for pair, s in zip(zone.pairs, reach, strict=True):
-            st = pair.gap_state(mesh, zero, np.arange(len(pair.slave.faces)),
-                                np.arange(len(pair.master.faces)))
+        for s, st in zip(reach, states, strict=True):
             ok = np.isfinite(st.gap)
             self.pairs.append((st.nodes[ok], st.gap[ok], (st.B[ok] @ kin.T).tocsr()))
             # Faces outside the zone started at least ``s - g0`` farther than the
@@ -378,12 +376,13 @@ class DynamicSolver:
                                    if self.explicit else PENALTY_FACTOR)
         h_min = min(face_size(self.mesh, p.slave) for p in self.pairs)
         t = time.perf_counter()
-        self._reach = [self._search_distance(s, p) for s, p in
-                       zip(case.contacts, self.pairs, strict=True)]
-        self.zone = ContactZone.initial(self.mesh, self.pairs, self._reach)
+        states = reference_states(self.mesh, self.pairs)
+        self._reach = [self._search_distance(*x) for x in
+                       zip(case.contacts, self.pairs, states, strict=True)]
+        self.zone = ContactZone.initial(self.mesh, self.pairs, self._reach, states)
         self.contact = ContactModel(self.mesh, self.model, self.kin, self.zone,
                                     REPROJECT_FRACTION * h_min)
-        self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone, self._reach)
+        self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone, self._reach, states)
         self.timings["contact_setup"] = time.perf_counter() - t
         self._probe()
         self.plastic = self._plastic_zone()
@@ -398,11 +397,9 @@ class DynamicSolver:
             self.timings["factorisation"] = time.perf_counter() - t
 
     # -- set-up --------------------------------------------------------------------
-    def _search_distance(self, spec, pair) -> float:
+    def _search_distance(self, spec, pair, st) -> float:
         if spec.search_distance is not None:
             return spec.search_distance
-        st = pair.gap_state(self.mesh, np.zeros((self.mesh.n_points, 3)),
-                            np.arange(len(pair.slave.faces)), np.arange(len(pair.master.faces)))
         g0 = float(np.min(st.gap))
         if not np.isfinite(g0):
             raise ContactError(f"contact {pair.slave.name} -> {pair.master.name}: no slave "
@@ -412,7 +409,6 @@ class DynamicSolver:
 
     def _probe(self) -> None:
         """Initial contact point and normal of the first pair, and the two sides."""
-        pair = self.pairs[0]
         st = self.contact.states[0]
         k = int(np.argmin(np.where(np.isfinite(st.gap), st.gap, np.inf)))
         self.x_contact = st.point[k].copy()
@@ -423,7 +419,6 @@ class DynamicSolver:
                                      self.x_contact, self.normal, self.model)
         self.master_side = _make_side("master", self.mesh, self.kin, self.M, spec.master,
                                       self.x_contact, self.normal, self.model)
-        del pair
 
     def _plastic_zone(self):
         """J2 plasticity on the elements near the contact, if a material has a yield strength.

@@ -61,6 +61,13 @@ def pair_modulus(mesh: FEMesh, model: ElasticModel, slave: ContactSurface,
     return effective_modulus(*props[0], *props[1])
 
 
+def reference_states(mesh: FEMesh, pairs: list[ContactPair]) -> list:
+    """Gap state of every slave node against the whole master, undeformed."""
+    zero = np.zeros((mesh.n_points, 3))
+    return [p.gap_state(mesh, zero, np.arange(len(p.slave.faces)),
+                        np.arange(len(p.master.faces))) for p in pairs]
+
+
 @dataclass
 class ContactZone:
     """Candidate contact faces of each pair (indices into the pair's surfaces)."""
@@ -70,14 +77,16 @@ class ContactZone:
     master_faces: list[np.ndarray]
 
     @classmethod
-    def initial(cls, mesh: FEMesh, pairs: list[ContactPair],
-                distances: list[float]) -> ContactZone:
-        """Slave faces with a node closer than ``distances[k]`` to the master."""
-        zero = np.zeros((mesh.n_points, 3))
+    def initial(cls, mesh: FEMesh, pairs: list[ContactPair], distances: list[float],
+                states: list | None = None) -> ContactZone:
+        """Slave faces with a node closer than ``distances[k]`` to the master.
+
+        ``states``: the pairs' :func:`reference_states`, if already computed.
+        """
+        states = states if states is not None else reference_states(mesh, pairs)
         slave_faces, master_faces = [], []
-        for pair, dist in zip(pairs, distances, strict=True):
+        for pair, dist, st in zip(pairs, distances, states, strict=True):
             all_s = np.arange(len(pair.slave.faces))
-            st = pair.gap_state(mesh, zero, all_s, np.arange(len(pair.master.faces)))
             s = max(dist, 1e-3 * face_size(mesh, pair.slave))
             near = all_s[face_min_gap(pair, st, all_s) < s]
             slave_faces.append(near)

@@ -90,7 +90,7 @@ def _explicit_case(out: Path, steps: int, plastic: bool) -> Path:
                                name="explicit_plastic.toml" if plastic else "explicit.toml")
     if plastic:
         case.write_text(case.read_text().replace(
-            "density = 7860.0", "density = 7860.0\nyield_strength = 835e6"))
+            "density = 7860\n", "density = 7860\nyield_strength = 835e6\n"))
     return case
 
 

@@ -69,8 +69,7 @@ def specimen_impact(mesh: Path, folder: Path, mass: float, speed: float, gap: fl
     case = folder / "static.toml"
     # The first steps touch on a few nodes only: a looser displacement tolerance
     # (1e-4 of the contact displacement) stops active-set cycling on them.
-    case.write_text(CASE_TEMPLATE.format(mesh=mesh.name, E=E, nu=NU,
-                                         values=[-float(d) for d in disp])
+    case.write_text(CASE_TEMPLATE.format(mesh=mesh.name, values=[-float(d) for d in disp])
                     + "\n[analysis]\ntolerance = 1e-4\nmax_iterations = 60\n")
     result = StaticSolver(load_case(case)).run()
     force = np.array([SYMMETRY * s.contact_force[0] for s in result.steps])

@@ -52,42 +52,16 @@ from fe_impact.case import load_case
 from fe_impact.io import write_csv, write_json
 from fe_impact.specimens import SphereBlockSpec, build_sphere_block
 from fe_impact.static import StaticSolver
+from validation.impact_cases import NU, SPECIMEN, E, R
 
 logger = logging.getLogger(__name__)
 
-E, NU = 212e9, 0.289
-R = 10e-3
 DISPLACEMENTS = (-5e-6, -1e-5, -1.5e-5, -2e-5, -2.5e-5)
 LEVELS = {"coarse": 0.2e-3, "medium": 0.1e-3, "fine": 0.05e-3}
 SYMMETRY = 4.0  # quarter model
 DEPTH = 2.0e-3  # axis points for the local approach: 4 contact radii at full load
 
-CASE_TEMPLATE = """\
-[mesh]
-file = "{mesh}"
-unit = "m"
-
-[[materials]]
-volumes = ["sphere", "block"]
-youngs_modulus = {E}
-poisson_ratio = {nu}
-density = 7860
-
-[[contacts]]
-slave = "sphere_contact"
-master = "block_contact"
-penalty = "auto"
-
-[[supports]]
-surface = "block_bottom"
-fix = ["z"]
-[[supports]]
-surface = "sym_x"
-fix = ["x"]
-[[supports]]
-surface = "sym_y"
-fix = ["y"]
-
+CASE_TEMPLATE = SPECIMEN + """
 [[displacements]]
 surface = "sphere_equator"
 component = "z"
@@ -112,8 +86,7 @@ def write_case(folder: Path, h_contact: float, order: int = 2,
     spec = SphereBlockSpec(radius=R, h_contact=h_contact, r_fine=0.8e-3, order=order)
     build_sphere_block(spec, folder / "sphere_block.msh")
     case = folder / "case.toml"
-    case.write_text(CASE_TEMPLATE.format(mesh="sphere_block.msh", E=E, nu=NU,
-                                         values=list(displacements)))
+    case.write_text(CASE_TEMPLATE.format(mesh="sphere_block.msh", values=list(displacements)))
     return case
 
 

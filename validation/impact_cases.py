@@ -14,15 +14,17 @@ _MATERIAL = f"""\
 volumes = {{volumes}}
 youngs_modulus = {E}
 poisson_ratio = {NU}
-density = {RHO}
+density = {RHO:g}
 """
 
-SPHERE_BLOCK = """\
+#: The quarter sphere-on-block specimen: mesh, material, contact and supports; the
+#: static and the impact cases add their loading to it.
+SPECIMEN = """\
 [mesh]
 file = "{mesh}"
 unit = "m"
 
-{material}
+""" + _MATERIAL.format(volumes='["sphere", "block"]') + """
 [[contacts]]
 slave = "sphere_contact"
 master = "block_contact"
@@ -37,7 +39,9 @@ fix = ["x"]
 [[supports]]
 surface = "sym_y"
 fix = ["y"]
+"""
 
+SPHERE_BLOCK = SPECIMEN + """
 [[initial_velocities]]
 volumes = ["sphere"]
 value = [0.0, 0.0, {v}]
@@ -85,7 +89,7 @@ def write_sphere_impact(folder: Path, mesh: Path, speed: float, duration: float,
     """
     rigid = "" if rigid_mass is None else RIGID.format(inertia=rigid_mass / 4.0, v=-speed)
     text = SPHERE_BLOCK.format(
-        mesh=mesh.name, material=_MATERIAL.format(volumes='["sphere", "block"]'), v=-speed,
+        mesh=mesh.name, v=-speed,
         rigid=rigid, integrator=integrator, duration=duration,
         time_step=f'"{time_step}"' if isinstance(time_step, str) else time_step,
         output=duration / frames)

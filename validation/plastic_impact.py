@@ -69,8 +69,8 @@ def run_speed(ratio: float, out: Path, coarse: bool = False, hardening: float = 
     case = write_sphere_impact(folder, mesh, speed, 0.05 * ref.delta_max / speed
                                + 1.6 * ref.contact_time, frames=10)
     text = case.read_text().replace(
-        "density = 7860.0", f"density = 7860.0\nyield_strength = {YIELD}\n"
-        f"hardening_modulus = {hardening}")
+        "density = 7860\n", f"density = 7860\nyield_strength = {YIELD}\n"
+        f"hardening_modulus = {hardening}\n")
     case.write_text(text)
     t = time.perf_counter()
     solver = DynamicSolver(load_case(case))

@@ -154,6 +154,9 @@ class AnalysisSpec:
     safety_factor: float = 0.9              # explicit: dt = safety * stable limit
     energy_limit: float = 0.05              # stop if energy grows by more (relative)
     plastic_zone: float | None = None       # m around the contact; None: automatic
+    # End the run this long after the bodies separate, as a fraction of the
+    # contact duration (None: run to the duration).
+    stop_after_separation: float | None = None
 
     @property
     def dynamic(self) -> bool:
@@ -355,7 +358,8 @@ def _displacements(r: _Reader, tables: list) -> tuple[DisplacementSpec, ...]:
 
 _STATIC_KEYS = {"type", "max_iterations", "tolerance"}
 _DYNAMIC_KEYS = _STATIC_KEYS | {"integrator", "duration", "time_step", "output_interval",
-                                "hht_alpha", "safety_factor", "energy_limit", "plastic_zone"}
+                                "hht_alpha", "safety_factor", "energy_limit", "plastic_zone",
+                                "stop_after_separation"}
 
 
 def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
@@ -394,8 +398,13 @@ def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
     if t.get("plastic_zone", "auto") != "auto":
         zone = r.number(t, w, "plastic_zone", low=0.0, low_open=True,
                         hint='(m, radius of the plastic zone around the contact) or "auto"')
+    stop = None
+    if "stop_after_separation" in t:
+        stop = r.number(t, w, "stop_after_separation", low=0.0,
+                        hint="(fraction of the contact duration to run on after the bodies "
+                             "separate)")
     return AnalysisSpec(kind, iters, tol, integrator, duration, dt, out_dt, alpha, safety,
-                        energy, zone)
+                        energy, zone, stop)
 
 
 def _is_real(v: Any) -> bool:

@@ -29,6 +29,9 @@ def main(argv: list[str] | None = None) -> int:
     if not hasattr(args, "func"):
         parser.print_help()
         return 0
+    from .runtime import keep_freed_memory
+
+    keep_freed_memory()
     try:
         return args.func(args)
     except FeImpactError as exc:

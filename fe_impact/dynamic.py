@@ -21,9 +21,10 @@ Integrators
 ``newmark``
     Implicit Newmark average acceleration (beta = 1/4, gamma = 1/2), or
     HHT-alpha with ``hht_alpha < 0``; consistent mass. ``K_eff`` is
-    factorised once; the contact zone is condensed with a Schur complement,
-    so contact in each step is a small dense complementarity problem solved
-    exactly (as in the static solver).
+    factorised once; the contact zone is condensed with a Schur complement
+    onto one coordinate per zone node (its contact normal, see
+    :func:`zone_frames`), so contact in each step is a small dense
+    complementarity problem solved exactly (as in the static solver).
 
 Measurements
 ------------
@@ -46,7 +47,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_info, threadpool_limits
@@ -55,7 +55,7 @@ from .case import Case, RigidBodySpec
 from .contact import GapState
 from .elasticity import assemble_mass, build_model, lumped_mass, von_mises
 from .errors import CaseError, ContactError, SolverError
-from .linalg import SPDSolver, condensed_cholesky
+from .linalg import SPDSolver, condensed_compliance
 from .mesh import FEMesh, load_mesh
 from .static import solve_penalty_lcp
 from .zone import (
@@ -219,6 +219,7 @@ class ContactModel:
         self.mesh, self.model, self.kin, self.zone = mesh, model, kin, zone
         self.tolerance = tolerance
         self.n_projections = 0
+        self.projector: sp.csr_matrix | None = None
         self.update(np.zeros(kin.n))
 
     def _point_values(self, z: np.ndarray) -> np.ndarray:
@@ -233,6 +234,9 @@ class ContactModel:
         self.active_rows = np.isfinite(self.g_ref)
         self.g_ref = np.where(self.active_rows, self.g_ref, 0.0)
         self.B = sp.diags(self.active_rows.astype(float)) @ self.B
+        self.B_full = self.B
+        if self.projector is not None:
+            self.B = (self.B @ self.projector).tocsr()
         self.eps_w = np.concatenate([p.penalty * s.weight for p, s in
                                      zip(self.zone.pairs, self.states, strict=True)])
         self.eps_w = np.where(self.active_rows, self.eps_w, 0.0)
@@ -242,6 +246,16 @@ class ContactModel:
         self.T_zone = self.kin.T[dofs]
         self.z_ref = z.copy()
         self.n_projections += 1
+
+    def set_projector(self, projector: sp.csr_matrix | None) -> None:
+        """Keep only the normal components of the zone nodes in the gap Jacobian.
+
+        ``projector`` is :func:`zone_frames`' ``n n^T`` per zone node: gaps and
+        contact forces then act along each node's surface normal (the
+        node-to-surface convention); ``None`` restores the full Jacobian.
+        """
+        self.projector = projector
+        self.B = self.B_full if projector is None else (self.B_full @ projector).tocsr()
 
     def moved(self, z: np.ndarray) -> bool:
         """True if the zone moved by more than the re-projection tolerance."""
@@ -280,8 +294,86 @@ class ContactModel:
         return p
 
 
+@dataclass(frozen=True, eq=False)
+class ZoneFrames:
+    """Normal/tangent frames of the contact-zone nodes in reduced coordinates.
+
+    ``z = R z'`` rotates the three coordinates of every zone node whose
+    components are all free into (normal, tangent, tangent), the normal
+    taking the slot of the x coordinate; ``projector = R P R^T`` keeps the
+    normal part. ``condensed`` lists the normal slots and every coordinate of
+    zone nodes that cannot be rotated (a component held by a support or a
+    rigid body), sorted.
+    """
+
+    R: sp.csr_matrix
+    projector: sp.csr_matrix
+    condensed: np.ndarray
+
+
+def zone_frames(mesh: FEMesh, kin: Kinematics, zone: ContactZone,
+                B: sp.csr_matrix) -> ZoneFrames:
+    """Frames whose normal is the direction the gaps ``B`` (rows: gaps) see each node move.
+
+    A node's normal is the principal direction of ``sum_r b_r b_r^T`` over its
+    3-vector entries ``b_r`` in the gap Jacobian: the contact normal at the
+    points it carries (the master normal, also for slave nodes). A zone node
+    no gap sees yet takes its area-weighted surface normal.
+    """
+    pts = zone.points()
+    red = -np.ones(kin.T.shape[0], dtype=np.int64)
+    red[kin.free] = np.arange(kin.n_free)
+    j = red[(3 * mesh.point_dof[pts])[:, None] + np.arange(3)]            # (np, 3)
+    free = (j >= 0).all(axis=1)
+    jf = j[free]
+    Bc = B.tocsc()
+    C = np.empty((len(jf), 3, 3))
+    cols = [Bc[:, jf[:, a]] for a in range(3)]
+    for a in range(3):
+        for b in range(a, 3):
+            C[:, a, b] = C[:, b, a] = np.asarray(cols[a].multiply(cols[b]).sum(axis=0)).ravel()
+    lam, vec = np.linalg.eigh(C)
+    n = vec[:, :, -1]
+    unseen = lam[:, -1] <= 1e-12 * max(float(lam[:, -1].max(initial=0.0)), 1e-300)
+    if unseen.any():
+        acc = np.zeros((mesh.n_points, 3))
+        for pair, sf, mf in zip(zone.pairs, zone.slave_faces, zone.master_faces, strict=True):
+            for faces in (pair.slave.faces[sf], pair.master.faces[mf]):
+                x = mesh.points[faces[:, :3]]
+                nrm = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])   # 2 x area x normal
+                np.add.at(acc, faces.ravel(), np.repeat(nrm, faces.shape[1], axis=0))
+        a = acc[pts[free][unseen]]
+        n[unseen] = a / np.maximum(np.linalg.norm(a, axis=1), 1e-300)[:, None]
+    # Tangents: any unit vector normal to n, then n x t1.
+    helper = np.where(np.abs(n[:, [0]]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t1 = np.cross(n, helper)
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    t2 = np.cross(n, t1)
+    F = np.stack([n, t1, t2], axis=2)                 # (nr, xyz, slot)
+    rows = np.broadcast_to(jf[:, :, None], F.shape).ravel()
+    cols_ = np.broadcast_to(jf[:, None, :], F.shape).ravel()
+    keep = np.ones(kin.n, dtype=bool)
+    keep[jf.ravel()] = False
+    ident = np.flatnonzero(keep)
+    rr, cc = np.concatenate([rows, ident]), np.concatenate([cols_, ident])
+    one = np.ones(len(ident))
+    R = sp.csr_matrix((np.concatenate([F.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
+    nn = n[:, :, None] * n[:, None, :]               # (nr, 3, 3)
+    P = sp.csr_matrix((np.concatenate([nn.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
+    other = j[~free]
+    condensed = np.unique(np.concatenate([jf[:, 0], other[other >= 0]]))
+    return ZoneFrames(R, P, condensed)
+
+
 class SurfaceMonitor:
-    """Linearised gaps of every slave node, to see faces outside the zone coming close."""
+    """Linearised gaps of every slave node, to see faces outside the zone coming close.
+
+    The zone grows when the smallest gap outside it, extrapolated to the check
+    after next at the rate it closed since the last check, falls below
+    :attr:`margin` (a quarter of the zone's reach beyond the first contact,
+    at most a quarter of a face): a face joins before it can touch, and a
+    zone that merely has neighbours a few microns away is left alone.
+    """
 
     def __init__(self, mesh: FEMesh, kin: Kinematics, zone: ContactZone,
                  reach: list[float], states: list) -> None:
@@ -291,19 +383,40 @@ class SurfaceMonitor:
         for s, st in zip(reach, states, strict=True):
             ok = np.isfinite(st.gap)
             self.pairs.append((st.nodes[ok], st.gap[ok], (st.B[ok] @ kin.T).tocsr()))
-            # Faces outside the zone started at least ``s - g0`` farther than the
-            # closest node; act when one has closed half of that.
-            margins.append(0.5 * max(s - float(np.min(st.gap[ok])), 0.0))
-        self.margin = min(min(margins), 0.5 * min(face_size(mesh, p.slave)
-                                                  for p in zone.pairs))
+            margins.append(0.25 * max(s - float(np.min(st.gap[ok])), 0.0))
+        self.margin = min(min(margins), 0.25 * min(face_size(mesh, p.slave)
+                                                   for p in zone.pairs))
+        #: Smallest linearised gap outside the zone seen so far (m).
+        self.closest = math.inf
+        self.closing = 0.0    # closure of that gap since the last check (m)
+        self._last = None
 
-    def close_outside(self, z: np.ndarray) -> bool:
+    def outside_gap(self, z: np.ndarray) -> float:
+        """Smallest linearised gap of the slave nodes outside the zone (m)."""
+        g_min = math.inf
         for k, (nodes, g0, B) in enumerate(self.pairs):
             inside = np.isin(nodes, self.zone.pairs[k].slave.faces[self.zone.slave_faces[k]])
-            g = g0[~inside] + B[~inside] @ z
-            if g.size and g.min() < self.margin:
-                return True
-        return False
+            if np.any(~inside):
+                g_min = min(g_min, float((g0[~inside] + B[~inside] @ z).min()))
+        return g_min
+
+    def close_outside(self, z: np.ndarray) -> bool:
+        g = self.outside_gap(z)
+        if not math.isfinite(g):
+            return False
+        self.closest = min(self.closest, g)
+        self.closing = max(self._last - g, 0.0) if self._last is not None else 0.0
+        self._last = g
+        return g - 2.0 * self.closing < self.margin
+
+    def grow_margin(self) -> float:
+        """Gap below which faces outside join the zone once it has to grow (m)."""
+        self._last = None   # the faces outside change
+        return 2.0 * (self.margin + 2.0 * self.closing)
+
+
+class _Separated(Exception):
+    """Raised by the step recorder to end a run after the bodies separate."""
 
 
 # -- results -----------------------------------------------------------------------
@@ -500,11 +613,28 @@ class DynamicSolver:
         self._condense()
 
     def _condense(self) -> None:
-        cols = np.unique(self.contact.T_zone.indices)
-        self.cond = cols
-        self.L_schur = condensed_cholesky(self.K_eff, cols)
+        """Schur complement of ``K_eff`` on the zone nodes' normal coordinates.
+
+        The gap Jacobian keeps only each zone node's normal component (see
+        :func:`zone_frames`), so the condensed compliance has one coordinate per
+        node instead of three: a third of the size, a 27th of the factorisation
+        work. What is
+        dropped is the tangential coupling ``(n_q - n_a) . du_a`` within a
+        node's support, of relative size h / R (h the face size, R the relative
+        radius of curvature), and the gaps are re-projected exactly whenever the
+        zone has deformed by 5% of a face.
+        """
+        frames = zone_frames(self.mesh, self.kin, self.zone, self.contact.B_full)
+        self.contact.set_projector(frames.projector)
+        self.R = frames.R
+        self.cond = frames.condensed
+        K_rot = (frames.R.T @ self.K_eff @ frames.R).tocsr()
+        # The compliance G once per zone; after each projection B G B^T is then a
+        # sparse-dense product (a triangular solve with the Schur factor per
+        # projection cost 4.5 s on a 145k-DOF tooth pair, this 0.5 s).
+        self.G_zone = condensed_compliance(K_rot, self.cond)
         self._delassus_at = -1   # B G B^T, rebuilt after each projection
-        logger.info("contact zone: %d reduced DOFs condensed", len(cols))
+        logger.info("contact zone: %d reduced coordinates condensed", len(self.cond))
 
     # -- integration ---------------------------------------------------------------
     def run(self, frame_hook: Callable[[Frame], None] | None = None,
@@ -551,7 +681,8 @@ class DynamicSolver:
             hist["plastic_dissipation"].append(dis)
             hist["total_energy"].append(total)
             self._check(n, t, total, z)
-            if t >= state["next_out"] - 0.5 * self.dt or n == n_steps:
+            done = self._separated(state, t, hist["contact_force"][-1], hist["approach"][-1])
+            if t >= state["next_out"] - 0.5 * self.dt or n == n_steps or done:
                 out_idx.append(len(hist["time"]) - 1)
                 state["next_out"] += out_dt
                 self._frames.append(t)
@@ -559,6 +690,8 @@ class DynamicSolver:
                     frame_hook(self._frame(t, z, v, lam))
                 if progress is not None:
                     progress(min(t / a.duration, 1.0))
+            if done:
+                raise _Separated
 
         try:
             # Steps are many small vector operations: OpenBLAS threads waking for each
@@ -567,11 +700,32 @@ class DynamicSolver:
             with threadpool_limits(limits={i["prefix"]: 1 for i in threadpool_info()
                                            if i["internal_api"] == "openblas"}):
                 step(n_steps, record)
+        except _Separated:
+            logger.info("stopped at t = %.6g s, %.3g contact durations after separation",
+                        hist["time"][-1], a.stop_after_separation)
         finally:
             self.timings["integration"] = time.perf_counter() - t0
             self.history = {k: np.asarray(v) for k, v in hist.items()}
             self.output_index = np.asarray(out_idx, dtype=np.int64)
         return self.result()
+
+    def _separated(self, state: dict, t: float, force: float, approach: float) -> bool:
+        """True once the bodies have been apart for ``stop_after_separation`` x the contact.
+
+        Apart means no contact force and a negative approach (they have moved
+        past the position of first touch), so a node chattering at first touch
+        does not count as a separation.
+        """
+        frac = self.case.analysis.stop_after_separation
+        if frac is None:
+            return False
+        if force > 0.0:
+            state.setdefault("first_on", t)
+            state["last_on"] = t
+            return False
+        if "last_on" not in state or approach >= 0.0:
+            return False
+        return t - state["last_on"] >= frac * (state["last_on"] - state["first_on"])
 
     def _check(self, n: int, t: float, total: float, z: np.ndarray) -> None:
         e0 = self._energy0
@@ -618,7 +772,7 @@ class DynamicSolver:
         if not self.monitor.close_outside(z):
             return False
         up = self.model.point_values(self.kin.T @ z)
-        if not self.zone.grow(self.mesh, up, margin=2.0 * self.monitor.margin):
+        if not self.zone.grow(self.mesh, up, margin=self.monitor.grow_margin()):
             return False
         self.n_zone_growth += 1
         self.contact.update(z)
@@ -739,10 +893,9 @@ class DynamicSolver:
             return np.zeros(len(h)), z_star, None
         ok = c.active_rows
         if self._delassus_at != c.n_projections:
-            Bc = c.B[:, self.cond][ok]
-            W = sla.solve_triangular(self.L_schur, Bc.T.toarray(), lower=True,
-                                     check_finite=False)
-            self._delassus = (1.0 + alpha) * (W.T @ W)
+            Bc = (c.B @ self.R)[:, self.cond][ok].tocsr()
+            BG = Bc @ self.G_zone
+            self._delassus = (1.0 + alpha) * np.asarray(Bc @ BG.T)
             self._delassus_at = c.n_projections
         lam = np.zeros(len(h))
         lam[ok], _ = solve_penalty_lcp(None, None, h[ok], c.eps_w[ok],
@@ -764,6 +917,7 @@ class DynamicSolver:
             "time_step": self.dt,
             "stable_time_step": self.dt_stable,
             "steps": int(len(h["time"]) - 1),
+            "end_time": float(h["time"][-1]) if len(h["time"]) else 0.0,
             "mass": "HRZ lumped" if self.explicit else "consistent",
             "n_dofs": int(self.model.n_dofs),
             "n_reduced_dofs": int(self.kin.n),
@@ -774,6 +928,8 @@ class DynamicSolver:
             "contact_zone_nodes": int(len(self.contact.g_ref)),
             "projections": int(self.contact.n_projections),
             "zone_growths": int(self.n_zone_growth),
+            "zone_clearance": (self.monitor.closest if math.isfinite(self.monitor.closest)
+                               else None),
             "contact_point": self.x_contact.tolist(),
             "contact_normal": self.normal.tolist(),
             "initial_gap": self.initial_gap,

@@ -120,8 +120,13 @@ class ContactZone:
                 logger.info("contact %s: %d faces outside the search zone come close; "
                             "enlarging it", pair.slave.name, len(bad))
                 self.slave_faces[k] = np.union1d(self.slave_faces[k], bad)
-                s = max(margin, 0.0) + 2.0 * face_size(mesh, pair.slave, stat=np.max)
                 pts = np.unique(pair.slave.faces[bad])
+                # Master faces within two of the added faces' own size: the
+                # surface's largest face (far from the contact) would take in
+                # a wide band of small master faces.
+                x = mesh.points[pair.slave.faces[bad][:, :3]]
+                size = float(np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2).max())
+                s = max(margin, 0.0) + 2.0 * size
                 self.master_faces[k] = np.union1d(
                     self.master_faces[k], master_near(mesh, pair, up[pts] + mesh.points[pts], s))
                 grew = True

@@ -73,6 +73,26 @@ def test_sdof_energy_restitution_and_peak(tmp_path, integrator):
     assert m["max_approach"] == pytest.approx(SPEED / OMEGA, rel=1e-3)
 
 
+@pytest.mark.parametrize("integrator", ["newmark", "explicit"])
+def test_run_stops_after_separation(tmp_path, integrator):
+    """``stop_after_separation = 0.25`` ends the run a quarter contact after separation.
+
+    The rebound velocity is momentum over mass, constant once the force has
+    vanished, so the measurements equal those of the full run; the end time is
+    separation + 0.25 t_c within a step.
+    """
+    dt = T_CONTACT / 64
+    _, full = run_sdof(tmp_path / "full", integrator, dt)
+    _, short = run_sdof(tmp_path / "short", integrator, dt,
+                        extra="stop_after_separation = 0.25")
+    m = short.measurements
+    assert short.info["end_time"] == pytest.approx(
+        m["separation"] + 0.25 * m["contact_duration"], abs=1.5 * dt)
+    assert short.info["end_time"] < 0.8 * full.info["end_time"]
+    for key in ("peak_force", "contact_duration", "restitution"):
+        assert m[key] == pytest.approx(full.measurements[key], rel=1e-9)
+
+
 def test_explicit_stable_step_matches_closed_form(tmp_path):
     solver, _ = run_sdof(tmp_path, "explicit", T_CONTACT / 16)
     # One DOF: the limit is exactly 2 / omega.
@@ -143,6 +163,52 @@ def test_coarse_hemisphere_impact_against_hertz(tmp_path):
     # free sphere; far less with a rigid mass behind it) and integrator error.
     assert 0.99 < meas["restitution"] <= 1.0 + 1e-3
     assert meas["energy_error"] < 0.01
+
+
+def test_contact_zone_grows_before_faces_outside_touch(tmp_path):
+    """A search distance far below the approach: the zone must grow during the impact.
+
+    The coarse hemisphere impact with a 2 um search distance (the approach is
+    about 20 um) starts from a zone of a few faces. Faces outside are watched
+    through linearised gaps and join before they touch, so the run must give
+    the same impact as with the automatic zone: the penalty LCP is exact for
+    the linearised gaps either way, and only the re-projection points differ
+    (measured: peak force and contact time within 0.1%).
+    """
+    mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
+    m = 0.5 + 2.0 / 3.0 * math.pi * R ** 3 * RHO
+    ref = hertz.impact(m, 1.0, R, hertz.effective_modulus(212e9, 0.289))
+    runs = {}
+    for name, extra in (("auto", ""), ("small", "search_distance = 2e-6")):
+        case = write_sphere_impact(tmp_path, mesh, 1.0, 1.4 * ref.contact_time,
+                                   rigid_mass=0.5, frames=10, name=f"{name}.toml")
+        case.write_text(case.read_text().replace('penalty = "auto"',
+                                                 f'penalty = "auto"\n{extra}'))
+        runs[name] = DynamicSolver(load_case(case)).run()
+    small, auto = runs["small"], runs["auto"]
+    assert small.info["zone_growths"] >= 1
+    assert auto.info["zone_growths"] == 0
+    for key in ("peak_force", "max_approach", "contact_duration"):
+        assert small.measurements[key] == pytest.approx(auto.measurements[key], rel=2e-3)
+
+
+def test_normal_condensation_is_exact_on_a_flat_master(tmp_path):
+    """Newmark keeps one (normal) coordinate per zone node in the gap Jacobian.
+
+    Against a flat master every gap row moves its nodes along the master normal
+    (for the slave nodes too, though the sphere's own normal tilts by up to
+    r/R), so the frames must find that normal and the projection must drop
+    nothing: the projected Jacobian equals the full one to rounding.
+    """
+    mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
+    case = write_sphere_impact(tmp_path, mesh, 1.0, 1e-5, rigid_mass=0.5, frames=2)
+    solver = DynamicSolver(load_case(case))
+    c = solver.contact
+    full, projected = c.B_full.toarray(), c.B.toarray()
+    assert np.abs(projected - full).max() < 1e-9 * np.abs(full).max()
+    # One condensed coordinate per zone node, except the nodes on the symmetry
+    # planes, which keep their free components unrotated.
+    assert len(solver.cond) < 0.5 * 3 * len(solver.zone.points())
 
 
 DYNAMIC_BAD = [

@@ -82,6 +82,7 @@ from fe_impact.gears.tca import (
 logger = logging.getLogger(__name__)
 
 __all__ = [
+    "hertz_impact_estimate",
     "LEVELS",
     "ContactStretch",
     "MeshLevel",
@@ -97,7 +98,7 @@ REPORT_FORCES = (37.0, 100.0, 1000.0)
 #: Contact time multiple simulated (DESIGN: about 2.5 Hertz contact times).
 DURATION_FACTOR = 2.5
 #: Output frames per Hertz contact time.
-FRAMES_PER_CONTACT = 50
+FRAMES_PER_CONTACT = 20
 VELOCITY_SPLITS = ("momentum", "pinion", "face_gear")
 #: Smallest element quality accepted (gmsh's minimum signed inverse condition
 #: number; 0 is a degenerate element). Below it the mesh is made again with
@@ -732,6 +733,17 @@ def _design(gearset, spec: PairSpec, max_stretch: float | None = None) -> _Desig
         velocities=_velocities(spec, masses), sizes=sizes,
         stretch=_stretch(contact, spec, ellipse, sizes),
     )
+
+
+def hertz_impact_estimate(gearset, stage: int, roll_angle_deg: float, impact_speed: float):
+    """Hertz impact of a stage's tooth pair at the TCA contact, without meshing.
+
+    Returns the :func:`fe_impact.hertz.impact` result (``delta_max``,
+    ``force_max``, ``contact_time``) for the effective mass and the equivalent
+    radius of the contact at ``roll_angle_deg``.
+    """
+    spec = PairSpec(stage=stage, roll_angle_deg=roll_angle_deg, impact_speed=impact_speed)
+    return _design(gearset, spec).impact
 
 
 # -- building the model ---------------------------------------------------------------------------

@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/fe-impact calibrate --level coarse --out out/calibration
+	$(BIN)/fe-impact calibrate --out out/calibration
 
 test: $(STAMP)
 	$(BIN)/ruff check .

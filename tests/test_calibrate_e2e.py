@@ -46,3 +46,40 @@ def test_rerun_resumes_without_recomputing(calibrated):
     assert result.stat().st_mtime_ns == stamp         # the finished case was kept
     doc = json.loads((out / "run" / "calibration.json").read_text())
     assert doc["wall_time_s"] < 30.0                   # no FE impact was run again
+
+
+def test_ctrl_c_keeps_finished_cases_and_rerun_completes(calibrated, tmp_path):
+    """Ctrl-C during a sweep: exit status 130, finished cases kept, a rerun does the rest.
+
+    A real SIGINT to the command line, sent once the first of two cases has
+    written its result; with one worker the second case is still running.
+    """
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    cache = calibrated[0] / "cache"          # the first case's mesh is already there
+    argv = ["calibrate", "--stages", "1", "--impact-speeds", "0.05,0.08", "--level", "coarse",
+            "--workers", "1", "--out", str(tmp_path / "run"), "--cache", str(cache)]
+    exe = Path(sys.executable).with_name("fe-impact")
+    proc = subprocess.Popen([str(exe), *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    first = tmp_path / "run" / "cases" / "stage1_mesh_50mms" / "result.json"
+    deadline = time.monotonic() + 300
+    while not first.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert first.exists(), proc.communicate()[1][-2000:]
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err[-2000:]
+    assert "interrupted" in err
+    assert not (tmp_path / "run" / "calibration.json").exists()
+    stamp = first.stat().st_mtime_ns
+    json.loads(first.read_text())                          # complete, not half-written
+    assert main(argv) == 0
+    assert first.stat().st_mtime_ns == stamp                # kept, not recomputed
+    doc = json.loads((tmp_path / "run" / "calibration.json").read_text())
+    assert [c["id"] for c in doc["cases"]] == ["stage1_mesh_50mms", "stage1_mesh_80mms"]

@@ -71,7 +71,8 @@ UNITS = {"impact_speed": "m/s", "speed_rpm": "r/min", "effective_mass": "kg",
          "peak_force": "N", "max_approach": "m", "contact_time": "s", "restitution": "-",
          "energy_lost": "-", "stiffness_k": "N/m^stiffness_exponent",
          "mesh_stiffness": "N/m", "k": "N/m^exponent", "exponent": "-", "cmax": "N s/m",
-         "d": "m", "chi": "-", "seconds": "s"}
+         "d": "m", "chi": "-", "seconds": "s", "v_y_eq15": "m/s",
+         "v_y_energy": "m/s", "seed_eq14": "-", "yield_ratio_eq15": "-"}
 
 
 @dataclass(frozen=True)
@@ -215,7 +216,8 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
         timings["fe_output"] = output[0]
         timings["fe_steps"] = timings["fe"] - timings["fe_setup"] - output[0]
     t = time.perf_counter()
-    record = measure_and_fit(case, result, solver.effective_mass, settings, pair)
+    record = measure_and_fit(case, result, solver.effective_mass, settings, pair,
+                             gearset.material)
     timings["fit"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     record.update({"id": case.id, "hash": key, "timings_s": timings,
@@ -260,7 +262,8 @@ def _prepared_case(pair, settings: Settings) -> Path:
     return out
 
 
-def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, pair) -> dict:
+def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, pair,
+                    material) -> dict:
     """Measurements of one FE impact and the fitted/closed-form law parameters."""
     from . import fitting
 
@@ -299,6 +302,7 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
                                             k=k_hertz)
     return {
         "stage": case.stage, "face_teeth": case.face_teeth, "kind": case.kind,
+        "restitution_models": restitution_models(material, mass, tca, speed),
         "speed_rpm": case.speed_rpm, "impact_speed": case.impact_speed,
         "effective_mass": mass, "fe": fe,
         "impact": {"k": fit.k, "exponent": fit.exponent, "cmax": fit.cmax, "d": fit.d},
@@ -308,6 +312,24 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
         "hysteresis_chi": {k: _plain(v) for k, v in fitting.hysteresis_chis(e).items()},
         "differences": _plain(fitting.compare(fit, closed)),
     }
+
+
+def restitution_models(material, mass: float, tca: dict, speed: float) -> dict:
+    """The seed's eq. 14 restitution at this impact, with two yield-onset speeds.
+
+    ``v_y_eq15`` is the seed's eq. 15 (a solid sphere of the gear steel,
+    independent of size and mass); ``v_y_energy`` the energy form for this
+    tooth pair's effective mass and equivalent radius (DESIGN.md section 4).
+    """
+    from . import hertz
+
+    e_star, radius = tca["effective_modulus_Pa"], tca["equivalent_radius_m"]
+    vy15 = hertz.yield_onset_speed(material.yield_strength, material.density, e_star)
+    vye = hertz.yield_onset_speed_energy(material.yield_strength, mass, radius, e_star)
+    return {"v_y_eq15": vy15, "v_y_energy": vye,
+            "yield_ratio_eq15": speed / vy15, "yield_ratio_energy": speed / vye,
+            "seed_eq14": hertz.seed_restitution(speed / vy15),
+            "seed_eq14_energy": hertz.seed_restitution(speed / vye)}
 
 
 def _plain(obj) -> dict:

@@ -451,3 +451,39 @@ def yield_onset_speed(Y: float, rho: float, E_star: float) -> float:
     rho = _require_positive("rho", rho)
     E_star = _require_positive("E_star", E_star)
     return float(np.sqrt(26.0 * Y**5 / (rho * E_star**4)))
+
+
+def seed_restitution(yield_ratio: ArrayLike) -> np.ndarray | float:
+    """The seed's restitution law (its eq. 14, after Johnson's model).
+
+    ``e = 1`` for ``j <= 1`` and ``e = 1 - 0.035 ln(j) j^0.1645`` above, with
+    ``j = v / v_y`` the impact speed over the yield-onset speed (eq. 15). It
+    gives 0.97, 0.93, 0.88, 0.79, 0.66 at j = 2, 5, 10, 30, 100; the seed
+    states it up to the shallow-indentation limit v_l ~ 100 m/s.
+    """
+    j = np.asarray(yield_ratio, dtype=float)
+    if np.any(~np.isfinite(j)) or np.any(j < 0.0):
+        raise ValueError(f"yield_ratio must be finite and >= 0, got {yield_ratio!r}")
+    jj = np.maximum(j, 1.0)
+    e = np.where(j <= 1.0, 1.0, 1.0 - 0.035 * np.log(jj) * jj ** 0.1645)
+    return float(e) if e.ndim == 0 else e
+
+
+def yield_onset_speed_energy(Y: float, mass: float, R: float, E_star: float) -> float:
+    """Yield-onset speed of a Hertzian impact from its energy (DESIGN.md section 4).
+
+    The impact first yields when the Hertz peak pressure reaches
+    ``p_y = 1.6 Y``, at the approach ``delta_y = R (pi p_y / (2 E*))^2``; the
+    kinetic energy that produces it is ``(2/5) K delta_y^2.5`` with
+    ``K = (4/3) E* sqrt(R)``, so ``v_y = sqrt(4 K delta_y^2.5 / (5 m))``. For
+    a solid sphere of radius R and its own mass this is eq. 15's
+    ``sqrt(26 Y^5 / (rho E*^4))`` to within Johnson's rounding (25.5 -> 26);
+    for a gear tooth it uses the pair's effective mass and equivalent radius.
+    """
+    Y = _require_positive("Y", Y)
+    mass = _require_positive("mass", mass)
+    R = _require_positive("R", R)
+    E_star = _require_positive("E_star", E_star)
+    delta_y = R * (np.pi * 1.6 * Y / (2.0 * E_star)) ** 2
+    k = sphere_stiffness(R, E_star)
+    return float(np.sqrt(4.0 * k * delta_y ** 2.5 / (5.0 * mass)))

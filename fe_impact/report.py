@@ -62,6 +62,22 @@ def write_calibration_report(out: Path, doc: dict) -> Path:
                      f"{_fmt(i['d'], '.4g', 1e6)} | {_fmt(cf.get('d'), '.4g', 1e6)} | "
                      f"{_fmt(q.get('residual_force_rms'), '.2%')} | "
                      f"{_fmt(q.get('restitution_error'), '.2e')} |")
+    with_models = [c for c in cases if c.get("restitution_models")]
+    if with_models:
+        lines += ["", "## Restitution against the seed's eq. 14", "",
+                  "FE: elastic-plastic (J2) teeth. eq. 14 with the yield-onset speed of eq. 15 "
+                  "(a solid sphere of the steel) and of the energy form with this pair's "
+                  "effective mass and equivalent radius.", "",
+                  "| case | v (m/s) | e FE | v_y eq. 15 (m/s) | v/v_y | e eq. 14 | "
+                  "v_y energy (m/s) | v/v_y | e eq. 14 |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for c in with_models:
+            r = c["restitution_models"]
+            lines.append(f"| {c['id']} | {c['impact_speed']:.4g} | "
+                         f"{c['fe']['restitution']:.4f} | {r['v_y_eq15']:.4g} | "
+                         f"{r['yield_ratio_eq15']:.3g} | {r['seed_eq14']:.4f} | "
+                         f"{r['v_y_energy']:.4g} | {r['yield_ratio_energy']:.3g} | "
+                         f"{r['seed_eq14_energy']:.4f} |")
     lines += ["", "## Hysteresis models: chi for the measured restitution", ""]
     models = sorted({k for c in cases for k in c["hysteresis_chi"]})
     if models:
@@ -146,20 +162,33 @@ def _plot_parameters(out: Path, cases: list[dict], path: Path) -> bool:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(2, 2, figsize=(11, 8))
+    fig, ax = plt.subplots(2, 3, figsize=(15, 8))
     keys = (("k", "k (N/m^exponent)"), ("exponent", "exponent"), ("cmax", "cmax (N s/m)"),
             ("d", "d (m)"))
+    panels = ax.ravel()
     for stage in sorted({c["stage"] for c in cases}):
         cs = sorted((c for c in cases if c["stage"] == stage), key=lambda c: c["impact_speed"])
         v = [c["impact_speed"] for c in cs]
-        for a, (k, label) in zip(ax.ravel(), keys, strict=True):
+        for a, (k, label) in zip(panels[:4], keys, strict=True):
             line, = a.plot(v, [c["impact"][k] for c in cs], "o-", label=f"stage {stage} fit")
             a.plot(v, [c["closed_form"].get(k, np.nan) for c in cs], "s--",
                    color=line.get_color(), label=f"stage {stage} closed form")
             a.set(xlabel="impact speed (m/s)", ylabel=label, xscale="log")
-    for a in ax.ravel():
+        a = panels[4]
+        line, = a.plot(v, [c["fe"]["restitution"] for c in cs], "o-",
+                       label=f"stage {stage} FE")
+        models = [c.get("restitution_models") or {} for c in cs]
+        a.plot(v, [r.get("seed_eq14", np.nan) for r in models], "s--",
+               color=line.get_color(), label=f"stage {stage} eq. 14 (v_y eq. 15)")
+        a.plot(v, [r.get("seed_eq14_energy", np.nan) for r in models], "^:",
+               color=line.get_color(), label=f"stage {stage} eq. 14 (v_y energy)")
+        a.set(xlabel="impact speed (m/s)", ylabel="restitution e", xscale="log",
+              title="restitution")
+    for a in panels[:5]:
         a.grid(alpha=0.3)
-    ax[0, 0].legend(fontsize=7)
+    panels[0].legend(fontsize=7)
+    panels[4].legend(fontsize=7)
+    panels[5].axis("off")
     fig.suptitle("IMPACT parameters against impact speed")
     fig.tight_layout()
     with atomic_path(path) as tmp:

@@ -53,9 +53,8 @@ def thornton(ratio: float) -> float:
 
 
 def seed_eq14(ratio: float) -> float:
-    """The seed's eq. 14 at V/V_y (values quoted in DESIGN.md section 6)."""
-    pts = {2.0: 0.97, 5.0: 0.93, 10.0: 0.88, 30.0: 0.79, 100.0: 0.66}
-    return float(np.interp(math.log(ratio), np.log(list(pts)), list(pts.values())))
+    """The seed's eq. 14 at V/V_y (:func:`fe_impact.hertz.seed_restitution`)."""
+    return hertz.seed_restitution(ratio)
 
 
 def run_speed(ratio: float, out: Path, coarse: bool = False, hardening: float = 0.0) -> dict:

@@ -72,7 +72,7 @@ UNITS = {"impact_speed": "m/s", "speed_rpm": "r/min", "effective_mass": "kg",
          "energy_lost": "-", "stiffness_k": "N/m^stiffness_exponent",
          "mesh_stiffness": "N/m", "k": "N/m^exponent", "exponent": "-", "cmax": "N s/m",
          "d": "m", "chi": "-", "seconds": "s", "v_y_eq15": "m/s",
-         "v_y_energy": "m/s", "seed_eq14": "-", "yield_ratio_eq15": "-"}
+         "v_y_tooth": "m/s", "seed_eq14": "-", "yield_ratio_eq15": "-"}
 
 
 @dataclass(frozen=True)
@@ -318,18 +318,22 @@ def restitution_models(material, mass: float, tca: dict, speed: float) -> dict:
     """The seed's eq. 14 restitution at this impact, with two yield-onset speeds.
 
     ``v_y_eq15`` is the seed's eq. 15 (a solid sphere of the gear steel,
-    independent of size and mass); ``v_y_energy`` the energy form for this
-    tooth pair's effective mass and equivalent radius (DESIGN.md section 4).
+    independent of size and mass). ``v_y_tooth`` is the speed at which this
+    tooth pair's Hertz impact (TCA ellipse, effective mass) reaches the
+    yield-onset pressure ``p0 = 1.6 Y``: the peak force grows as ``v^1.2``
+    and ``p0`` as ``F^(1/3)``, so ``v_y = v (1.6 Y / p0(v))^2.5``.
     """
     from . import hertz
 
-    e_star, radius = tca["effective_modulus_Pa"], tca["equivalent_radius_m"]
-    vy15 = hertz.yield_onset_speed(material.yield_strength, material.density, e_star)
-    vye = hertz.yield_onset_speed_energy(material.yield_strength, mass, radius, e_star)
-    return {"v_y_eq15": vy15, "v_y_energy": vye,
-            "yield_ratio_eq15": speed / vy15, "yield_ratio_energy": speed / vye,
+    vy15 = hertz.yield_onset_speed(material.yield_strength, material.density,
+                                   tca["effective_modulus_Pa"])
+    ell, hit = tca["design_ellipse"], tca["impact"]
+    p0 = ell["p0_Pa"] * (hit["force_max_N"] / ell["force_N"]) ** (1.0 / 3.0)
+    vyt = hit["speed_m_s"] * (1.6 * material.yield_strength / p0) ** 2.5
+    return {"v_y_eq15": vy15, "v_y_tooth": vyt,
+            "yield_ratio_eq15": speed / vy15, "yield_ratio_tooth": speed / vyt,
             "seed_eq14": hertz.seed_restitution(speed / vy15),
-            "seed_eq14_energy": hertz.seed_restitution(speed / vye)}
+            "seed_eq14_tooth": hertz.seed_restitution(speed / vyt)}
 
 
 def _plain(obj) -> dict:

@@ -467,23 +467,3 @@ def seed_restitution(yield_ratio: ArrayLike) -> np.ndarray | float:
     jj = np.maximum(j, 1.0)
     e = np.where(j <= 1.0, 1.0, 1.0 - 0.035 * np.log(jj) * jj ** 0.1645)
     return float(e) if e.ndim == 0 else e
-
-
-def yield_onset_speed_energy(Y: float, mass: float, R: float, E_star: float) -> float:
-    """Yield-onset speed of a Hertzian impact from its energy (DESIGN.md section 4).
-
-    The impact first yields when the Hertz peak pressure reaches
-    ``p_y = 1.6 Y``, at the approach ``delta_y = R (pi p_y / (2 E*))^2``; the
-    kinetic energy that produces it is ``(2/5) K delta_y^2.5`` with
-    ``K = (4/3) E* sqrt(R)``, so ``v_y = sqrt(4 K delta_y^2.5 / (5 m))``. For
-    a solid sphere of radius R and its own mass this is eq. 15's
-    ``sqrt(26 Y^5 / (rho E*^4))`` to within Johnson's rounding (25.5 -> 26);
-    for a gear tooth it uses the pair's effective mass and equivalent radius.
-    """
-    Y = _require_positive("Y", Y)
-    mass = _require_positive("mass", mass)
-    R = _require_positive("R", R)
-    E_star = _require_positive("E_star", E_star)
-    delta_y = R * (np.pi * 1.6 * Y / (2.0 * E_star)) ** 2
-    k = sphere_stiffness(R, E_star)
-    return float(np.sqrt(4.0 * k * delta_y ** 2.5 / (5.0 * mass)))

@@ -62,22 +62,23 @@ def write_calibration_report(out: Path, doc: dict) -> Path:
                      f"{_fmt(i['d'], '.4g', 1e6)} | {_fmt(cf.get('d'), '.4g', 1e6)} | "
                      f"{_fmt(q.get('residual_force_rms'), '.2%')} | "
                      f"{_fmt(q.get('restitution_error'), '.2e')} |")
-    with_models = [c for c in cases if c.get("restitution_models")]
+    with_models = [c for c in cases if "v_y_tooth" in (c.get("restitution_models") or {})]
     if with_models:
         lines += ["", "## Restitution against the seed's eq. 14", "",
                   "FE: elastic-plastic (J2) teeth. eq. 14 with the yield-onset speed of eq. 15 "
-                  "(a solid sphere of the steel) and of the energy form with this pair's "
-                  "effective mass and equivalent radius.", "",
+                  "(a solid sphere of the steel) and with this tooth pair's own: the speed at "
+                  "which its Hertz impact (TCA ellipse, effective mass) reaches p0 = 1.6 Y.",
+                  "",
                   "| case | v (m/s) | e FE | v_y eq. 15 (m/s) | v/v_y | e eq. 14 | "
-                  "v_y energy (m/s) | v/v_y | e eq. 14 |",
+                  "v_y tooth (m/s) | v/v_y | e eq. 14 |",
                   "|---|---|---|---|---|---|---|---|---|"]
         for c in with_models:
             r = c["restitution_models"]
             lines.append(f"| {c['id']} | {c['impact_speed']:.4g} | "
                          f"{c['fe']['restitution']:.4f} | {r['v_y_eq15']:.4g} | "
                          f"{r['yield_ratio_eq15']:.3g} | {r['seed_eq14']:.4f} | "
-                         f"{r['v_y_energy']:.4g} | {r['yield_ratio_energy']:.3g} | "
-                         f"{r['seed_eq14_energy']:.4f} |")
+                         f"{r['v_y_tooth']:.4g} | {r['yield_ratio_tooth']:.3g} | "
+                         f"{r['seed_eq14_tooth']:.4f} |")
     lines += ["", "## Hysteresis models: chi for the measured restitution", ""]
     models = sorted({k for c in cases for k in c["hysteresis_chi"]})
     if models:
@@ -180,8 +181,8 @@ def _plot_parameters(out: Path, cases: list[dict], path: Path) -> bool:
         models = [c.get("restitution_models") or {} for c in cs]
         a.plot(v, [r.get("seed_eq14", np.nan) for r in models], "s--",
                color=line.get_color(), label=f"stage {stage} eq. 14 (v_y eq. 15)")
-        a.plot(v, [r.get("seed_eq14_energy", np.nan) for r in models], "^:",
-               color=line.get_color(), label=f"stage {stage} eq. 14 (v_y energy)")
+        a.plot(v, [r.get("seed_eq14_tooth", np.nan) for r in models], "^:",
+               color=line.get_color(), label=f"stage {stage} eq. 14 (v_y tooth)")
         a.set(xlabel="impact speed (m/s)", ylabel="restitution e", xscale="log",
               title="restitution")
     for a in panels[:5]:

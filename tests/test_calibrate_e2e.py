@@ -6,6 +6,7 @@ import json
 
 import pytest
 
+from fe_impact import hertz
 from fe_impact.cli import main
 
 
@@ -37,6 +38,15 @@ def test_calibration_outputs(calibrated):
     models = case["restitution_models"]
     assert models["v_y_eq15"] == pytest.approx(0.0866, rel=1e-3)
     assert models["seed_eq14"] == 1.0
+    # The tooth's own yield-onset speed: its Hertz impact there (effective mass,
+    # equivalent radius) loads the TCA ellipse to p0 = 1.6 Y.
+    tca = json.loads((out / "cache" / "meshes" / case["hash"] / "tca.json").read_text())
+    e_star = tca["effective_modulus_Pa"]
+    hit = hertz.impact(tca["masses"]["effective_mass"], models["v_y_tooth"],
+                       tca["equivalent_radius_m"], e_star)
+    rx, ry = tca["contact"]["relative_radii_m"]
+    p0 = hertz.ellipse_contact(hit.force_max, rx, ry, e_star).p0
+    assert p0 == pytest.approx(1.6 * 835e6, rel=1e-6)
     for name in ("calibration.csv", "report.md", "force_time.png", "parameters.png"):
         assert (out / "run" / name).stat().st_size > 100, name
     assert (out / "run" / "cases" / case["id"] / "fe" / "impact.pvd").exists()

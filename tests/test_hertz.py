@@ -236,15 +236,3 @@ def test_seed_restitution_matches_the_quoted_values():
         assert hertz.seed_restitution(j) == pytest.approx(e, abs=0.005)
     assert hertz.seed_restitution(0.5) == 1.0 and hertz.seed_restitution(1.0) == 1.0
 
-
-def test_energy_yield_speed_is_eq15_for_a_solid_sphere():
-    # A sphere of its own mass: the energy form reduces to sqrt(c Y^5 / (rho E*^4))
-    # with c = pi^4 1.6^5 / 40 = 25.54, which Johnson rounds to 26.
-    import math
-
-    e_star = hertz.effective_modulus(212e9, 0.289)
-    R = 0.01
-    m = 7860.0 * 4.0 / 3.0 * math.pi * R ** 3
-    ratio = hertz.yield_onset_speed_energy(835e6, m, R, e_star) / \
-        hertz.yield_onset_speed(835e6, 7860.0, e_star)
-    assert ratio == pytest.approx(math.sqrt(math.pi ** 4 * 1.6 ** 5 / 40.0 / 26.0), rel=1e-12)

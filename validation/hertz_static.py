@@ -131,9 +131,32 @@ def compare(step, solver: StaticSolver, ps: int, pb: int) -> dict:
         "peak_pressure_MPa": step.max_pressure / 1e6,
         "peak_pressure_hertz_MPa": c.p0 / 1e6,
         "pressure_error": step.max_pressure / c.p0 - 1.0,
+        **pressure_field(step, solver, c),
         "penetration_ratio": step.max_penetration / (c.a ** 2 / R),
         "iterations": step.iterations,
     }
+
+
+def pressure_field(step, solver: StaticSolver, c) -> dict:
+    """Nodal pressures against Hertz's p(r) = p0 sqrt(1 - r^2/a^2) at every contact node.
+
+    ``centre_pressure_error``: the node on the axis against p0 (Hertz's peak is
+    the centre pressure). ``pressure_rms_error`` / ``pressure_max_deviation``:
+    RMS and largest |p_FE(r) - p_Hertz(r)| / p0 over the slave nodes where
+    either is positive. The largest nodal pressure (``pressure_error``) can
+    sit on a single node off the centre whose weighted gap is noisy.
+    """
+    pts = solver.mesh.points
+    slave = np.unique(solver.pairs[0].slave.faces)
+    r = np.hypot(pts[slave, 0], pts[slave, 1])
+    p = step.pressure[slave]
+    p_h = c.p0 * np.sqrt(np.clip(1.0 - (r / c.a) ** 2, 0.0, None))
+    on = (p > 0) | (p_h > 0)
+    dev = (p[on] - p_h[on]) / c.p0
+    centre = slave[np.argmin(r)]
+    return {"centre_pressure_error": float(step.pressure[centre] / c.p0 - 1.0),
+            "pressure_rms_error": float(np.sqrt(np.mean(dev ** 2))),
+            "pressure_max_deviation": float(np.abs(dev).max())}
 
 
 def run_level(level: str, h_contact: float, out: Path) -> LevelResult:
@@ -173,14 +196,21 @@ def worst(r: LevelResult, key: str) -> float:
 def report(results: list[LevelResult]) -> str:
     lines = ["# Static Hertz validation (hemisphere R = 10 mm on a block, P2)", "",
              "| level | h at contact (mm) | DOFs | time (s) | force error | radius error "
-             "| peak pressure error | far-field share of D |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| peak (largest nodal) pressure error | centre pressure error "
+             "| p(r) RMS / max deviation | far-field share of D |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         ff = [row["far_field_share"] for row in r.rows]
         lines.append(f"| {r.level} | {r.h_contact * 1e3:.3g} | {r.n_dofs} | {r.seconds:.1f} "
                      f"| {worst(r, 'force_error'):.2%} | {worst(r, 'radius_error'):.2%} "
-                     f"| {worst(r, 'pressure_error'):.2%} | {min(ff):.1%} to {max(ff):.1%} |")
-    lines += ["", "Errors are the largest over the five load steps (5-25 um).", ""]
+                     f"| {worst(r, 'pressure_error'):.2%} "
+                     f"| {worst(r, 'centre_pressure_error'):.2%} "
+                     f"| {worst(r, 'pressure_rms_error'):.2%} / "
+                     f"{worst(r, 'pressure_max_deviation'):.2%} "
+                     f"| {min(ff):.1%} to {max(ff):.1%} |")
+    lines += ["", "Errors are the largest over the five load steps (5-25 um). Pressure "
+              "deviations are relative to p0, over the slave nodes where the FE or the "
+              "Hertz pressure is positive.", ""]
     return "\n".join(lines)
 
 

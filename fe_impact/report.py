@@ -211,6 +211,9 @@ def _plot_stress(out: Path, cases: list[dict], path: Path) -> bool:
     k = min(k, len(s["fields"]["frames"]) - 1)
     grid = pv.read(out / "cases" / c["id"] / "fe" / s["fields"]["frames"][k])
     pv.OFF_SCREEN = True
+    # Off screen without an X server VTK falls back to its own context after
+    # printing a warning about the missing display; keep the terminal clean.
+    pv.vtk_verbosity("off")
     p = pv.Plotter(off_screen=True, window_size=(1000, 750))
     p.add_mesh(grid, scalars="von_mises", cmap="turbo", show_edges=False,
                scalar_bar_args={"title": "von Mises (Pa)"})

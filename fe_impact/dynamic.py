@@ -237,6 +237,7 @@ class ContactModel:
         self.B_full = self.B
         if self.projector is not None:
             self.B = (self.B @ self.projector).tocsr()
+        self.BT = self.B.T.tocsr()
         self.eps_w = np.concatenate([p.penalty * s.weight for p, s in
                                      zip(self.zone.pairs, self.states, strict=True)])
         self.eps_w = np.where(self.active_rows, self.eps_w, 0.0)
@@ -256,6 +257,7 @@ class ContactModel:
         """
         self.projector = projector
         self.B = self.B_full if projector is None else (self.B_full @ projector).tocsr()
+        self.BT = self.B.T.tocsr()   # forces B^T lam every step: transpose once
 
     def moved(self, z: np.ndarray) -> bool:
         """True if the zone moved by more than the re-projection tolerance."""
@@ -787,7 +789,7 @@ class DynamicSolver:
         v = self.v0.copy()
         f_int = np.zeros_like(z)
         lam, _ = c.forces(z)
-        acc = minv * (c.B.T @ lam)
+        acc = minv * (c.BT @ lam)
         record(0, 0.0, z, v, lam, 0.0)
         check_every = 10
         for n in range(1, n_steps + 1):
@@ -803,7 +805,7 @@ class DynamicSolver:
                 f_int = Kz - zone.update(z)
                 zone.commit()
             lam, _ = c.forces(z)
-            acc = minv * (c.B.T @ lam - f_int)
+            acc = minv * (c.BT @ lam - f_int)
             v += 0.5 * dt * acc
             record(n, n * dt, z, v, lam, 0.5 * float(z @ Kz))
 
@@ -815,7 +817,7 @@ class DynamicSolver:
         z = np.zeros(self.kin.n)
         v = self.v0.copy()
         lam, _ = c.forces(z)
-        f_c = c.B.T @ lam
+        f_c = c.BT @ lam
         acc = np.zeros_like(z)
         if np.any(lam > 0):
             acc = SPDSolver(M).solve(f_c - K @ z)
@@ -840,7 +842,7 @@ class DynamicSolver:
             else:
                 raise ContactError(f"contact did not settle within {max_it} re-projections at "
                                    f"t = {n * dt:.6g} s; raise [analysis] max_iterations")
-            f_c = c.B.T @ lam
+            f_c = c.BT @ lam
             if zone is not None:
                 zone.commit()
                 f_p = zone.plastic_force()
@@ -903,7 +905,7 @@ class DynamicSolver:
                                        else active[ok], C=self._delassus)
         if not np.any(lam > 0):
             return lam, z_star, lam > 0
-        z_new = self.solver.solve(rhs0 + (1.0 + alpha) * (c.B.T @ lam))
+        z_new = self.solver.solve(rhs0 + (1.0 + alpha) * (c.BT @ lam))
         return lam, z_new, lam > 0
 
     # -- measurements ----------------------------------------------------------------

@@ -98,3 +98,30 @@ def test_ctrl_c_keeps_finished_cases_and_rerun_completes(calibrated, tmp_path):
     assert first.stat().st_mtime_ns == stamp                # kept, not recomputed
     doc = json.loads((tmp_path / "run" / "calibration.json").read_text())
     assert [c["id"] for c in doc["cases"]] == ["stage1_mesh_50mms", "stage1_mesh_80mms"]
+
+
+def test_ratio_switch_impact_yields(tmp_path):
+    """``--switch`` adds the eq. 5 ratio-switch impact, which is elastic-plastic.
+
+    Stage 2 at 1000 r/min, coarse, two workers. The in-mesh impact (0.125 m/s)
+    is below the tooth pair's yield-onset speed (v/v_y = 0.39) and stays
+    elastic; the switch closes at about 4.2 m/s (v/v_y = 13) and yields:
+    measured e = 0.687 with about half the energy dissipated plastically. The
+    energy balance (kinetic + strain + penalty + plastic dissipation) must
+    still close within 2% (measured 0.6%).
+    """
+    argv = ["calibrate", "--stages", "2", "--speeds", "1000", "--switch", "--level", "coarse",
+            "--workers", "2", "--out", str(tmp_path / "run"), "--cache", str(tmp_path / "c")]
+    assert main(argv) == 0
+    doc = json.loads((tmp_path / "run" / "calibration.json").read_text())
+    cases = {c["kind"]: c for c in doc["cases"]}
+    mesh, switch = cases["mesh"], cases["switch"]
+    assert mesh["restitution_models"]["yield_ratio_tooth"] < 1.0
+    assert mesh["fe"]["restitution"] > 0.99
+    assert 3.0 < switch["impact_speed"] < 6.0
+    assert switch["restitution_models"]["yield_ratio_tooth"] > 5.0
+    assert switch["fe"]["restitution"] < 0.9
+    assert switch["fe"]["energy_error"] < 0.02
+    fe = json.loads((tmp_path / "run" / "cases" / switch["id"] / "fe" / "summary.json")
+                    .read_text())
+    assert fe["model"]["plasticity"]["dissipation"] > 0.2 * fe["history"]["total_energy"][0]

@@ -27,6 +27,7 @@ at eq. 5's ``v_s``.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
@@ -423,7 +424,7 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
 
 def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
               progress) -> None:
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import Client, LocalCluster
 
     if scheduler:
         try:
@@ -445,15 +446,26 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
                                  priority=len(order) - i, pure=False): c
                    for i, c in enumerate(order)}
         failures = []
-        for fut in as_completed(futures):
-            c = futures[fut]
-            try:
-                sweep.done[c.id] = fut.result()
-            except Exception as exc:  # a failed case does not stop the others
-                failures.append(f"{c.id}: {exc}")
-                logger.error("case %s failed: %s", c.id, exc)
-            if progress is not None:
-                progress(len(sweep.done), len(sweep.cases), c.id)
+        with _interrupt_flag() as interrupted:
+            pending = dict(futures)
+            while pending:
+                # Poll rather than block in the client: a Ctrl-C that lands while
+                # dask's machinery runs can be swallowed there, the flag is not.
+                if interrupted.is_set():
+                    raise KeyboardInterrupt
+                finished = [f for f in pending if f.done()]
+                if not finished:
+                    time.sleep(0.2)
+                    continue
+                for fut in finished:
+                    c = pending.pop(fut)
+                    try:
+                        sweep.done[c.id] = fut.result()
+                    except Exception as exc:  # a failed case does not stop the others
+                        failures.append(f"{c.id}: {exc}")
+                        logger.error("case %s failed: %s", c.id, exc)
+                    if progress is not None:
+                        progress(len(sweep.done), len(sweep.cases), c.id)
         if failures:
             raise CalibrationError(f"{len(failures)} case(s) failed (finished cases are kept; "
                                    "rerun to retry): " + "; ".join(failures))
@@ -461,6 +473,32 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+@contextlib.contextmanager
+def _interrupt_flag():
+    """An event set by SIGINT (Ctrl-C) while the sweep waits; the old handler is restored.
+
+    The handler also raises KeyboardInterrupt at once; the event keeps the
+    interrupt if some library code in between catches it.
+    """
+    import signal
+    import threading
+
+    flag = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield flag
+        return
+
+    def handler(signum, frame):
+        flag.set()
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGINT, handler)
+    try:
+        yield flag
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 def _cores() -> int:

@@ -303,9 +303,10 @@ class ZoneFrames:
     ``z = R z'`` rotates the three coordinates of every zone node whose
     components are all free into (normal, tangent, tangent), the normal
     taking the slot of the x coordinate; ``projector = R P R^T`` keeps the
-    normal part. ``condensed`` lists the normal slots and every coordinate of
-    zone nodes that cannot be rotated (a component held by a support or a
-    rigid body), sorted.
+    normal part. ``condensed`` lists the normal slots, every free coordinate
+    of zone nodes that cannot be rotated (a component held by a support or
+    tied to a rigid body) and the coordinates of rigid bodies that zone nodes
+    follow, sorted.
     """
 
     R: sp.csr_matrix
@@ -363,7 +364,11 @@ def zone_frames(mesh: FEMesh, kin: Kinematics, zone: ContactZone,
     nn = n[:, :, None] * n[:, None, :]               # (nr, 3, 3)
     P = sp.csr_matrix((np.concatenate([nn.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
     other = j[~free]
-    condensed = np.unique(np.concatenate([jf[:, 0], other[other >= 0]]))
+    # Zone nodes tied to a rigid body move with its coordinate: keep that too.
+    dofs = (3 * mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
+    rigid = np.unique(kin.T[dofs].indices)
+    rigid = rigid[rigid >= kin.n_free]
+    condensed = np.unique(np.concatenate([jf[:, 0], other[other >= 0], rigid]))
     return ZoneFrames(R, P, condensed)
 
 

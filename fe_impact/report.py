@@ -162,6 +162,7 @@ def _plot_parameters(out: Path, cases: list[dict], path: Path) -> bool:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     fig, ax = plt.subplots(2, 3, figsize=(15, 8))
     keys = (("k", "k (N/m^exponent)"), ("exponent", "exponent"), ("cmax", "cmax (N s/m)"),
@@ -185,8 +186,13 @@ def _plot_parameters(out: Path, cases: list[dict], path: Path) -> bool:
                color=line.get_color(), label=f"stage {stage} eq. 14 (v_y tooth)")
         a.set(xlabel="impact speed (m/s)", ylabel="restitution e", xscale="log",
               title="restitution")
+    # Ticks at the case speeds: a log axis spanning about a decade labels its
+    # minor ticks, which overlap.
+    speeds = sorted({c["impact_speed"] for c in cases})
     for a in panels[:5]:
         a.grid(alpha=0.3)
+        a.xaxis.set_minor_formatter(NullFormatter())
+        a.set_xticks(speeds, [f"{v:.3g}" for v in speeds])
     panels[0].legend(fontsize=7)
     panels[4].legend(fontsize=7)
     panels[5].axis("off")

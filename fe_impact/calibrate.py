@@ -231,8 +231,10 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
 
 
 def _prepared_case(pair, settings: Settings) -> Path:
-    """The generated case file with this run's integrator and a contact search distance.
+    """The generated case file with this run's integrator and calibration controls.
 
+    Sets the contact search distance, FRAMES_PER_CONTACT output frames,
+    ``stop_after_separation`` and (Newmark) a step of t_c / STEPS_PER_CONTACT.
     The flanks are nearly flat along the ellipse's major axis (relative radius
     about 1 m), so a search distance of a few element sizes would take in the
     whole flank; the Hertz estimate of the approach bounds the zone instead

@@ -314,16 +314,17 @@ class ZoneFrames:
     condensed: np.ndarray
 
 
-def zone_frames(mesh: FEMesh, kin: Kinematics, zone: ContactZone,
-                B: sp.csr_matrix) -> ZoneFrames:
-    """Frames whose normal is the direction the gaps ``B`` (rows: gaps) see each node move.
+def zone_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel) -> ZoneFrames:
+    """Frames whose normal is the direction the gaps see each zone node move.
 
     A node's normal is the principal direction of ``sum_r b_r b_r^T`` over its
-    3-vector entries ``b_r`` in the gap Jacobian: the contact normal at the
-    points it carries (the master normal, also for slave nodes). A zone node
-    no gap sees yet takes its area-weighted surface normal.
+    3-vector entries ``b_r`` in the full gap Jacobian ``contact.B_full``: the
+    contact normal at the points it carries (the master normal, also for
+    slave nodes). A zone node no gap sees yet takes its area-weighted surface
+    normal.
     """
-    pts = zone.points()
+    zone, B = contact.zone, contact.B_full
+    pts = zone.points()   # the rows of contact.T_zone, three per point
     red = -np.ones(kin.T.shape[0], dtype=np.int64)
     red[kin.free] = np.arange(kin.n_free)
     j = red[(3 * mesh.point_dof[pts])[:, None] + np.arange(3)]            # (np, 3)
@@ -363,12 +364,10 @@ def zone_frames(mesh: FEMesh, kin: Kinematics, zone: ContactZone,
     R = sp.csr_matrix((np.concatenate([F.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
     nn = n[:, :, None] * n[:, None, :]               # (nr, 3, 3)
     P = sp.csr_matrix((np.concatenate([nn.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
-    other = j[~free]
-    # Zone nodes tied to a rigid body move with its coordinate: keep that too.
-    dofs = (3 * mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
-    rigid = np.unique(kin.T[dofs].indices)
-    rigid = rigid[rigid >= kin.n_free]
-    condensed = np.unique(np.concatenate([jf[:, 0], other[other >= 0], rigid]))
+    # Unrotated nodes keep every coordinate they move with: their free
+    # components and, if tied, their rigid body's.
+    other = contact.T_zone[(3 * np.flatnonzero(~free)[:, None] + np.arange(3)).ravel()]
+    condensed = np.unique(np.concatenate([jf[:, 0], other.indices]))
     return ZoneFrames(R, P, condensed)
 
 
@@ -631,7 +630,7 @@ class DynamicSolver:
         radius of curvature), and the gaps are re-projected exactly whenever the
         zone has deformed by 5% of a face.
         """
-        frames = zone_frames(self.mesh, self.kin, self.zone, self.contact.B_full)
+        frames = zone_frames(self.mesh, self.kin, self.contact)
         self.contact.set_projector(frames.projector)
         self.R = frames.R
         self.cond = frames.condensed

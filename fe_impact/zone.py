@@ -124,9 +124,7 @@ class ContactZone:
                 # Master faces within two of the added faces' own size: the
                 # surface's largest face (far from the contact) would take in
                 # a wide band of small master faces.
-                x = mesh.points[pair.slave.faces[bad][:, :3]]
-                size = float(np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2).max())
-                s = max(margin, 0.0) + 2.0 * size
+                s = max(margin, 0.0) + 2.0 * face_size(mesh, pair.slave, np.max, bad)
                 self.master_faces[k] = np.union1d(
                     self.master_faces[k], master_near(mesh, pair, up[pts] + mesh.points[pts], s))
                 grew = True
@@ -149,9 +147,14 @@ def master_near(mesh: FEMesh, pair: ContactPair, points: np.ndarray, s: float) -
     return np.flatnonzero(dist <= s + 1.5 * reach)
 
 
-def face_size(mesh: FEMesh, surface: ContactSurface, stat=np.median) -> float:
-    """Typical edge length of a surface's triangles (vertex to vertex), m."""
-    x = mesh.points[surface.faces[:, :3]]
+def face_size(mesh: FEMesh, surface: ContactSurface, stat=np.median,
+              faces: np.ndarray | None = None) -> float:
+    """Typical edge length of a surface's triangles (vertex to vertex), m.
+
+    ``faces``: indices of the triangles to measure (default: all of them).
+    """
+    f = surface.faces if faces is None else surface.faces[faces]
+    x = mesh.points[f[:, :3]]
     edges = np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2)
     return float(stat(edges))
 

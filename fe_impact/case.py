@@ -38,6 +38,7 @@ initial velocities and rigid bodies::
     duration = 1.0e-4               # s
     time_step = "auto"              # or a value in s
     output_interval = 1.0e-6        # s, for fields and history
+    plastic_solver = "newton"       # Newmark with plasticity, or "anderson"
 
     [[initial_velocities]]
     volumes = ["sphere"]
@@ -69,6 +70,9 @@ from .mesh import UNITS, FEMesh
 COMPONENTS = {"x": 0, "y": 1, "z": 2}
 ANALYSIS_TYPES = ("static", "dynamic")
 INTEGRATORS = ("newmark", "explicit")
+#: Newmark's plasticity iteration: Newton with the consistent tangent, or
+#: Anderson-accelerated modified Newton on the elastic factorisation.
+PLASTIC_SOLVERS = ("newton", "anderson")
 MOTIONS = ("translation", "rotation")
 _TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "analysis",
              "initial_velocities", "rigid_bodies"}
@@ -157,6 +161,7 @@ class AnalysisSpec:
     # End the run this long after the bodies separate, as a fraction of the
     # contact duration (None: run to the duration).
     stop_after_separation: float | None = None
+    plastic_solver: str = "newton"          # Newmark with plasticity: see PLASTIC_SOLVERS
 
     @property
     def dynamic(self) -> bool:
@@ -359,7 +364,7 @@ def _displacements(r: _Reader, tables: list) -> tuple[DisplacementSpec, ...]:
 _STATIC_KEYS = {"type", "max_iterations", "tolerance"}
 _DYNAMIC_KEYS = _STATIC_KEYS | {"integrator", "duration", "time_step", "output_interval",
                                 "hht_alpha", "safety_factor", "energy_limit", "plastic_zone",
-                                "stop_after_separation"}
+                                "stop_after_separation", "plastic_solver"}
 
 
 def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
@@ -403,8 +408,11 @@ def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
         stop = r.number(t, w, "stop_after_separation", low=0.0,
                         hint="(fraction of the contact duration to run on after the bodies "
                              "separate)")
+    solver = r.choice(t, w, "plastic_solver", PLASTIC_SOLVERS, default="newton")
+    if "plastic_solver" in t and integrator != "newmark":
+        raise r.fail(w, "plastic_solver", solver, 'applies to integrator = "newmark" only')
     return AnalysisSpec(kind, iters, tol, integrator, duration, dt, out_dt, alpha, safety,
-                        energy, zone, stop)
+                        energy, zone, stop, solver)
 
 
 def _is_real(v: Any) -> bool:

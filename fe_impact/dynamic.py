@@ -831,6 +831,7 @@ class DynamicSolver:
         zone = self.plastic
         f_p = np.zeros_like(z)
         self.plastic_iterations = 0
+        self.krylov_products = 0
         for n in range(1, n_steps + 1):
             Kz = K @ z
             rhs0 = M @ (c0 * z + c1 * v + c2 * acc) + alpha * (Kz - f_p - f_c)
@@ -858,12 +859,16 @@ class DynamicSolver:
                 active = None
 
     def _newmark_plastic(self, rhs0, alpha, active, z, v, dt):
-        """One Newmark step with plasticity: modified Newton on the elastic K_eff.
+        """One Newmark step with plasticity.
 
         ``z = step(F_p(z))`` with ``step`` one elastic solve (plastic force on
-        the right, contact condensed), accelerated by Anderson mixing.
+        the right, contact condensed). ``[analysis] plastic_solver``:
+        ``newton`` (:func:`~fe_impact.plasticity.solve_newton`) with the zone's
+        consistent tangent, GMRES on the elastic factorisation for each
+        correction; ``anderson`` (:func:`~fe_impact.plasticity.solve_fixed_point`)
+        modified Newton on the elastic factorisation with Anderson mixing.
         """
-        from .plasticity import solve_fixed_point
+        from .plasticity import solve_fixed_point, solve_newton
 
         state = {"active": active}
 
@@ -871,8 +876,13 @@ class DynamicSolver:
             rhs = rhs0 + (1.0 + alpha) * f_p
             lam, z_new, act = self._newmark_contact(self.solver.solve(rhs), rhs, alpha,
                                                     state["active"])
-            state.update(lam=lam, active=act)
+            state.update(lam=lam, active=act, lin=None)
             return z_new
+
+        def dstep(w):
+            if state["lin"] is None:
+                state["lin"] = self._contact_linearisation(state["lam"], alpha)
+            return state["lin"]((1.0 + alpha) * w)
 
         # An elastic step with the committed plastic force: if no point yields
         # further, it is the solution (most steps of a mildly plastic impact).
@@ -883,13 +893,46 @@ class DynamicSolver:
             self.plastic_iterations += 1
             return state["lam"], z_new, state["active"]
         try:
-            z_new, its = solve_fixed_point(step, self.plastic, z_new, tol=1e-7,
-                                           max_iter=200, reference=z)
+            if self.case.analysis.plastic_solver == "anderson":
+                z_new, its = solve_fixed_point(step, self.plastic, z_new, tol=1e-7,
+                                               max_iter=200, reference=z)
+                products = 0
+            else:
+                z_new, its, products = solve_newton(step, dstep, self.plastic, z_new,
+                                                    tol=1e-7, max_iter=50, reference=z)
         except RuntimeError as exc:
             raise SolverError(f"plasticity did not converge in a Newmark step: {exc}; "
                               "reduce the time step or use the explicit integrator") from None
         self.plastic_iterations += its
+        self.krylov_products += products
         return state["lam"], z_new, state["active"]
+
+    def _contact_linearisation(self, lam: np.ndarray, alpha: float):
+        """``w -> dz``: the Newmark solve's response to a force ``w`` at a fixed active set.
+
+        With the active rows ``S`` (``lam > 0``) the penalty forces satisfy
+        ``(diag(1/eps_S) + C_SS) lam_S = -h_S``, ``h`` the gaps of the
+        contact-free solve, so ``dz = K^-1 w + (1 + a) K^-1 B_S^T dlam_S`` with
+        ``dlam_S = -(diag(1/eps_S) + C_SS)^-1 B_S K^-1 w``.
+        """
+        from scipy.linalg import cho_factor, cho_solve
+
+        c = self.contact
+        ok = np.flatnonzero(c.active_rows)
+        on = lam[ok] > 0
+        if not on.any():
+            return self.solver.solve
+        rows = ok[on]
+        B_S = c.B[rows]
+        fac = cho_factor(self._delassus[np.ix_(on, on)] + np.diag(1.0 / c.eps_w[rows]))
+        BT_S = B_S.T.tocsr()
+
+        def apply(w):
+            dz = self.solver.solve(w)
+            dlam = -cho_solve(fac, B_S @ dz)
+            return dz + (1.0 + alpha) * self.solver.solve(BT_S @ dlam)
+
+        return apply
 
     def _newmark_contact(self, z_star, rhs0, alpha, active):
         """Contact forces of one Newmark step by the condensed complementarity problem."""
@@ -947,6 +990,8 @@ class DynamicSolver:
                 "yielded_points": int(self.plastic.n_yielded),
                 "boundary_yielded": bool(self.plastic.boundary_yielded()),
                 "dissipation": float(self.plastic.dissipation()),
+                "newton_iterations": int(getattr(self, "plastic_iterations", 0)),
+                "krylov_products": int(getattr(self, "krylov_products", 0)),
                 "max_equivalent_plastic_strain": float(
                     self.plastic.equivalent_plastic_strain("max").max(initial=0.0))},
         }

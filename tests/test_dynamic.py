@@ -244,6 +244,10 @@ DYNAMIC_BAD = [
      r"direction = \[0.0, 0.0, 0.0\]: must be a non-zero vector"),
     ('direction = [0.0, 0.0, 1.0]', 'direction = [0.0, 1.0]', r"three numbers"),
     ('type = "dynamic"', 'type = "dynamic"\nhht_alpha = -0.5', r"hht_alpha = -0.5.*HHT"),
+    ('type = "dynamic"', 'type = "dynamic"\nplastic_solver = "bfgs"',
+     r"plastic_solver = 'bfgs'.*\['newton', 'anderson'\]"),
+    ('integrator = "newmark"', 'integrator = "explicit"\nplastic_solver = "newton"',
+     r"plastic_solver = 'newton'.*newmark"),
     ('inertia = 0.01', 'inertia = -1', r"inertia = -1.*kg"),
     ('time_step = ', 'time_step = 1.0 #', r"time_step = 1.0.*at most the duration"),
     ('[analysis]', '[[displacements]]\nsurface = "upper_all"\ncomponent = "z"\nvalues = [1e-6]'

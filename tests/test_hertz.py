@@ -236,3 +236,39 @@ def test_seed_restitution_matches_the_quoted_values():
         assert hertz.seed_restitution(j) == pytest.approx(e, abs=0.005)
     assert hertz.seed_restitution(0.5) == 1.0 and hertz.seed_restitution(1.0) == 1.0
 
+
+
+def _thornton_by_energies(ratio: float) -> float:
+    """Thornton's model integrated branch by branch for a steel sphere (independent of
+    the closed form): e^2 = unloading work / impact energy."""
+    E_star, R, rho, p_y = 115.66e9, 0.01, 7860.0, 1.6 * 835e6
+    m = 4.0 / 3.0 * np.pi * R ** 3 * rho
+    k = 4.0 / 3.0 * E_star * np.sqrt(R)
+    d_y = R * (np.pi * p_y / (2.0 * E_star)) ** 2
+    F_y = k * d_y ** 1.5
+    W_y = 0.4 * k * d_y ** 2.5                        # Hertz work to first yield
+    v_y = np.sqrt(2.0 * W_y / m)
+    W = 0.5 * m * (ratio * v_y) ** 2
+    # plastic branch F = F_y + s (d - d_y): work W - W_y reached at d_max
+    s = np.pi * p_y * R
+    x = (-F_y + np.sqrt(F_y ** 2 + 2.0 * s * (W - W_y))) / s
+    F_max = F_y + s * x
+    R_p = 4.0 * E_star / (3.0 * F_max) * ((2.0 * F_max + F_y) / (2.0 * np.pi * p_y)) ** 1.5
+    k_p = 4.0 / 3.0 * E_star * np.sqrt(R_p)
+    w = (F_max / k_p) ** (2.0 / 3.0)                  # elastic recovery d_max - d_p
+    return float(np.sqrt(0.4 * k_p * w ** 2.5 / W))
+
+
+def test_thornton_restitution_closed_form():
+    # The closed form against the model's branch energies: the same model, so
+    # round-off only (1e-9). DESIGN.md section 6's values are two decimals.
+    for j in (1.0, 1.5, 2.0, 5.0, 10.0, 30.0, 100.0):
+        assert hertz.thornton_restitution(j) == pytest.approx(_thornton_by_energies(j),
+                                                              rel=1e-9)
+    for j, e in ((2, 0.93), (5, 0.77), (10, 0.66), (30, 0.50), (100, 0.37)):
+        assert hertz.thornton_restitution(j) == pytest.approx(e, abs=0.005)
+    assert hertz.thornton_restitution(0.3) == 1.0
+    # high-speed asymptote 1.185 (v/v_y)^-1/4 (Thornton 1997)
+    assert hertz.thornton_restitution(1e6) == pytest.approx(1.185 * 1e6 ** -0.25, rel=1e-3)
+    with pytest.raises(ValueError, match="yield_ratio"):
+        hertz.thornton_restitution(-1.0)

@@ -221,6 +221,11 @@ def _solve_dynamic(case, out: Path) -> int:
           f"{fmt(m['max_approach'], 1e6)} um, contact {fmt(m['contact_duration'], 1e6)} us, "
           f"restitution {fmt(m['restitution'])}, "
           f"energy error {fmt(m['energy_error'], 100, '.3f')}%")
+    pl = result.info.get("plasticity")
+    if pl:
+        print(f"  plastic work {fmt(pl['dissipation'])} J, max equivalent plastic strain "
+              f"{fmt(pl['max_equivalent_plastic_strain'], 100, '.3g')}%, residual "
+              f"indentation {fmt(m['residual_indentation'], 1e6)} um")
     print(f"wrote {path} ({time.perf_counter() - t0:.1f} s)")
     return 0
 

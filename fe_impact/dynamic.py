@@ -1009,6 +1009,10 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
     in the approach, which is zero at first touch and at separation. The
     restitution compares the relative normal velocity at the end of the run
     (or just before the bodies touch again) with that before first touch.
+    The residual indentation is the approach at which the force reaches zero
+    on unloading (extrapolated linearly from the last two loaded steps, within
+    the step where it vanishes): the permanent dent of both bodies together,
+    zero for an elastic impact up to the step size.
     """
     t, F = history["time"], history["contact_force"]
     E = history["total_energy"]
@@ -1019,7 +1023,7 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
            "energy_error": float(np.abs(E - e0).max() / e0) if e0 > 0 else None,
            "contact_duration": None, "first_touch": None, "separation": None,
            "restitution": None, "impact_velocity": None, "rebound_velocity": None,
-           "contacts": 0}
+           "residual_indentation": None, "contacts": 0}
     on = F > 0
     if not on.any():
         return out
@@ -1047,6 +1051,7 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
         s = 0.0 if b == a else min(max(a / (a - b), 0.0), 1.0)
         out["separation"] = float(t[i1 - 1] + s * (t[i1] - t[i1 - 1]))
         out["contact_duration"] = out["separation"] - out["first_touch"]
+        out["residual_indentation"] = _unloaded_approach(F, d, i1)
         later = starts[starts > i1]
         j = int(later[0] - 1) if len(later) else len(t) - 1
         v_after = float(vn[j])
@@ -1054,3 +1059,13 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
         if v_before < 0:
             out["restitution"] = -v_after / v_before
     return out
+
+
+def _unloaded_approach(F: np.ndarray, d: np.ndarray, i1: int) -> float:
+    """Approach where the force falls to zero between steps ``i1 - 1`` and ``i1``."""
+    lo, hi = float(d[i1]), float(d[i1 - 1])
+    if i1 >= 2 and F[i1 - 2] > F[i1 - 1] and d[i1 - 2] != d[i1 - 1]:
+        slope = (F[i1 - 2] - F[i1 - 1]) / (d[i1 - 2] - d[i1 - 1])
+        if slope > 0:
+            return float(min(max(d[i1 - 1] - F[i1 - 1] / slope, min(lo, hi)), max(lo, hi)))
+    return hi

@@ -111,7 +111,7 @@ class DynamicWriter:
             "mesh": str(self.case.mesh_file),
             "units": {"peak_force": "N", "max_approach": "m", "contact_duration": "s",
                       "restitution": "-", "energy_error": "-", "impact_velocity": "m/s",
-                      "rebound_velocity": "m/s", **{f"history.{k}": u for k, u in
+                      "rebound_velocity": "m/s", "residual_indentation": "m", **{f"history.{k}": u for k, u in
                                                      HISTORY_UNITS.items()}},
             "notes": ("contact_force is the total normal force on the modelled part (a "
                       "symmetric model carries only its share). approach: closing "
@@ -119,7 +119,9 @@ class DynamicWriter:
                       "initial normal, minus the initial gap; a side is its rigid body if it "
                       "has one, else its mass-weighted translation along the normal, and a "
                       "supported side is the fixed reference. restitution = -(relative normal "
-                      "velocity after separation) / (before first touch). energy_error = "
+                      "velocity after separation) / (before first touch). "
+                      "residual_indentation: the approach at which the force falls to zero "
+                      "on unloading (permanent dent of both sides). energy_error = "
                       "max |E(t) - E(0)| / E(0), E = kinetic + strain + penalty energy."),
             **result.measurements,
             "model": result.info,

@@ -238,33 +238,21 @@ def test_seed_restitution_matches_the_quoted_values():
 
 
 
-def _thornton_by_energies(ratio: float) -> float:
-    """Thornton's model integrated branch by branch for a steel sphere (independent of
-    the closed form): e^2 = unloading work / impact energy."""
+def test_thornton_restitution_closed_form():
+    # The closed form against the model integrated branch by branch for a steel
+    # sphere (thornton_impact): the same model, so round-off only (1e-9).
+    # DESIGN.md section 6's values are two decimals.
     E_star, R, rho, p_y = 115.66e9, 0.01, 7860.0, 1.6 * 835e6
     m = 4.0 / 3.0 * np.pi * R ** 3 * rho
-    k = 4.0 / 3.0 * E_star * np.sqrt(R)
-    d_y = R * (np.pi * p_y / (2.0 * E_star)) ** 2
-    F_y = k * d_y ** 1.5
-    W_y = 0.4 * k * d_y ** 2.5                        # Hertz work to first yield
-    v_y = np.sqrt(2.0 * W_y / m)
-    W = 0.5 * m * (ratio * v_y) ** 2
-    # plastic branch F = F_y + s (d - d_y): work W - W_y reached at d_max
-    s = np.pi * p_y * R
-    x = (-F_y + np.sqrt(F_y ** 2 + 2.0 * s * (W - W_y))) / s
-    F_max = F_y + s * x
-    R_p = 4.0 * E_star / (3.0 * F_max) * ((2.0 * F_max + F_y) / (2.0 * np.pi * p_y)) ** 1.5
-    k_p = 4.0 / 3.0 * E_star * np.sqrt(R_p)
-    w = (F_max / k_p) ** (2.0 / 3.0)                  # elastic recovery d_max - d_p
-    return float(np.sqrt(0.4 * k_p * w ** 2.5 / W))
-
-
-def test_thornton_restitution_closed_form():
-    # The closed form against the model's branch energies: the same model, so
-    # round-off only (1e-9). DESIGN.md section 6's values are two decimals.
-    for j in (1.0, 1.5, 2.0, 5.0, 10.0, 30.0, 100.0):
-        assert hertz.thornton_restitution(j) == pytest.approx(_thornton_by_energies(j),
-                                                              rel=1e-9)
+    v_y = hertz.thornton_impact(m, 1e-3, R, E_star, p_y).yield_speed
+    # Thornton's v_y is Johnson's eq. 15 with 25.5 for 26 (p_y = 1.6 Y): 0.9% lower
+    assert v_y == pytest.approx(hertz.yield_onset_speed(835e6, rho, E_star), rel=0.01)
+    for j in (1.5, 2.0, 5.0, 10.0, 30.0, 100.0):
+        hit = hertz.thornton_impact(m, j * v_y, R, E_star, p_y)
+        assert hertz.thornton_restitution(j) == pytest.approx(hit.restitution, rel=1e-9)
+        assert 0.0 < hit.residual < hit.delta_max
+    elastic = hertz.thornton_impact(m, 0.5 * v_y, R, E_star, p_y)
+    assert elastic.restitution == 1.0 and elastic.residual == 0.0
     for j, e in ((2, 0.93), (5, 0.77), (10, 0.66), (30, 0.50), (100, 0.37)):
         assert hertz.thornton_restitution(j) == pytest.approx(e, abs=0.005)
     assert hertz.thornton_restitution(0.3) == 1.0

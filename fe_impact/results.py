@@ -111,8 +111,8 @@ class DynamicWriter:
             "mesh": str(self.case.mesh_file),
             "units": {"peak_force": "N", "max_approach": "m", "contact_duration": "s",
                       "restitution": "-", "energy_error": "-", "impact_velocity": "m/s",
-                      "rebound_velocity": "m/s", "residual_indentation": "m", **{f"history.{k}": u for k, u in
-                                                     HISTORY_UNITS.items()}},
+                      "rebound_velocity": "m/s", "residual_indentation": "m",
+                      **{f"history.{k}": u for k, u in HISTORY_UNITS.items()}},
             "notes": ("contact_force is the total normal force on the modelled part (a "
                       "symmetric model carries only its share). approach: closing "
                       "displacement of the two sides at the initial contact point along the "

@@ -852,7 +852,7 @@ def solve_fixed_point(step: Callable[[np.ndarray], np.ndarray], zone: PlasticZon
 def solve_newton(step: Callable[[np.ndarray], np.ndarray],
                  dstep: Callable[[np.ndarray], np.ndarray], zone: PlasticZone,
                  z0: np.ndarray, tol: float = 1e-8, max_iter: int = 30,
-                 reference: np.ndarray | None = None, krylov_tol: float = 1e-3,
+                 reference: np.ndarray | None = None, krylov_tol: float = 0.1,
                  residuals: list[float] | None = None) -> tuple[np.ndarray, int, int]:
     """Solve ``z = step(zone.update(z))`` by Newton's method with the consistent tangent.
 
@@ -866,7 +866,8 @@ def solve_newton(step: Callable[[np.ndarray], np.ndarray],
 
         (I - dstep D) dz = step(F_p(z)) - z
 
-    by GMRES to ``krylov_tol``: every product is one ``dstep`` (one or two
+    by GMRES to a relative residual ``eta`` (Eisenstat and Walker's forcing,
+    at most ``krylov_tol``): every product is one ``dstep`` (one or two
     back-substitutions), with the elastic factorisation as the preconditioner
     built into ``step``. Converges quadratically once the yielding set
     settles (the radial return's flow direction still turns with the strain,
@@ -881,22 +882,34 @@ def solve_newton(step: Callable[[np.ndarray], np.ndarray],
     z = np.asarray(z0, dtype=float).copy()
     ref = 0.0 if reference is None else np.asarray(reference, dtype=float)
     products = 0
+    eta, norm_prev = krylov_tol, None
     for it in range(1, max_iter + 1):
         g = step(zone.update(z))
         r = g - z
         norm = float(np.linalg.norm(r))
         if residuals is not None:
             residuals.append(norm)
-        if norm <= tol * max(float(np.linalg.norm(g - ref)), 1e-300):
+        goal = tol * max(float(np.linalg.norm(g - ref)), 1e-300)
+        if norm <= goal:
             zone.update(g)
             return g, it, products
+        if norm_prev is not None:
+            # Eisenstat-Walker forcing (choice 2): solve as tightly as the
+            # quadratic rate can use, and no tighter than the tolerance needs
+            ew = 0.9 * (norm / norm_prev) ** 2
+            if 0.9 * eta ** 2 > 0.1:
+                ew = max(ew, 0.9 * eta ** 2)
+            eta = min(krylov_tol, ew)
+        eta = min(max(eta, 0.5 * goal / norm), 0.5)
+        norm_prev = norm
+
         def jac(x):
             nonlocal products
             products += 1
             return x - dstep(zone.tangent_product(x))
 
         op = LinearOperator((len(z), len(z)), matvec=jac, dtype=float)
-        dz, info = gmres(op, r, rtol=krylov_tol, atol=0.0, restart=60, maxiter=10)
+        dz, info = gmres(op, r, rtol=eta, atol=0.0, restart=60, maxiter=10)
         if info < 0 or not np.all(np.isfinite(dz)):
             raise RuntimeError(f"GMRES failed (info {info}) in Newton iteration {it}")
         z = z + dz

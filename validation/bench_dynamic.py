@@ -17,6 +17,10 @@ Run ``python validation/bench_dynamic.py`` (about a minute). Writes
 3. Elastic-plastic explicit: the same 2000 steps with J2 plasticity (yield
    835 MPa) tracked near the contact, against the elastic step of item 2.
    Target: at most 2x.
+4. Elastic-plastic Newmark: the case of item 1 with the same yield strength
+   (1 m/s is 11.5 x the yield-onset speed), by Newton with the consistent
+   tangent and by Anderson-accelerated modified Newton: time of the steps
+   against item 1's elastic steps, iterations, GMRES products, restitution.
 """
 
 from __future__ import annotations
@@ -60,18 +64,30 @@ def matvec_bytes(K) -> int:
     return K.data.nbytes + K.indices.nbytes + K.indptr.nbytes + 2 * 8 * n
 
 
-def newmark(out: Path) -> dict:
+def newmark(out: Path, solver: str | None = None) -> dict:
+    """Item 1; with ``solver`` ("newton" or "anderson") the elastic-plastic item 4."""
     folder = out / "case"
     mesh = sphere_block_mesh(folder, H_CONTACT, gap=1e-6)
     ref = hertz.impact(RIGID_MASS + HEMISPHERE_MASS, SPEED, R, hertz.effective_modulus(E, NU))
     case = write_sphere_impact(folder, mesh, SPEED, 1e-6 / SPEED + 1.3 * ref.contact_time,
                                rigid_mass=RIGID_MASS, time_step=ref.contact_time / 60,
-                               frames=10, name="newmark.toml")
+                               frames=10, name=f"newmark_{solver or 'elastic'}.toml")
+    if solver is not None:
+        case.write_text(case.read_text().replace(
+            "density = 7860\n", "density = 7860\nyield_strength = 835e6\n").replace(
+            'integrator = "newmark"\n', f'integrator = "newmark"\nplastic_solver = "{solver}"\n'))
     t0 = time.perf_counter()
-    solver = DynamicSolver(load_case(case))
-    res = solver.run()
+    dyn = DynamicSolver(load_case(case))
+    res = dyn.run()
     wall = time.perf_counter() - t0
     m = res.measurements
+    if solver is not None:
+        pl = res.info["plasticity"]
+        return {"solver": solver, "wall_s": wall, "steps_s": res.timings["integration"],
+                "newton_iterations": pl["newton_iterations"],
+                "krylov_products": pl["krylov_products"],
+                "yielded_points": pl["yielded_points"], "restitution": m["restitution"],
+                "dissipation_J": pl["dissipation"], "energy_error": m["energy_error"]}
     return {"n_dofs": res.info["n_dofs"], "steps": res.info["steps"],
             "steps_in_contact": int(round(m["contact_duration"] / res.info["time_step"])),
             "wall_s": wall, "target_s": 15.0, "timings_s": res.timings,
@@ -135,6 +151,13 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING)
     result = {"newmark": newmark(args.out), "explicit": explicit(args.out)}
     result["explicit_plastic"] = explicit_plastic(args.out, result["explicit"]["step_ms"])
+    elastic_steps = result["newmark"]["timings_s"]["integration"]
+    for solver in ("newton", "anderson"):
+        r = newmark(args.out, solver)
+        r["steps_over_elastic"] = r["steps_s"] / elastic_steps
+        result[f"newmark_plastic_{solver}"] = r
+    result["newton_over_anderson"] = (result["newmark_plastic_newton"]["steps_s"]
+                                      / result["newmark_plastic_anderson"]["steps_s"])
     write_json(args.out / "bench_dynamic.json", result)
     print(json.dumps(result, indent=2))
     return 0

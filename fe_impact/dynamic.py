@@ -987,7 +987,7 @@ class DynamicSolver:
             "plasticity": None if self.plastic is None else {
                 "zone_elements": int(self.plastic.n_elements),
                 "zone_radius": self.plastic_radius,
-                "yielded_points": int(self.plastic.n_yielded),
+                "plastic_points": int(np.count_nonzero(self.plastic.alpha > 0.0)),
                 "boundary_yielded": bool(self.plastic.boundary_yielded()),
                 "dissipation": float(self.plastic.dissipation()),
                 "newton_iterations": int(getattr(self, "plastic_iterations", 0)),

@@ -86,7 +86,7 @@ def newmark(out: Path, solver: str | None = None) -> dict:
         return {"solver": solver, "wall_s": wall, "steps_s": res.timings["integration"],
                 "newton_iterations": pl["newton_iterations"],
                 "krylov_products": pl["krylov_products"],
-                "yielded_points": pl["yielded_points"], "restitution": m["restitution"],
+                "plastic_points": pl["plastic_points"], "restitution": m["restitution"],
                 "dissipation_J": pl["dissipation"], "energy_error": m["energy_error"]}
     return {"n_dofs": res.info["n_dofs"], "steps": res.info["steps"],
             "steps_in_contact": int(round(m["contact_duration"] / res.info["time_step"])),
@@ -117,7 +117,7 @@ def explicit_plastic(out: Path, elastic_step_ms: float, steps: int = 2000) -> di
     step = (time.perf_counter() - t) / res.info["steps"]
     pl = res.info["plasticity"]
     return {"step_ms": step * 1e3, "over_elastic": step * 1e3 / elastic_step_ms,
-            "zone_elements": pl["zone_elements"], "yielded_points": pl["yielded_points"],
+            "zone_elements": pl["zone_elements"], "plastic_points": pl["plastic_points"],
             "target_ratio": 2.0}
 
 

@@ -1010,9 +1010,9 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
     restitution compares the relative normal velocity at the end of the run
     (or just before the bodies touch again) with that before first touch.
     The residual indentation is the approach at which the force reaches zero
-    on unloading (extrapolated linearly from the last two loaded steps, within
-    the step where it vanishes): the permanent dent of both bodies together,
-    zero for an elastic impact up to the step size.
+    on unloading (``F^(2/3)`` extrapolated from the last two loaded steps,
+    within the step where it vanishes): the permanent dent of both bodies
+    together, zero for an elastic impact.
     """
     t, F = history["time"], history["contact_force"]
     E = history["total_energy"]
@@ -1062,10 +1062,17 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
 
 
 def _unloaded_approach(F: np.ndarray, d: np.ndarray, i1: int) -> float:
-    """Approach where the force falls to zero between steps ``i1 - 1`` and ``i1``."""
-    lo, hi = float(d[i1]), float(d[i1 - 1])
-    if i1 >= 2 and F[i1 - 2] > F[i1 - 1] and d[i1 - 2] != d[i1 - 1]:
-        slope = (F[i1 - 2] - F[i1 - 1]) / (d[i1 - 2] - d[i1 - 1])
+    """Approach where the force falls to zero between steps ``i1 - 1`` and ``i1``.
+
+    Unloading ends along a Hertz curve ``F ~ (d - d_p)^1.5`` (elastic or
+    from a dent, as in Thornton's model), so ``F^(2/3)`` is extrapolated
+    linearly from the last two loaded steps: exact for that curve, kept
+    within the step.
+    """
+    lo, hi = sorted((float(d[i1]), float(d[i1 - 1])))
+    if i1 >= 2 and F[i1 - 2] > F[i1 - 1] > 0 and d[i1 - 2] != d[i1 - 1]:
+        y1, y2 = F[i1 - 1] ** (2.0 / 3.0), F[i1 - 2] ** (2.0 / 3.0)
+        slope = (y2 - y1) / (d[i1 - 2] - d[i1 - 1])
         if slope > 0:
-            return float(min(max(d[i1 - 1] - F[i1 - 1] / slope, min(lo, hi)), max(lo, hi)))
-    return hi
+            return float(min(max(d[i1 - 1] - y1 / slope, lo), hi))
+    return float(d[i1 - 1])

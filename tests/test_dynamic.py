@@ -279,3 +279,25 @@ def test_rigid_body_clashing_with_support_is_refused(tmp_path):
     bad.write_text(text)
     with pytest.raises(CaseError, match=r"moves \d+ DOFs that \[\[supports\]\] fix"):
         DynamicSolver(load_case(bad))
+
+
+def test_residual_indentation_of_a_synthetic_unloading():
+    # Thornton-like history: Hertz loading to d_max, Hertz unloading to a permanent
+    # approach d_p, sampled in 200 steps. F^(2/3) is linear in d on that curve, so
+    # the extrapolation recovers d_p to round-off (1e-6 of a step asked; the last
+    # loaded step itself is 0.73-0.88 steps off here); an elastic history
+    # (d_p = 0) gives zero.
+    from fe_impact.dynamic import impact_measurements
+
+    for d_p in (0.0, 2e-6):
+        t = np.linspace(0.0, 1.0, 201)
+        d_max = 5e-6
+        d = d_max * np.sin(np.pi * t) - 1e-7                  # approach, closes then opens
+        d = np.where(t > 0.5, d_p + (d_max - d_p) * np.sin(np.pi * t) - 1e-7, d)
+        base = np.where(t > 0.5, d_p, 0.0)
+        F = 1e10 * np.clip(d - base, 0.0, None) ** 1.5
+        hist = {"time": t, "contact_force": F, "approach": d,
+                "normal_velocity": np.gradient(-d, t), "total_energy": np.ones_like(t)}
+        m = impact_measurements(hist, 0.0)
+        step = np.abs(np.diff(d)).max()
+        assert abs(m["residual_indentation"] - d_p) < 1e-6 * step

@@ -832,6 +832,7 @@ class DynamicSolver:
         f_p = np.zeros_like(z)
         self.plastic_iterations = 0
         self.krylov_products = 0
+        self.newton_fallbacks = 0
         for n in range(1, n_steps + 1):
             Kz = K @ z
             rhs0 = M @ (c0 * z + c1 * v + c2 * acc) + alpha * (Kz - f_p - f_c)
@@ -892,14 +893,22 @@ class DynamicSolver:
         if np.array_equal(f_new, f_old):
             self.plastic_iterations += 1
             return state["lam"], z_new, state["active"]
+        z0, products = z_new, 0
         try:
-            if self.case.analysis.plastic_solver == "anderson":
-                z_new, its = solve_fixed_point(step, self.plastic, z_new, tol=1e-7,
-                                               max_iter=200, reference=z)
-                products = 0
+            if self.case.analysis.plastic_solver == "newton":
+                try:
+                    z_new, its, products = solve_newton(step, dstep, self.plastic, z0,
+                                                        tol=1e-7, max_iter=50, reference=z)
+                except RuntimeError as exc:
+                    # e.g. the contact's active set alternating between iterations
+                    logger.warning("Newton's plasticity iteration failed (%s); this step "
+                                   "falls back to Anderson-accelerated modified Newton", exc)
+                    self.newton_fallbacks += 1
+                    z_new, its = solve_fixed_point(step, self.plastic, z0, tol=1e-7,
+                                                   max_iter=200, reference=z)
             else:
-                z_new, its, products = solve_newton(step, dstep, self.plastic, z_new,
-                                                    tol=1e-7, max_iter=50, reference=z)
+                z_new, its = solve_fixed_point(step, self.plastic, z0, tol=1e-7,
+                                               max_iter=200, reference=z)
         except RuntimeError as exc:
             raise SolverError(f"plasticity did not converge in a Newmark step: {exc}; "
                               "reduce the time step or use the explicit integrator") from None
@@ -990,8 +999,9 @@ class DynamicSolver:
                 "plastic_points": int(np.count_nonzero(self.plastic.alpha > 0.0)),
                 "boundary_yielded": bool(self.plastic.boundary_yielded()),
                 "dissipation": float(self.plastic.dissipation()),
-                "newton_iterations": int(getattr(self, "plastic_iterations", 0)),
+                "plastic_iterations": int(getattr(self, "plastic_iterations", 0)),
                 "krylov_products": int(getattr(self, "krylov_products", 0)),
+                "newton_fallbacks": int(getattr(self, "newton_fallbacks", 0)),
                 "max_equivalent_plastic_strain": float(
                     self.plastic.equivalent_plastic_strain("max").max(initial=0.0))},
         }
@@ -1006,7 +1016,8 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
     The contact starts at the first step with a force and ends at the first
     step after the peak force where the force is zero again (single nodes may
     chatter on and off at first touch); both ends are interpolated linearly
-    in the approach, which is zero at first touch and at separation. The
+    in the approach, which is zero at first touch and at an elastic
+    separation (the residual indentation after a dent). The
     restitution compares the relative normal velocity at the end of the run
     (or just before the bodies touch again) with that before first touch.
     The residual indentation is the approach at which the force reaches zero
@@ -1046,12 +1057,16 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
     v_before = float(vn[max(i0 - 1, 0)])
     out["impact_velocity"] = -v_before
     if i1 is not None:
-        # first step with zero force: separation lies in (i1-1, i1]
-        a, b = d[i1 - 1], d[i1]
+        # first step with zero force: separation lies in (i1-1, i1], where the
+        # approach passes zero (elastic) or, if it stays positive, the residual
+        # indentation (a dent)
+        res = _unloaded_approach(F, d, i1)
+        end = 0.0 if d[i1] <= 0.0 else res
+        a, b = d[i1 - 1] - end, d[i1] - end
         s = 0.0 if b == a else min(max(a / (a - b), 0.0), 1.0)
         out["separation"] = float(t[i1 - 1] + s * (t[i1] - t[i1 - 1]))
         out["contact_duration"] = out["separation"] - out["first_touch"]
-        out["residual_indentation"] = _unloaded_approach(F, d, i1)
+        out["residual_indentation"] = res
         later = starts[starts > i1]
         j = int(later[0] - 1) if len(later) else len(t) - 1
         v_after = float(vn[j])

@@ -531,8 +531,10 @@ def thornton_impact(mass: float, speed: float, R: float, E_star: float,
     ``m v^2 / 2`` is spent; unloading along Hertz with the radius ``R_p``
     from ``delta_max`` to the residual approach ``delta_max - (F_max/k_p)^(2/3)``,
     ``k_p = 4/3 E* sqrt(R_p)``; ``e^2`` is the unloading work over the
-    impact energy. ``p_y`` is the limiting contact pressure (Thornton takes
-    the pressure of first yield, 1.6 Y for Y the tensile yield strength).
+    impact energy. ``mass`` and ``R`` are the effective mass and radius of
+    the pair (as in :func:`impact`), ``E_star`` the effective modulus;
+    ``p_y`` is the limiting contact pressure (Thornton takes the pressure of
+    first yield, 1.6 Y for Y the tensile yield strength).
     """
     mass = _require_positive("mass", mass)
     speed = _require_positive("speed", speed)

@@ -209,14 +209,15 @@ def consistent_tangent(strain, eps_p_old, alpha_old, E, nu, yield_strength, hard
 
 @njit(cache=True, fastmath=True)
 def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new, dgam,
-                   snorm, ylist, f):
+                   snorm, nflow, ylist, f):
     """Strains, radial return and plastic force of every zone point.
 
     ``u`` local DOF values; ``ldofs`` (ne, nb, 3) local DOFs; ``G`` (ne, nq, nb, 3)
     shape-function gradients; ``w`` (ne, nq) weights x |J|. Plastic strains are
     Voigt engineering; a point with ``al_old == 0`` has no plastic strain.
     At the points that yield, writes the trial state into ``ep_new``,
-    ``al_new``, ``dgam`` (plastic multiplier) and ``snorm`` (trial |s|) and
+    ``al_new``, ``dgam`` (plastic multiplier), ``snorm`` (trial |s|), ``nflow``
+    (the unit flow direction s/|s|, tensor components) and
     their flat indices ``e * nq + q`` into ``ylist``; the local plastic force
     goes into ``f``. Returns the plastic work of the step (J), the number of
     yielded points and ``sum w eps_p : C : eps_p / 2`` (J) of the trial state.
@@ -276,8 +277,8 @@ def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new
             s5 = 0.5 * m2 * (g01 + g10 - p5)
             n2 = s0 * s0 + s1 * s1 + s2 * s2 + 2.0 * (s3 * s3 + s4 * s4 + s5 * s5)
             R = SQRT23 * (Y[e] + hard * a_old)
-            if n2 > R * R:
-                nrm = math.sqrt(n2)
+            nrm = math.sqrt(n2)
+            if nrm > R:     # on the norm, not its square: dg > 0 strictly
                 dg = (nrm - R) / (m2 + (2.0 / 3.0) * hard)
                 r = dg / nrm
                 p0 += r * s0
@@ -296,6 +297,12 @@ def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new
                 al_new[e, q] = a_new
                 dgam[e, q] = dg
                 snorm[e, q] = nrm
+                nflow[e, q, 0] = s0 / nrm
+                nflow[e, q, 1] = s1 / nrm
+                nflow[e, q, 2] = s2 / nrm
+                nflow[e, q, 3] = s3 / nrm
+                nflow[e, q, 4] = s4 / nrm
+                nflow[e, q, 5] = s5 / nrm
                 ylist[ny] = e * nq + q
                 ny += 1
                 # int (Y + H alpha) d alpha over the step, exact for linear hardening
@@ -358,7 +365,7 @@ def _force_kernel(ldofs, G, w, lam, mu, ep, f):
 
 
 @njit(cache=True, fastmath=True)
-def _tangent_kernel(x, ldofs, G, w, mu, H, dgam, snorm, ep_new, ep_old, ylist, ny, f):
+def _tangent_kernel(x, ldofs, G, w, mu, H, dgam, snorm, nflow, ylist, ny, f):
     """``f = (K - K_ep) x`` over the points that yield in the pending update.
 
     At each yielding point ``C - C_alg = 2 mu (1 - theta) I_dev + 2 mu theta_bar n x n``
@@ -396,12 +403,12 @@ def _tangent_kernel(x, ldofs, G, w, mu, H, dgam, snorm, ep_new, ep_old, ylist, n
         m2 = 2.0 * mu[e]
         theta = 1.0 - m2 * dg / snorm[e, q]
         theta_bar = 1.0 / (1.0 + H[e] / (3.0 * mu[e])) - (1.0 - theta)
-        n0 = (ep_new[e, q, 0] - ep_old[e, q, 0]) / dg
-        n1 = (ep_new[e, q, 1] - ep_old[e, q, 1]) / dg
-        n2 = (ep_new[e, q, 2] - ep_old[e, q, 2]) / dg
-        n3 = 0.5 * (ep_new[e, q, 3] - ep_old[e, q, 3]) / dg
-        n4 = 0.5 * (ep_new[e, q, 4] - ep_old[e, q, 4]) / dg
-        n5 = 0.5 * (ep_new[e, q, 5] - ep_old[e, q, 5]) / dg
+        n0 = nflow[e, q, 0]
+        n1 = nflow[e, q, 1]
+        n2 = nflow[e, q, 2]
+        n3 = nflow[e, q, 3]
+        n4 = nflow[e, q, 4]
+        n5 = nflow[e, q, 5]
         c1 = m2 * (1.0 - theta) * w[e, q]
         c2 = m2 * theta_bar * w[e, q] * (n0 * g00 + n1 * g11 + n2 * g22
                                          + 2.0 * (n3 * e3 + n4 * e4 + n5 * e5))
@@ -493,6 +500,7 @@ class PlasticZone:
         self._al_t = np.zeros((ne, nq))
         self._dg = np.zeros((ne, nq))
         self._sn = np.zeros((ne, nq))
+        self._nf = np.zeros((ne, nq, 6))
         self._ylist = np.zeros(ne * nq, dtype=np.int64)
         self._ny = 0
         self._f = np.zeros(len(self.dofs))       # trial local F_p
@@ -588,8 +596,8 @@ class PlasticZone:
         if self.n_elements:
             self._work_t, self._ny, self._energy_t = _update_kernel(
                 ul, self._ldofs, self._G, self._w, self._lam, self._mu, self._Y, self._H,
-                self._ep, self._al, self._ep_t, self._al_t, self._dg, self._sn, self._ylist,
-                self._f)
+                self._ep, self._al, self._ep_t, self._al_t, self._dg, self._sn, self._nf,
+                self._ylist, self._f)
         self._pending = True
         return self._global(self._f)
 
@@ -715,8 +723,8 @@ class PlasticZone:
         ny = self.n_yielded
         if ny:
             _tangent_kernel(np.ascontiguousarray(self._local(x)), self._ldofs, self._G,
-                            self._w, self._mu, self._H, self._dg, self._sn, self._ep_t,
-                            self._ep, self._ylist, ny, f)
+                            self._w, self._mu, self._H, self._dg, self._sn, self._nf,
+                            self._ylist, ny, f)
         return self._global(f)
 
     def tangent_correction(self, u: np.ndarray | None = None) -> sp.csr_matrix:
@@ -737,8 +745,7 @@ class PlasticZone:
         else:
             mu, H, dg, sn = (self._mu[e_idx], self._H[e_idx], self._dg[e_idx, q_idx],
                              self._sn[e_idx, q_idx])
-            n = (self._ep_t[e_idx, q_idx] - self._ep[e_idx, q_idx]) * _STRAIN_FACTOR
-            n /= dg[:, None]
+            n = self._nf[e_idx, q_idx]           # unit flow direction, tensor components
             theta = 1.0 - 2.0 * mu * dg / sn
             theta_bar = 1.0 / (1.0 + H / (3.0 * mu)) - (1.0 - theta)
             # C - C_alg = 2 mu (1 - theta) I_dev + 2 mu theta_bar n x n
@@ -894,12 +901,9 @@ def solve_newton(step: Callable[[np.ndarray], np.ndarray],
             zone.update(g)
             return g, it, products
         if norm_prev is not None:
-            # Eisenstat-Walker forcing (choice 2): solve as tightly as the
-            # quadratic rate can use, and no tighter than the tolerance needs
-            ew = 0.9 * (norm / norm_prev) ** 2
-            if 0.9 * eta ** 2 > 0.1:
-                ew = max(ew, 0.9 * eta ** 2)
-            eta = min(krylov_tol, ew)
+            # Eisenstat-Walker forcing (choice 2, gamma 0.9): solve as tightly as
+            # the quadratic rate can use, and no tighter than the tolerance needs
+            eta = min(krylov_tol, 0.9 * (norm / norm_prev) ** 2)
         eta = min(max(eta, 0.5 * goal / norm), 0.5)
         norm_prev = norm
 
@@ -909,6 +913,7 @@ def solve_newton(step: Callable[[np.ndarray], np.ndarray],
             return x - dstep(zone.tangent_product(x))
 
         op = LinearOperator((len(z), len(z)), matvec=jac, dtype=float)
+        # info > 0 (not at eta after 600 products) still gives a usable inexact step
         dz, info = gmres(op, r, rtol=eta, atol=0.0, restart=60, maxiter=10)
         if info < 0 or not np.all(np.isfinite(dz)):
             raise RuntimeError(f"GMRES failed (info {info}) in Newton iteration {it}")

@@ -345,6 +345,17 @@ def test_tangent_correction_against_finite_differences(cube):
     np.testing.assert_allclose(fd, D @ du, rtol=0, atol=1e-6 * np.abs(D @ du).max())
     np.testing.assert_allclose((D - D.T).toarray(), 0.0, atol=1e-9 * abs(D).max())
     assert np.linalg.eigvalsh(D.toarray()).min() > -1e-9 * abs(D).max()   # K_ep <= K
+    # from a committed plastic state, loading further in a turned direction: the
+    # flow direction is the trial one, not the committed strain's
+    zone.update(u)
+    zone.commit()
+    u2 = u + linear_field(model, np.array([[0.5, 2.0, 0], [2.0, 0.3, 0], [0, 0, -0.2]]) * Y / E)
+    D2 = zone.tangent_correction(u2)
+    assert zone.n_yielded > 0
+    np.testing.assert_allclose(zone.tangent_product(du), D2 @ du, rtol=0,
+                               atol=1e-10 * np.abs(D2 @ du).max())
+    fd = (zone.update(u2 + h * du) - zone.update(u2 - h * du)) / (2 * h)
+    np.testing.assert_allclose(fd, D2 @ du, rtol=0, atol=1e-6 * np.abs(D2 @ du).max())
 
 
 def drive_homogeneous(zone, model, path):

@@ -84,7 +84,7 @@ def newmark(out: Path, solver: str | None = None) -> dict:
     if solver is not None:
         pl = res.info["plasticity"]
         return {"solver": solver, "wall_s": wall, "steps_s": res.timings["integration"],
-                "newton_iterations": pl["newton_iterations"],
+                "plastic_iterations": pl["plastic_iterations"],
                 "krylov_products": pl["krylov_products"],
                 "plastic_points": pl["plastic_points"], "restitution": m["restitution"],
                 "dissipation_J": pl["dissipation"], "energy_error": m["energy_error"]}

@@ -1,6 +1,6 @@
 """Static Hertz validation: a hemisphere pressed on a block, four mesh levels.
 
-Run ``python validation/hertz_static.py --out out/hertz_static`` (about 6
+Run ``python validation/hertz_static.py --out out/hertz_static`` (about 5
 minutes and 9 GB, most of it the finest level; ``--levels coarse,medium,fine``
 about a minute); it writes ``hertz_static.csv``, ``hertz_static.json``,
 ``hertz_static.md`` and ``hertz_static.png``.

@@ -158,7 +158,10 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
 
 
 def case_hash(case: ImpactCase, settings: Settings, gearset_text: str) -> str:
-    blob = json.dumps([asdict(case), asdict(settings), gearset_text, SCHEMA], sort_keys=True)
+    """Resume key: the case, the run's settings, the gear set, the schema and the
+    fe-impact version (a result from another version is computed again)."""
+    blob = json.dumps([asdict(case), asdict(settings), gearset_text, SCHEMA, __version__],
+                      sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 

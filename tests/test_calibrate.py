@@ -67,3 +67,19 @@ def test_cli_rejects_bad_options(tmp_path, capsys, argv, pattern):
 def test_case_ids_are_stable():
     c = ImpactCase(2, 68, "mesh", 0.0387, 300.0)
     assert c.id == "stage2_mesh_300rpm"
+
+
+def test_resume_key_covers_settings_and_version(monkeypatch):
+    # A stored result is reused only for the same case, settings and fe-impact
+    # version: each of them must change the key.
+    from fe_impact import calibrate as cal
+
+    c = cal.ImpactCase(2, 68, "mesh", 0.0387, 300.0)
+    key = cal.case_hash(c, cal.Settings(), "gear set")
+    assert key == cal.case_hash(c, cal.Settings(), "gear set")
+    assert key != cal.case_hash(cal.ImpactCase(2, 68, "mesh", 0.04, 300.0), cal.Settings(),
+                                "gear set")
+    assert key != cal.case_hash(c, cal.Settings(level="coarse"), "gear set")
+    assert key != cal.case_hash(c, cal.Settings(), "another gear set")
+    monkeypatch.setattr(cal, "__version__", "0.0.0-other")
+    assert key != cal.case_hash(c, cal.Settings(), "gear set")

@@ -72,7 +72,7 @@ UNITS = {"impact_speed": "m/s", "speed_rpm": "r/min", "effective_mass": "kg",
          "peak_force": "N", "max_approach": "m", "contact_time": "s", "restitution": "-",
          "energy_lost": "-", "stiffness_k": "N/m^stiffness_exponent",
          "mesh_stiffness": "N/m", "k": "N/m^exponent", "exponent": "-", "cmax": "N s/m",
-         "d": "m", "chi": "-", "seconds": "s", "v_y_eq15": "m/s",
+         "d": "m", "residual_indentation": "m", "chi": "-", "seconds": "s", "v_y_eq15": "m/s",
          "v_y_tooth": "m/s", "seed_eq14": "-", "yield_ratio_eq15": "-"}
 
 
@@ -288,6 +288,7 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
           "restitution_measured": e_fe,
           "energy_lost": 1.0 - e ** 2, "impact_velocity": speed,
           "energy_error": m["energy_error"],
+          "residual_indentation": m["residual_indentation"],
           "stiffness_k": power.K, "stiffness_exponent": power.exponent,
           "stiffness_fit_r2": power.r2,
           "nominal_load": settings.nominal_load}
@@ -410,16 +411,18 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     path = write_json(out / "calibration.json", doc)
     header = ["id", "stage", "face_teeth", "kind", "speed_rpm", "impact_speed",
               "effective_mass", "peak_force", "max_approach", "contact_time", "restitution",
-              "stiffness_k", "stiffness_exponent", "mesh_stiffness", "k", "exponent", "cmax",
-              "d", "closed_k", "closed_exponent", "closed_cmax", "closed_d", "seconds"]
+              "residual_indentation", "stiffness_k", "stiffness_exponent", "mesh_stiffness",
+              "k", "exponent", "cmax", "d", "closed_k", "closed_exponent", "closed_cmax",
+              "closed_d", "seconds"]
     rows = []
     for r in records:
         cf = r["closed_form"]
         rows.append([r["id"], r["stage"], r["face_teeth"], r["kind"], r["speed_rpm"],
                      r["impact_speed"], r["effective_mass"], r["fe"]["peak_force"],
                      r["fe"]["max_approach"], r["fe"]["contact_time"], r["fe"]["restitution"],
-                     r["fe"]["stiffness_k"], r["fe"]["stiffness_exponent"],
-                     r["fe"]["mesh_stiffness"], r["impact"]["k"], r["impact"]["exponent"],
+                     r["fe"].get("residual_indentation"), r["fe"]["stiffness_k"],
+                     r["fe"]["stiffness_exponent"], r["fe"]["mesh_stiffness"],
+                     r["impact"]["k"], r["impact"]["exponent"],
                      r["impact"]["cmax"], r["impact"]["d"], cf.get("k"), cf.get("exponent"),
                      cf.get("cmax"), cf.get("d"), r["timings_s"]["total"]])
     write_csv(out / "calibration.csv", header, rows)

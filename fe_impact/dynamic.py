@@ -1066,7 +1066,9 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float) -> d
         s = 0.0 if b == a else min(max(a / (a - b), 0.0), 1.0)
         out["separation"] = float(t[i1 - 1] + s * (t[i1] - t[i1 - 1]))
         out["contact_duration"] = out["separation"] - out["first_touch"]
-        out["residual_indentation"] = res
+        # an elastic pair can part a little before the first-touch position (the
+        # sides' vibration): no dent, not a negative one
+        out["residual_indentation"] = max(res, 0.0)
         later = starts[starts > i1]
         j = int(later[0] - 1) if len(later) else len(t) - 1
         v_after = float(vn[j])

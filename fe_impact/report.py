@@ -40,13 +40,14 @@ def write_calibration_report(out: Path, doc: dict) -> Path:
              f"{_gap(doc['settings']['gap'])}. Wall time {doc['wall_time_s']:.0f} s.", "",
              "## FE measurements", "",
              "| case | v (m/s) | m_eff (kg) | F_max (N) | delta_max (um) | t_c (us) | e "
-             "| K (N/m^xi) | xi | fit R^2 | k_mesh at nominal load (N/m) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| dent (um) | K (N/m^xi) | xi | fit R^2 | k_mesh at nominal load (N/m) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cases:
         fe = c["fe"]
         lines.append(f"| {c['id']} | {c['impact_speed']:.4g} | {c['effective_mass']:.4g} | "
                      f"{_fmt(fe['peak_force'])} | {_fmt(fe['max_approach'], '.4g', 1e6)} | "
                      f"{_fmt(fe['contact_time'], '.4g', 1e6)} | {_fmt(fe['restitution'], '.4f')}"
+                     f" | {_fmt(fe.get('residual_indentation'), '.3g', 1e6)}"
                      f" | {_fmt(fe['stiffness_k'], '.4g')} | "
                      f"{_fmt(fe['stiffness_exponent'], '.3f')} | "
                      f"{_fmt(fe['stiffness_fit_r2'], '.5f')} | {_fmt(fe['mesh_stiffness'])} |")

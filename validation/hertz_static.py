@@ -213,7 +213,10 @@ def report(results: list[LevelResult]) -> str:
                      f"| {min(ff):.1%} to {max(ff):.1%} |")
     lines += ["", "Errors are the largest over the five load steps (5-25 um). Pressure "
               "deviations are relative to p0, over the slave nodes where the FE or the "
-              "Hertz pressure is positive.", "",
+              "Hertz pressure is positive. Hertz's p0 is the centre pressure; the largest "
+              "nodal pressure can sit on one node carrying the quadratic faces' node-to-node "
+              "pressure oscillation, which grows with the penalty and does not shrink "
+              "with h.", "",
               "Per load step (convergence at equal load), contact radius error / largest "
               "nodal pressure error / centre pressure error:", "",
               "| D (um) | " + " | ".join(r.level for r in results) + " |",

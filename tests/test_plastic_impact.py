@@ -64,3 +64,17 @@ def test_newton_and_anderson_solve_the_same_steps(coarse_runs, tmp_path):
     for key in ("restitution", "dissipation_share", "peak_force", "max_plastic_strain"):
         assert anderson[key] == pytest.approx(newton[key], rel=1e-6), key
     assert newton["krylov_products"] > 0 and anderson["krylov_products"] == 0
+
+
+def test_failed_newton_step_falls_back_to_anderson(coarse_runs, tmp_path, monkeypatch):
+    # A step where Newton fails is redone by Anderson-accelerated modified Newton:
+    # the run completes, counts the fallbacks and lands on the same impact.
+    import fe_impact.plasticity as plasticity
+
+    def failing(*args, **kwargs):
+        raise RuntimeError("forced failure")
+
+    monkeypatch.setattr(plasticity, "solve_newton", failing)
+    r = run_speed(5.0, tmp_path, coarse=True)
+    assert r["newton_fallbacks"] > 0 and r["krylov_products"] == 0
+    assert r["restitution"] == pytest.approx(coarse_runs[5.0]["restitution"], rel=1e-6)

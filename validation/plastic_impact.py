@@ -93,6 +93,7 @@ def run_speed(ratio: float, out: Path, coarse: bool = False, hardening: float = 
             "zone_boundary_yielded": pl.get("boundary_yielded"),
             "plastic_iterations": pl.get("plastic_iterations"),
             "krylov_products": pl.get("krylov_products"),
+            "newton_fallbacks": pl.get("newton_fallbacks"),
             "peak_force": 4.0 * m["peak_force"], "peak_force_hertz": ref.force_max,
             "peak_force_thornton": th.force_max,
             "max_approach_um": m["max_approach"] * 1e6,

@@ -207,6 +207,44 @@ def consistent_tangent(strain, eps_p_old, alpha_old, E, nu, yield_strength, hard
 # -- element kernels -----------------------------------------------------------------
 
 
+@njit(cache=True, fastmath=True, inline="always")
+def _gradient(ue, Gq):
+    """Displacement gradient ``du_c/dx_k`` (row-major g00 ... g22) at one point.
+
+    ``ue`` (nb, 3) element nodal values, ``Gq`` (nb, 3) shape-function gradients.
+    """
+    g00 = g01 = g02 = g10 = g11 = g12 = g20 = g21 = g22 = 0.0
+    for a in range(Gq.shape[0]):
+        d0 = Gq[a, 0]
+        d1 = Gq[a, 1]
+        d2 = Gq[a, 2]
+        u0 = ue[a, 0]
+        u1 = ue[a, 1]
+        u2 = ue[a, 2]
+        g00 += u0 * d0
+        g01 += u0 * d1
+        g02 += u0 * d2
+        g10 += u1 * d0
+        g11 += u1 * d1
+        g12 += u1 * d2
+        g20 += u2 * d0
+        g21 += u2 * d1
+        g22 += u2 * d2
+    return g00, g01, g02, g10, g11, g12, g20, g21, g22
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _add_stress_divergence(sxx, syy, szz, syz, sxz, sxy, Gq, fe):
+    """fe += B^T s at one point (s already times the point's weight)."""
+    for a in range(Gq.shape[0]):
+        g0 = Gq[a, 0]
+        g1 = Gq[a, 1]
+        g2 = Gq[a, 2]
+        fe[a, 0] += sxx * g0 + sxy * g1 + sxz * g2
+        fe[a, 1] += sxy * g0 + syy * g1 + syz * g2
+        fe[a, 2] += sxz * g0 + syz * g1 + szz * g2
+
+
 @njit(cache=True, fastmath=True)
 def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new, dgam,
                    snorm, nflow, ylist, f):
@@ -237,23 +275,7 @@ def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new
         hard = H[e]
         plastic = False
         for q in range(nq):
-            g00 = g01 = g02 = g10 = g11 = g12 = g20 = g21 = g22 = 0.0
-            for a in range(nb):
-                d0 = G[e, q, a, 0]
-                d1 = G[e, q, a, 1]
-                d2 = G[e, q, a, 2]
-                u0 = ue[a, 0]
-                u1 = ue[a, 1]
-                u2 = ue[a, 2]
-                g00 += u0 * d0
-                g01 += u0 * d1
-                g02 += u0 * d2
-                g10 += u1 * d0
-                g11 += u1 * d1
-                g12 += u1 * d2
-                g20 += u2 * d0
-                g21 += u2 * d1
-                g22 += u2 * d2
+            g00, g01, g02, g10, g11, g12, g20, g21, g22 = _gradient(ue, G[e, q])
             a_old = al_old[e, q]
             if a_old > 0.0:
                 p0 = ep_old[e, q, 0]
@@ -335,13 +357,7 @@ def _accumulate(p0, p1, p2, p3, p4, p5, lam, mu, wq, Gq, fe):
     syz = mu * wq * p3
     sxz = mu * wq * p4
     sxy = mu * wq * p5
-    for a in range(Gq.shape[0]):
-        g0 = Gq[a, 0]
-        g1 = Gq[a, 1]
-        g2 = Gq[a, 2]
-        fe[a, 0] += sxx * g0 + sxy * g1 + sxz * g2
-        fe[a, 1] += sxy * g0 + syy * g1 + syz * g2
-        fe[a, 2] += sxz * g0 + syz * g1 + szz * g2
+    _add_stress_divergence(sxx, syy, szz, syz, sxz, sxy, Gq, fe)
     return 0.5 * (sxx * p0 + syy * p1 + szz * p2 + syz * p3 + sxz * p4 + sxy * p5)
 
 
@@ -374,26 +390,15 @@ def _tangent_kernel(x, ldofs, G, w, mu, H, dgam, snorm, nflow, ylist, ny, f):
     nq = G.shape[1]
     nb = G.shape[2]
     f[:] = 0.0
+    ue = np.empty((nb, 3))
+    fe = np.empty((nb, 3))
     for k in range(ny):
         e = ylist[k] // nq
         q = ylist[k] % nq
-        g00 = g01 = g02 = g10 = g11 = g12 = g20 = g21 = g22 = 0.0
         for a in range(nb):
-            d0 = G[e, q, a, 0]
-            d1 = G[e, q, a, 1]
-            d2 = G[e, q, a, 2]
-            u0 = x[ldofs[e, a, 0]]
-            u1 = x[ldofs[e, a, 1]]
-            u2 = x[ldofs[e, a, 2]]
-            g00 += u0 * d0
-            g01 += u0 * d1
-            g02 += u0 * d2
-            g10 += u1 * d0
-            g11 += u1 * d1
-            g12 += u1 * d2
-            g20 += u2 * d0
-            g21 += u2 * d1
-            g22 += u2 * d2
+            for c in range(3):
+                ue[a, c] = x[ldofs[e, a, c]]
+        g00, g01, g02, g10, g11, g12, g20, g21, g22 = _gradient(ue, G[e, q])
         # tensor strain components
         e3 = 0.5 * (g12 + g21)
         e4 = 0.5 * (g02 + g20)
@@ -418,13 +423,11 @@ def _tangent_kernel(x, ldofs, G, w, mu, H, dgam, snorm, nflow, ylist, ny, f):
         syz = c1 * e3 + c2 * n3
         sxz = c1 * e4 + c2 * n4
         sxy = c1 * e5 + c2 * n5
+        fe[:, :] = 0.0
+        _add_stress_divergence(sxx, syy, szz, syz, sxz, sxy, G[e, q], fe)
         for a in range(nb):
-            d0 = G[e, q, a, 0]
-            d1 = G[e, q, a, 1]
-            d2 = G[e, q, a, 2]
-            f[ldofs[e, a, 0]] += sxx * d0 + sxy * d1 + sxz * d2
-            f[ldofs[e, a, 1]] += sxy * d0 + syy * d1 + syz * d2
-            f[ldofs[e, a, 2]] += sxz * d0 + syz * d1 + szz * d2
+            for c in range(3):
+                f[ldofs[e, a, c]] += fe[a, c]
 
 
 # -- the zone ---------------------------------------------------------------------------

@@ -662,6 +662,9 @@ class DynamicSolver:
         self._energy0 = None
         self._warned_boundary = False
         self.n_zone_growth = 0
+        # Newmark plasticity: solver iterations (elastic trials included), GMRES
+        # products of the Newton corrections, steps Newton handed to Anderson
+        self.plastic_iterations = self.krylov_products = self.newton_fallbacks = 0
 
         mass = self.m if self.explicit else None
 
@@ -830,9 +833,6 @@ class DynamicSolver:
         max_it = self.case.analysis.max_iterations
         zone = self.plastic
         f_p = np.zeros_like(z)
-        self.plastic_iterations = 0
-        self.krylov_products = 0
-        self.newton_fallbacks = 0
         for n in range(1, n_steps + 1):
             Kz = K @ z
             rhs0 = M @ (c0 * z + c1 * v + c2 * acc) + alpha * (Kz - f_p - f_c)
@@ -894,24 +894,28 @@ class DynamicSolver:
             self.plastic_iterations += 1
             return state["lam"], z_new, state["active"]
         z0, products = z_new, 0
-        try:
-            if self.case.analysis.plastic_solver == "newton":
-                try:
-                    z_new, its, products = solve_newton(step, dstep, self.plastic, z0,
-                                                        tol=1e-7, max_iter=50, reference=z)
-                except RuntimeError as exc:
-                    # e.g. the contact's active set alternating between iterations
-                    logger.warning("Newton's plasticity iteration failed (%s); this step "
-                                   "falls back to Anderson-accelerated modified Newton", exc)
-                    self.newton_fallbacks += 1
-                    z_new, its = solve_fixed_point(step, self.plastic, z0, tol=1e-7,
-                                                   max_iter=200, reference=z)
-            else:
-                z_new, its = solve_fixed_point(step, self.plastic, z0, tol=1e-7,
-                                               max_iter=200, reference=z)
-        except RuntimeError as exc:
-            raise SolverError(f"plasticity did not converge in a Newmark step: {exc}; "
-                              "reduce the time step or use the explicit integrator") from None
+
+        def anderson():
+            try:
+                return solve_fixed_point(step, self.plastic, z0, tol=1e-7, max_iter=200,
+                                         reference=z)
+            except RuntimeError as exc:
+                raise SolverError(f"plasticity did not converge in a Newmark step: {exc}; "
+                                  "reduce the time step or use the explicit integrator"
+                                  ) from None
+
+        if self.case.analysis.plastic_solver == "anderson":
+            z_new, its = anderson()
+        else:
+            try:
+                z_new, its, products = solve_newton(step, dstep, self.plastic, z0, tol=1e-7,
+                                                    max_iter=50, reference=z)
+            except RuntimeError as exc:
+                # e.g. the contact's active set alternating between iterations
+                logger.warning("Newton's plasticity iteration failed (%s); this step "
+                               "falls back to Anderson-accelerated modified Newton", exc)
+                self.newton_fallbacks += 1
+                z_new, its = anderson()
         self.plastic_iterations += its
         self.krylov_products += products
         return state["lam"], z_new, state["active"]
@@ -999,9 +1003,9 @@ class DynamicSolver:
                 "plastic_points": int(np.count_nonzero(self.plastic.alpha > 0.0)),
                 "boundary_yielded": bool(self.plastic.boundary_yielded()),
                 "dissipation": float(self.plastic.dissipation()),
-                "plastic_iterations": int(getattr(self, "plastic_iterations", 0)),
-                "krylov_products": int(getattr(self, "krylov_products", 0)),
-                "newton_fallbacks": int(getattr(self, "newton_fallbacks", 0)),
+                "plastic_iterations": self.plastic_iterations,
+                "krylov_products": self.krylov_products,
+                "newton_fallbacks": self.newton_fallbacks,
                 "max_equivalent_plastic_strain": float(
                     self.plastic.equivalent_plastic_strain("max").max(initial=0.0))},
         }

@@ -892,6 +892,13 @@ def solve_newton(step: Callable[[np.ndarray], np.ndarray],
     z = np.asarray(z0, dtype=float).copy()
     ref = 0.0 if reference is None else np.asarray(reference, dtype=float)
     products = 0
+
+    def jac(x):   # D at the pending update: the latest iterate's
+        nonlocal products
+        products += 1
+        return x - dstep(zone.tangent_product(x))
+
+    op = LinearOperator((len(z), len(z)), matvec=jac, dtype=float)
     eta, norm_prev = krylov_tol, None
     for it in range(1, max_iter + 1):
         g = step(zone.update(z))
@@ -909,13 +916,6 @@ def solve_newton(step: Callable[[np.ndarray], np.ndarray],
             eta = min(krylov_tol, 0.9 * (norm / norm_prev) ** 2)
         eta = min(max(eta, 0.5 * goal / norm), 0.5)
         norm_prev = norm
-
-        def jac(x):
-            nonlocal products
-            products += 1
-            return x - dstep(zone.tangent_product(x))
-
-        op = LinearOperator((len(z), len(z)), matvec=jac, dtype=float)
         # info > 0 (not at eta after 600 products) still gives a usable inexact step
         dz, info = gmres(op, r, rtol=eta, atol=0.0, restart=60, maxiter=10)
         if info < 0 or not np.all(np.isfinite(dz)):

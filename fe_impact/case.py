@@ -16,6 +16,7 @@ Example (all lengths in metres, stresses in Pa)::
     slave = "sphere_contact"
     master = "block_contact"
     penalty = "auto"               # or a value in Pa/m
+    multiplier = "linear"          # contact pressure on 6-node faces, or "split"
 
     [[supports]]
     surface = "block_bottom"
@@ -74,6 +75,11 @@ INTEGRATORS = ("newmark", "explicit")
 #: Anderson-accelerated modified Newton on the elastic factorisation.
 PLASTIC_SOLVERS = ("newton", "anderson")
 MOTIONS = ("translation", "rotation")
+#: Contact pressure (multiplier) interpolation on 6-node slave faces: linear
+#: between the corners (stable with quadratic displacements), or linear on the
+#: four sub-triangles (twice the resolution, but the pressure oscillates at
+#: stiff penalties); see :mod:`fe_impact.contact`.
+MULTIPLIERS = ("linear", "split")
 _TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "analysis",
              "initial_velocities", "rigid_bodies"}
 
@@ -98,6 +104,7 @@ class ContactSpec:
     master: str
     penalty: float | None = None
     search_distance: float | None = None
+    multiplier: str = "linear"             # see contact.MULTIPLIERS
 
 
 @dataclass(frozen=True)
@@ -312,7 +319,7 @@ def _rigid_body(r: _Reader, t: dict, where: str) -> RigidBodySpec:
 
 
 def _contact(r: _Reader, t: dict, where: str) -> ContactSpec:
-    r.keys(t, where, {"slave", "master", "penalty", "search_distance"},
+    r.keys(t, where, {"slave", "master", "penalty", "search_distance", "multiplier"},
            required={"slave", "master"})
     pen = t.get("penalty", "auto")
     if pen == "auto":
@@ -327,7 +334,8 @@ def _contact(r: _Reader, t: dict, where: str) -> ContactSpec:
     if slave == master:
         raise CaseError(f"{r.file}: [{where}] slave and master are both '{slave}': "
                         "a contact pair needs two different surfaces")
-    return ContactSpec(slave, master, penalty, search)
+    multiplier = r.choice(t, where, "multiplier", MULTIPLIERS, default="linear")
+    return ContactSpec(slave, master, penalty, search, multiplier)
 
 
 def _support(r: _Reader, t: dict, where: str) -> SupportSpec:

@@ -1,13 +1,29 @@
 """Frictionless penalty contact between two deformable bodies.
 
 The gap is evaluated at the quadrature points of the slave surface (a
-Gauss-point-to-segment formulation: the penalty energy is
-``eps/2 * integral <-g>^2 dA`` over the slave surface), so P1 and P2 faces
-are treated alike and the pressure is a surface field rather than nodal
-spikes. Each slave point of the *deformed* slave surface is projected on the
+Gauss-point-to-segment formulation), so P1 and P2 faces are treated alike.
+Each slave point of the *deformed* slave surface is projected on the
 *deformed* master surface (closest point, Gauss-Newton on the isoparametric
 triangle); the gap is ``g = n . (x_s - x_m)`` with ``n`` the outward master
 normal there, negative when the bodies overlap.
+
+The gaps are then tested with one function per slave node (a mortar-type
+weighted gap, :class:`GapState`), and the penalty acts on those weighted gaps.
+The test functions are the pressure's interpolation:
+
+- 3-node faces: the linear shape functions.
+- 6-node faces, ``multiplier = "linear"`` (default): the linear hat functions
+  of the face's three corners, so only corner nodes carry a pressure, which
+  is linear over each face (a P2-P1 pairing, like the Taylor-Hood element:
+  the pressure space is coarser than the displacement trace, which keeps the
+  pressure stable; Popp, Wohlmuth, Gee and Wall 2012 use it for quadratic
+  mortar contact). Mid-side nodes get the mean of their corners for output.
+- 6-node faces, ``multiplier = "split"``: the hat functions of the face's four
+  linear sub-triangles (segment weights as in Puso, Laursen and Solberg 2008),
+  so every node carries a pressure. Its resolution is twice as fine, but the
+  pressure space is as large as the displacement trace; at the auto penalty
+  a single node can carry a pressure 4-5% above its neighbours on a
+  distorted triangle, at every mesh size (measured on the Hertz validation).
 
 Linearisation (used as the Newton direction of the contact iteration):
 ``dg = n . (du_s - sum_b N_b(xi_m) du_b)`` with the variation of ``n`` and of
@@ -32,6 +48,8 @@ logger = logging.getLogger(__name__)
 # Node order of a 6-node triangle (meshio/VTK): vertices 0,1,2, mid-sides 01, 12, 20.
 _FLIP = {3: [0, 2, 1], 6: [0, 2, 1, 5, 4, 3]}
 _INSIDE_TOL = 1e-6
+#: Pressure interpolations on 6-node slave faces (see the module docstring).
+MULTIPLIERS = ("linear", "split")
 
 
 def tri_shape(xi: np.ndarray, eta: np.ndarray, nn: int) -> tuple[np.ndarray, np.ndarray]:
@@ -136,24 +154,28 @@ class SlavePoints:
     phi: np.ndarray       # (nq, nn) piecewise-linear test function of each face node
 
 
-# A 6-node face is split into four linear sub-triangles (corners in reference
-# coordinates, as node indices of the face) so every node gets a positive weight.
+# A 6-node face is integrated on its four linear sub-triangles (corners in
+# reference coordinates, as node indices of the face): the gap is quadratic
+# on each, and with the "split" multiplier they carry the test functions.
 _SUB_TRIANGLES = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 _REF_NODES = np.array([[0, 0], [1, 0], [0, 1], [0.5, 0], [0.5, 0.5], [0, 0.5]], dtype=float)
 
 
-def slave_points(surface: ContactSurface, x_ref: np.ndarray, faces: np.ndarray) -> SlavePoints:
-    """Quadrature points, area weights and linear nodal test functions on slave faces.
+def slave_points(surface: ContactSurface, x_ref: np.ndarray, faces: np.ndarray,
+                 multiplier: str = "linear") -> SlavePoints:
+    """Quadrature points, area weights and nodal test functions on slave faces.
 
     3-node faces: a degree-4 rule (6 points) with the P1 shape functions as
-    test functions. 6-node faces: each of the four linear sub-triangles gets
-    the same rule, with the sub-triangle's hat functions as test functions
-    (segment-based weights as in Puso's quadratic mortar elements), so every
-    node has a positive tributary area.
+    test functions. 6-node faces: the same rule on each of the four linear
+    sub-triangles, with as test functions the corner hat functions of the
+    face (``multiplier="linear"``; the mid-side columns are zero) or the
+    sub-triangle's own hat functions (``"split"``).
     """
     from skfem.quadrature import get_quadrature
     from skfem.refdom import RefTri
 
+    if multiplier not in MULTIPLIERS:
+        raise ValueError(f"multiplier {multiplier!r}: expected one of {MULTIPLIERS}")
     X, W = get_quadrature(RefTri, 4)
     nn = surface.nodes_per_face
     if nn == 3:
@@ -163,13 +185,15 @@ def slave_points(surface: ContactSurface, x_ref: np.ndarray, faces: np.ndarray) 
         xi_l, eta_l, w_l, phi_l = [], [], [], []
         lin, _ = tri_shape(X[0], X[1], 3)  # (nq, 3) hat functions of a sub-triangle
         for sub in _SUB_TRIANGLES:
-            corners = _REF_NODES[sub]          # (3, 2)
-            ref = lin @ corners                # (nq, 2)
+            ref = lin @ _REF_NODES[sub]        # (nq, 2) points in the face's coordinates
             xi_l.append(ref[:, 0])
             eta_l.append(ref[:, 1])
             w_l.append(W / 4.0)
             p = np.zeros((len(W), 6))
-            p[:, sub] = lin
+            if multiplier == "linear":
+                p[:, :3] = tri_shape(ref[:, 0], ref[:, 1], 3)[0]
+            else:
+                p[:, sub] = lin
             phi_l.append(p)
         xi, eta, w = np.concatenate(xi_l), np.concatenate(eta_l), np.concatenate(w_l)
         phi = np.concatenate(phi_l)
@@ -237,10 +261,12 @@ class GapState:
     """Weighted gaps at the slave nodes and their linearisation ``dg = B du``.
 
     The weighted gap of node ``a`` is ``g_a = int phi_a g dA / A_a`` with
-    ``A_a = int phi_a dA`` its tributary area: one constraint per slave node,
-    so the pressure ``eps <-g_a>`` is a smooth nodal field (a gap sampled at
-    every quadrature point over-constrains the surface and the pressure
-    oscillates from point to point).
+    ``A_a = int phi_a dA`` its tributary area: one constraint per slave node
+    that carries a test function (all nodes of 3-node faces; the corners of
+    6-node faces with the linear multiplier), so the pressure ``eps <-g_a>``
+    is a smooth nodal field (a gap sampled at every quadrature point
+    over-constrains the surface and the pressure oscillates from point to
+    point).
     """
 
     nodes: np.ndarray    # (n,) slave point indices
@@ -253,17 +279,18 @@ class GapState:
 
 @dataclass(frozen=True, eq=False)
 class ContactPair:
-    """A slave/master surface pair with its penalty (Pa/m)."""
+    """A slave/master surface pair with its penalty (Pa/m) and pressure interpolation."""
 
     slave: ContactSurface
     master: ContactSurface
     penalty: float
+    multiplier: str = "linear"
 
     def gap_state(self, mesh: FEMesh, u: np.ndarray, slave_faces: np.ndarray,
                   master_faces: np.ndarray) -> GapState:
         """Gaps of the deformed configuration ``x = X + u`` (u: (n_points, 3))."""
         x = mesh.points + u
-        sp_ = slave_points(self.slave, mesh.points, slave_faces)
+        sp_ = slave_points(self.slave, mesh.points, slave_faces, self.multiplier)
         f = self.slave.faces[slave_faces]
         pos, _, _, Ns = self.slave.geometry(x, sp_.xi[None, :], sp_.eta[None, :], f[:, None, :])
         nq = sp_.xi.size
@@ -285,6 +312,8 @@ class ContactPair:
         Wv = sp.csr_matrix((cv.ravel(), (rows, cols)), shape=(len(nodes), len(pts)))
         area = np.asarray(sp.csr_matrix((c.ravel(), (rows, cols)),
                                         shape=(len(nodes), len(pts))).sum(axis=1)).ravel()
+        tested = area > 0.0  # mid-side nodes carry no test function with "linear"
+        nodes, Wv, area = nodes[tested], Wv[tested], area[tested]
         valid_area = np.asarray(Wv.sum(axis=1)).ravel()
         ok = valid_area > 1e-3 * area
         scale = np.where(ok, 1.0 / np.where(ok, valid_area, 1.0), 0.0)
@@ -306,8 +335,20 @@ def _gap_jacobian(mesh: FEMesh, snodes, Ns, mnodes, Nm, normal, valid) -> sp.csr
     return sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(n, ndof))
 
 
-def nodal_pressure(mesh: FEMesh, state: GapState, pressure: np.ndarray) -> np.ndarray:
-    """Scatter the slave-node pressure into an (n_points,) array, zero elsewhere."""
+def nodal_pressure(mesh: FEMesh, pair: ContactPair, state: GapState,
+                   pressure: np.ndarray) -> np.ndarray:
+    """Scatter the pressure at ``state.nodes`` into an (n_points,) array, zero elsewhere.
+
+    Mid-side nodes of 6-node faces that carry no pressure of their own (the
+    linear multiplier) get the mean of their two corners, the value of the
+    face's linear pressure there.
+    """
     out = np.zeros(mesh.n_points)
     out[state.nodes] = pressure
+    f = pair.slave.faces
+    if f.shape[1] == 6 and len(state.nodes):
+        mid = f[:, 3:].ravel()
+        untested = ~np.isin(mid, state.nodes)
+        ends = f[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2)
+        out[mid[untested]] = 0.5 * out[ends[untested]].sum(axis=1)
     return out

@@ -52,7 +52,7 @@ import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from .case import Case, RigidBodySpec
-from .contact import GapState
+from .contact import GapState, nodal_pressure
 from .elasticity import assemble_mass, build_model, lumped_mass, von_mises
 from .errors import CaseError, ContactError, SolverError
 from .linalg import SPDSolver, condensed_compliance
@@ -289,10 +289,11 @@ class ContactModel:
         """Nodal contact pressure (Pa) on all mesh points."""
         p = np.zeros(self.mesh.n_points)
         start = 0
-        for st, n in zip(self.states, self.sizes, strict=True):
+        for pair, st, n in zip(self.zone.pairs, self.states, self.sizes, strict=True):
             lk = lam[start:start + n]
             start += n
-            p[st.nodes] = np.maximum(p[st.nodes], np.where(lk > 0, lk / st.weight, 0.0))
+            p = np.maximum(p, nodal_pressure(self.mesh, pair, st,
+                                             np.where(lk > 0, lk / st.weight, 0.0)))
         return p
 
 

@@ -239,7 +239,7 @@ class StaticSolver:
             areas.append(float(st.weight[lk > 0].sum()))
             pmax = max(pmax, float(p.max(initial=0.0)))
             pen = max(pen, float((p / pair.penalty).max(initial=0.0)))
-            pressure = np.maximum(pressure, nodal_pressure(self.mesh, st, p))
+            pressure = np.maximum(pressure, nodal_pressure(self.mesh, pair, st, p))
         Ku = self.model.K @ u
         reactions = [float(Ku[d].sum()) for d in self.loaded]
         value = self.case.displacements[0].values[i] if self.case.displacements else 0.0

@@ -45,7 +45,7 @@ def contact_pairs(case: Case, mesh: FEMesh, model: ElasticModel,
         if penalty is None:
             penalty = factor * pair_modulus(mesh, model, slave, master) / min(
                 face_size(mesh, slave), face_size(mesh, master))
-        pairs.append(ContactPair(slave, master, penalty))
+        pairs.append(ContactPair(slave, master, penalty, spec.multiplier))
         logger.info("contact %s -> %s: penalty %.3g Pa/m", spec.slave, spec.master, penalty)
     return pairs
 
@@ -160,9 +160,15 @@ def face_size(mesh: FEMesh, surface: ContactSurface, stat=np.median,
 
 
 def face_min_gap(pair: ContactPair, state, faces: np.ndarray) -> np.ndarray:
-    """Smallest nodal gap of each face (inf where none is opposite the master)."""
-    pos = np.searchsorted(state.nodes, pair.slave.faces[faces])
-    return state.gap[pos].min(axis=1)
+    """Smallest nodal gap of each face (inf where none is opposite the master).
+
+    Only the nodes with a weighted gap count (the corners of 6-node faces
+    with the linear multiplier).
+    """
+    f = pair.slave.faces[faces]
+    pos = np.minimum(np.searchsorted(state.nodes, f), len(state.nodes) - 1)
+    gap = np.where(state.nodes[pos] == f, state.gap[pos], np.inf)
+    return gap.min(axis=1)
 
 
 def elements_touching(mesh: FEMesh, points: np.ndarray) -> np.ndarray:

@@ -16,6 +16,12 @@ def coarse_hertz_case(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def medium_hertz_case(tmp_path_factory) -> Path:
+    """The validation's medium level (h = 0.1 mm at contact, P2)."""
+    return write_case(tmp_path_factory.mktemp("hertz_medium"), 0.1e-3)
+
+
+@pytest.fixture(scope="session")
 def coarse_hertz_case_p1(tmp_path_factory) -> Path:
     """The same specimen with linear tetrahedra."""
     return write_case(tmp_path_factory.mktemp("hertz_coarse_p1"), 0.2e-3, order=1)

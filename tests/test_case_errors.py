@@ -32,6 +32,8 @@ BAD = [
     ('unit = "m"', 'unit = "inch"', r"unit = 'inch'.*\['m', 'mm'\]"),
     ('fix = ["z"]', 'fix = ["w"]', r"fix = \['w'\].*\['x', 'y', 'z'\]"),
     ('penalty = "auto"', 'penalty = "stiff"', r"penalty = 'stiff'.*auto"),
+    ('penalty = "auto"', 'penalty = "auto"\nmultiplier = "quadratic"',
+     r"multiplier = 'quadratic'.*linear.*split"),
     ('component = "z"', 'component = "q"', r"component = 'q'.*pick one of"),
     ('[analysis]', '[analysis]\ntype = "modal"', r"type = 'modal'.*static"),
     ('density = 7860', 'density = 7860\ncolour = "red"', r"unknown key.*colour.*allowed"),

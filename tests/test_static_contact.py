@@ -1,4 +1,4 @@
-"""Static contact against Hertz on the coarse sphere-on-block specimen."""
+"""Static contact against Hertz on the validation's sphere-on-block specimen."""
 
 from __future__ import annotations
 
@@ -10,9 +10,14 @@ from fe_impact.static import StaticSolver
 from validation import hertz_static
 
 
-@pytest.fixture(scope="module")
-def coarse_run(coarse_hertz_case):
-    solver = StaticSolver(load_case(coarse_hertz_case))
+def _run(case_path, **replace):
+    text = case_path.read_text()
+    for old, new in replace.items():
+        text = text.replace(old, new)
+    if replace:
+        case_path = case_path.with_name("variant.toml")
+        case_path.write_text(text)
+    solver = StaticSolver(load_case(case_path))
     ps = hertz_static.axis_point(solver, "sphere", hertz_static.DEPTH)
     pb = hertz_static.axis_point(solver, "block", -hertz_static.DEPTH)
     result = solver.run()
@@ -20,35 +25,85 @@ def coarse_run(coarse_hertz_case):
     return solver, result, rows
 
 
-def test_force_matches_hertz_locally(coarse_run):
-    # Coarse mesh (h = 0.2 mm, about one element per contact radius at the first
-    # step): measured <= 1.9%; the issue's 2% target is for the finest level,
-    # so 2.5% here still fails on any real regression of the contact stiffness.
-    _, _, rows = coarse_run
-    assert max(abs(r["force_error"]) for r in rows) < 0.025
+@pytest.fixture(scope="module")
+def coarse_run(coarse_hertz_case):
+    return _run(coarse_hertz_case)
 
 
-def test_pressure_and_radius_at_full_load(coarse_run):
-    # At 25 um the contact radius spans 2.5 coarse elements: measured pressure
-    # error 0.9% and radius error 5.3% (area-based, biased low by half an element).
-    _, _, rows = coarse_run
-    assert abs(rows[-1]["pressure_error"]) < 0.05
-    assert -0.08 < rows[-1]["radius_error"] < 0.0
+@pytest.fixture(scope="module")
+def medium_run(medium_hertz_case):
+    return _run(medium_hertz_case)
 
 
-def test_equilibrium_reaction_equals_contact_force(coarse_run):
+def test_force_matches_hertz_locally(medium_run):
+    # Medium mesh (h = 0.1 mm, the contact radius spans 2.2-5 elements):
+    # measured <= 0.41%, of which about 0.3% is the far-field correction's own
+    # accuracy (validation/hertz_static.py); 1% fails on any real regression
+    # of the contact stiffness.
+    _, _, rows = medium_run
+    assert max(abs(r["force_error"]) for r in rows) < 0.01
+
+
+def test_pressure_and_radius_at_full_load(medium_run):
+    # At 25 um the contact radius spans 5 elements: measured peak pressure
+    # error +0.27% and radius error -1.0% (area-based: a node counts once the
+    # weighted gap over its whole support closes, so the radius is biased low
+    # by a fraction of an element).
+    _, _, rows = medium_run
+    assert abs(rows[-1]["pressure_error"]) < 0.02
+    assert abs(rows[-1]["centre_pressure_error"]) < 0.02
+    assert -0.04 < rows[-1]["radius_error"] < 0.0
+
+
+def test_peak_pressure_converges(coarse_run, medium_run):
+    # The linear pressure on quadratic faces is stable: halving h cuts the peak
+    # pressure error at full load from 8.6% to 0.3% (measured). The split
+    # interpolation gave a single-node spike of 4-5% at every h.
+    coarse, medium = coarse_run[2][-1], medium_run[2][-1]
+    assert abs(medium["pressure_error"]) < 0.25 * abs(coarse["pressure_error"])
+
+
+def test_split_multiplier_agrees_in_force(medium_hertz_case, medium_run):
+    # Both pressure interpolations enforce the same contact; the force differs
+    # by the discretisation only (measured 0.3% at full load).
+    _, result, _ = _run(medium_hertz_case, **{'penalty = "auto"':
+                                              'penalty = "auto"\nmultiplier = "split"'})
+    f_split = result.steps[-1].contact_force[0]
+    f_lin = medium_run[1].steps[-1].contact_force[0]
+    assert abs(f_split / f_lin - 1) < 0.01
+    # ... and with "split" the mid-side nodes carry pressures of their own.
+    p = result.steps[-1].pressure
+    f = medium_run[0].pairs[0].slave.faces
+    mean = p[f[:, [[0, 1], [1, 2], [2, 0]]]].mean(axis=-1)
+    assert np.abs(p[f[:, 3:]] - mean).max() > 0.01 * p.max()
+
+
+def test_midside_pressure_is_the_corner_mean(medium_run):
+    # With the linear multiplier only corners carry a pressure; the field
+    # written to VTU is linear on each face, so a mid-side node holds the
+    # mean of its two corners.
+    solver, result, _ = medium_run
+    p = result.steps[-1].pressure
+    f = solver.pairs[0].slave.faces
+    ends = f[:, [[0, 1], [1, 2], [2, 0]]]
+    np.testing.assert_allclose(p[f[:, 3:]], p[ends].mean(axis=-1), rtol=1e-12, atol=0.0)
+    assert p[f[:, 3:]].max() > 0.0
+
+
+def test_equilibrium_reaction_equals_contact_force(medium_run):
     # The reaction on the pushed face balances the contact force. contact_force sums
     # the forces along the deformed master normal, which tilts by up to
     # delta/a ~ 0.05 rad at the contact edge: the z-resultant is smaller by
     # 1 - cos(tilt), at most 1.3e-3 at the edge and ~1e-4 on average.
-    _, result, _ = coarse_run
+    _, result, _ = medium_run
     for s in result.steps:
         rel = abs(s.reaction_force[0] + s.contact_force[0]) / s.contact_force[0]
         assert rel < 1e-3
 
 
-def test_auto_penalty_keeps_penetration_below_one_percent(coarse_run):
-    _, _, rows = coarse_run
+def test_auto_penalty_keeps_penetration_below_one_percent(medium_run):
+    # Measured 0.12% at the first step (a = 2.2 h).
+    _, _, rows = medium_run
     assert max(r["penetration_ratio"] for r in rows) < 0.01
 
 

@@ -96,6 +96,17 @@ class ContactSurface:
     def nodes_per_face(self) -> int:
         return self.faces.shape[1]
 
+    def complete_nodes(self, faces: np.ndarray) -> np.ndarray:
+        """Nodes (sorted) all of whose faces are among ``faces`` (face indices).
+
+        A node's weighted gap integrates over all its faces; at the edge of a
+        subset its support would be cut and its gap and area wrong.
+        """
+        all_nodes, count = np.unique(self.faces, return_counts=True)
+        sub, sub_count = np.unique(self.faces[faces], return_counts=True)
+        pos = np.searchsorted(all_nodes, sub)
+        return sub[sub_count == count[pos]]
+
     def geometry(self, x: np.ndarray, xi: np.ndarray, eta: np.ndarray,
                  faces: np.ndarray | None = None):
         """Points, tangents of faces at (xi, eta); broadcasting over faces.
@@ -312,7 +323,9 @@ class ContactPair:
         Wv = sp.csr_matrix((cv.ravel(), (rows, cols)), shape=(len(nodes), len(pts)))
         area = np.asarray(sp.csr_matrix((c.ravel(), (rows, cols)),
                                         shape=(len(nodes), len(pts))).sum(axis=1)).ravel()
-        tested = area > 0.0  # mid-side nodes carry no test function with "linear"
+        # Mid-side nodes carry no test function with "linear"; nodes on the
+        # edge of the face subset have a cut support and are left out.
+        tested = (area > 0.0) & np.isin(nodes, self.slave.complete_nodes(slave_faces))
         nodes, Wv, area = nodes[tested], Wv[tested], area[tested]
         valid_area = np.asarray(Wv.sum(axis=1)).ravel()
         ok = valid_area > 1e-3 * area

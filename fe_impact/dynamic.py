@@ -402,7 +402,8 @@ class SurfaceMonitor:
         """Smallest linearised gap of the slave nodes outside the zone (m)."""
         g_min = math.inf
         for k, (nodes, g0, B) in enumerate(self.pairs):
-            inside = np.isin(nodes, self.zone.pairs[k].slave.faces[self.zone.slave_faces[k]])
+            inside = np.isin(nodes, self.zone.pairs[k].slave.complete_nodes(
+                self.zone.slave_faces[k]))
             if np.any(~inside):
                 g_min = min(g_min, float((g0[~inside] + B[~inside] @ z).min()))
         return g_min

@@ -114,8 +114,13 @@ class ContactZone:
             outside = np.setdiff1d(np.arange(len(pair.slave.faces)), self.slave_faces[k])
             if len(outside) == 0:
                 continue
-            st = pair.gap_state(mesh, up, outside, np.arange(len(pair.master.faces)))
-            bad = outside[face_min_gap(pair, st, outside) < margin]
+            # Watch every node the zone does not hold a whole support of (those
+            # on its edge too), with its gap over its whole support.
+            st = pair.gap_state(mesh, up, np.arange(len(pair.slave.faces)),
+                                np.arange(len(pair.master.faces)))
+            watched = ~np.isin(st.nodes, pair.slave.complete_nodes(self.slave_faces[k]))
+            close = st.nodes[watched & (st.gap < margin)]
+            bad = outside[np.isin(pair.slave.faces[outside], close).any(axis=1)]
             if len(bad):
                 logger.info("contact %s: %d faces outside the search zone come close; "
                             "enlarging it", pair.slave.name, len(bad))

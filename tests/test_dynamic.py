@@ -196,8 +196,10 @@ def test_contact_zone_grows_before_faces_outside_touch(tmp_path):
     through linearised gaps and join before they touch, so the run must give
     the same impact as with the automatic zone: the penalty LCP is exact for
     the linearised gaps either way, and only the re-projection points differ
-    (measured: four growths; peak force +0.04%, approach and contact time
-    within 0.003%; the tolerance is five times the peak-force difference).
+    (measured: nine growths; peak force -0.014%, approach and contact time
+    within 0.01%). The tolerance, 7x the peak-force difference, catches the
+    zone edge cutting the supports of the nodes on it (their weighted gaps
+    then integrate over part of their faces): that gave +0.23%.
     """
     mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
     m = 0.5 + 2.0 / 3.0 * math.pi * R ** 3 * RHO
@@ -213,7 +215,7 @@ def test_contact_zone_grows_before_faces_outside_touch(tmp_path):
     assert small.info["zone_growths"] >= 1
     assert auto.info["zone_growths"] == 0
     for key in ("peak_force", "max_approach", "contact_duration"):
-        assert small.measurements[key] == pytest.approx(auto.measurements[key], rel=2e-3)
+        assert small.measurements[key] == pytest.approx(auto.measurements[key], rel=1e-3)
 
 
 def test_normal_condensation_is_exact_on_a_flat_master(tmp_path):

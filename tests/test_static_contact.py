@@ -134,3 +134,24 @@ def test_no_contact_without_load(coarse_hertz_case, tmp_path):
     step = StaticSolver(load_case(case)).run().steps[0]
     assert step.contact_force[0] == 0.0
     assert step.contact_area[0] == 0.0
+
+
+def test_zone_edge_nodes_carry_no_cut_weighted_gap(coarse_run):
+    # A node's weighted gap integrates over all its faces: on a subset of the
+    # faces, the nodes on its edge are left out and the others keep exactly
+    # the gap and tributary area they have on the whole surface.
+    solver, result, _ = coarse_run
+    pair = solver.pairs[0]
+    u = result.steps[-1].u
+    every = np.arange(len(pair.slave.faces))
+    half = every[pair.slave.faces[:, 0] % 2 == 0]
+    assert np.array_equal(pair.slave.complete_nodes(every), np.unique(pair.slave.faces))
+    inner = pair.slave.complete_nodes(half)
+    assert 0 < len(inner) < len(np.unique(pair.slave.faces[half]))
+    masters = np.arange(len(pair.master.faces))
+    full, sub = pair.gap_state(solver.mesh, u, every, masters), \
+        pair.gap_state(solver.mesh, u, half, masters)
+    assert np.all(np.isin(sub.nodes, inner))
+    pos = np.searchsorted(full.nodes, sub.nodes)
+    np.testing.assert_allclose(sub.weight, full.weight[pos], rtol=1e-12)
+    np.testing.assert_allclose(sub.gap, full.gap[pos], rtol=1e-9, atol=1e-15)

@@ -432,7 +432,14 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
 
 def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
               progress) -> None:
+    log = logging.getLogger("distributed")
+    level = log.level
     from dask.distributed import Client, LocalCluster
+
+    # Importing distributed sets its logger to INFO, which would print every
+    # worker's start and, at shutdown, a closed-connection traceback; keep the
+    # level the caller chose (the CLI: WARNING unless -vv).
+    log.setLevel(level)
 
     if scheduler:
         try:

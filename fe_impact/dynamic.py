@@ -59,7 +59,6 @@ from .linalg import SPDSolver, condensed_compliance
 from .mesh import FEMesh, load_mesh
 from .static import solve_penalty_lcp
 from .zone import (
-    PENALTY_FACTOR,
     PENALTY_FACTOR_EXPLICIT,
     ContactZone,
     contact_pairs,
@@ -494,7 +493,7 @@ class DynamicSolver:
             self.M = (T.T @ M @ T + sp.diags(inertia)).tocsr()
         self.timings["assembly"] = time.perf_counter() - t
         self.pairs = contact_pairs(case, self.mesh, self.model, PENALTY_FACTOR_EXPLICIT
-                                   if self.explicit else PENALTY_FACTOR)
+                                   if self.explicit else None)
         h_min = min(face_size(self.mesh, p.slave) for p in self.pairs)
         t = time.perf_counter()
         states = reference_states(self.mesh, self.pairs)

@@ -348,6 +348,22 @@ def _gap_jacobian(mesh: FEMesh, snodes, Ns, mnodes, Nm, normal, valid) -> sp.csr
     return sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(n, ndof))
 
 
+def nodal_areas(mesh: FEMesh, surface: ContactSurface) -> np.ndarray:
+    """Tributary area of every node of a surface (m^2; an (n_points,) array, 0 off it).
+
+    A node's area is the integral of its hat function on the faces (on the
+    four linear sub-triangles of a 6-node face, so that every node, mid-side
+    ones too, has a positive area and the areas resolve half a face). The
+    contact area is the area of the nodes whose pressure is positive.
+    """
+    faces = np.arange(len(surface.faces))
+    sp_ = slave_points(surface, mesh.points, faces, "split")
+    per_node = sp_.weight @ sp_.phi                     # (n_faces, nodes per face)
+    out = np.zeros(mesh.n_points)
+    np.add.at(out, surface.faces.ravel(), per_node.ravel())
+    return out
+
+
 def nodal_pressure(mesh: FEMesh, pair: ContactPair, state: GapState,
                    pressure: np.ndarray) -> np.ndarray:
     """Scatter the pressure at ``state.nodes`` into an (n_points,) array, zero elsewhere.

@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from scipy.optimize import nnls
 
 from .case import Case
-from .contact import nodal_pressure
+from .contact import nodal_areas, nodal_pressure
 from .elasticity import ElasticModel, build_model, von_mises
 from .errors import CaseError, ContactError
 from .linalg import SPDSolver, condensed_compliance
@@ -87,6 +87,7 @@ class StaticSolver:
         self.solver = SPDSolver(self.K_ff)
         self.timings["factorisation"] = time.perf_counter() - t
         self.pairs = contact_pairs(case, self.mesh, self.model)
+        self.node_areas = [nodal_areas(self.mesh, p.slave) for p in self.pairs]
         t = time.perf_counter()
         self.zone = ContactZone.initial(self.mesh, self.pairs,
                                         [self._search_distance(s) for s in case.contacts])
@@ -231,15 +232,19 @@ class StaticSolver:
         forces, areas, pmax, pen = [], [], 0.0, 0.0
         pressure = np.zeros(self.mesh.n_points)
         start = 0
-        for pair, st in zip(self.pairs, states, strict=True):
+        for pair, st, area in zip(self.pairs, states, self.node_areas, strict=True):
             lk = lam[start:start + len(st.gap)]
             start += len(st.gap)
             p = np.where(lk > 0, lk / st.weight, 0.0)
             forces.append(float(lk.sum()))
-            areas.append(float(st.weight[lk > 0].sum()))
+            p_nodes = nodal_pressure(self.mesh, pair, st, p)
+            # The area of the surface nodes with a positive pressure (mid-side
+            # nodes included, with the linear pressure too: it is positive
+            # between a loaded corner and the next).
+            areas.append(float(area[p_nodes > 0].sum()))
             pmax = max(pmax, float(p.max(initial=0.0)))
             pen = max(pen, float((p / pair.penalty).max(initial=0.0)))
-            pressure = np.maximum(pressure, nodal_pressure(self.mesh, pair, st, p))
+            pressure = np.maximum(pressure, p_nodes)
         Ku = self.model.K @ u
         reactions = [float(Ku[d].sum()) for d in self.loaded]
         value = self.case.displacements[0].values[i] if self.case.displacements else 0.0

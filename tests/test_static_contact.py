@@ -46,13 +46,13 @@ def test_force_matches_hertz_locally(medium_run):
 
 def test_pressure_and_radius_at_full_load(medium_run):
     # At 25 um the contact radius spans 5 elements: measured peak pressure
-    # error +0.29% and radius error -1.0% (area-based: a node counts once the
-    # weighted gap over its whole support closes, so the radius is biased low
-    # by a fraction of an element).
+    # error +0.29% and radius error +3.5%. The area is that of the surface
+    # nodes with a positive pressure, which places the edge to within half an
+    # element (10% of the radius here); 6% fails if the area measure breaks.
     _, _, rows = medium_run
     assert abs(rows[-1]["pressure_error"]) < 0.02
     assert abs(rows[-1]["centre_pressure_error"]) < 0.02
-    assert -0.04 < rows[-1]["radius_error"] < 0.0
+    assert abs(rows[-1]["radius_error"]) < 0.06
 
 
 def test_peak_pressure_converges(coarse_run, medium_run):

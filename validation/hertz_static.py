@@ -120,9 +120,9 @@ def compare(step, solver: StaticSolver, ps: int, pb: int) -> dict:
     f_hertz = brentq(lambda f: local_hertz(float(f)) - local, 1e-3 * force, 1e3 * force,
                      xtol=1e-12)
     c = hertz.sphere_contact(force, R, e_star)
-    # Contact radius from the loaded area of the quarter model. It is biased
-    # low by up to half an element: an edge node only counts once its whole
-    # support is closed.
+    # Contact radius from the loaded area of the quarter model: the tributary
+    # areas of the surface nodes with a positive pressure, which resolve the
+    # edge to about half an element.
     a_fe = np.sqrt(SYMMETRY * step.contact_area[0] / np.pi)
     return {
         "displacement_um": -step.value * 1e6,
@@ -219,9 +219,9 @@ def report(results: list[LevelResult], multiplier: str = "linear") -> str:
     lines += ["", "Errors are the largest over the five load steps (5-25 um). Pressure "
               "deviations are relative to p0, over the slave nodes where the FE or the "
               "Hertz pressure is positive. Hertz's p0 is the centre pressure. The contact "
-              "radius is sqrt(area / pi), the area being the tributary areas of the nodes "
-              "in contact: it resolves the edge to a fraction of the pressure nodes' "
-              "spacing (h with the linear pressure, h/2 with the split one).", "",
+              "radius is sqrt(area / pi), the area being the tributary areas of the "
+              "surface nodes with a positive pressure (on the faces' linear sub-triangles, "
+              "so the edge is resolved to about half an element).", "",
               "Per load step (convergence at equal load), contact radius error / largest "
               "nodal pressure error / centre pressure error:", "",
               "| D (um) | " + " | ".join(r.level for r in results) + " |",

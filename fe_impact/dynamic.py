@@ -973,7 +973,8 @@ class DynamicSolver:
     def result(self) -> DynamicResult:
         """Measurements and history of the steps done so far."""
         h = self.history
-        meas = impact_measurements(h, self.initial_gap, plastic=self.plastic is not None)
+        yielded = self.plastic is not None and bool(np.any(self.plastic.alpha > 0.0))
+        meas = impact_measurements(h, self.initial_gap, plastic=yielded)
         info = {
             "integrator": self.case.analysis.integrator,
             "hht_alpha": self.case.analysis.hht_alpha,
@@ -1029,7 +1030,7 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float,
     The residual indentation is the approach at which the force reaches zero
     on unloading (``F^(2/3)`` extrapolated from the last two loaded steps,
     within the step where it vanishes): the permanent dent of both bodies
-    together. Without plasticity (``plastic=False``) it is 0: the bodies'
+    together. When nothing yielded (``plastic=False``) it is 0: the bodies'
     vibration moves the point where an elastic pair parts by 1-3% of the
     largest approach either way, which is not a dent.
     """

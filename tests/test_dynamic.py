@@ -303,5 +303,5 @@ def test_residual_indentation_of_a_synthetic_unloading():
         m = impact_measurements(hist, 0.0)
         step = np.abs(np.diff(d)).max()
         assert abs(m["residual_indentation"] - d_p) < 1e-6 * step
-        # without plasticity there is no dent, whatever the history's tail
+        # when nothing yielded there is no dent, whatever the history's tail
         assert impact_measurements(hist, 0.0, plastic=False)["residual_indentation"] == 0.0

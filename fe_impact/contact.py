@@ -40,6 +40,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from .case import MULTIPLIERS
 from .errors import MeshError
 from .mesh import FEMesh
 
@@ -48,8 +49,6 @@ logger = logging.getLogger(__name__)
 # Node order of a 6-node triangle (meshio/VTK): vertices 0,1,2, mid-sides 01, 12, 20.
 _FLIP = {3: [0, 2, 1], 6: [0, 2, 1, 5, 4, 3]}
 _INSIDE_TOL = 1e-6
-#: Pressure interpolations on 6-node slave faces (see the module docstring).
-MULTIPLIERS = ("linear", "split")
 
 
 def tri_shape(xi: np.ndarray, eta: np.ndarray, nn: int) -> tuple[np.ndarray, np.ndarray]:

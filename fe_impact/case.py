@@ -104,7 +104,7 @@ class ContactSpec:
     master: str
     penalty: float | None = None
     search_distance: float | None = None
-    multiplier: str = "linear"             # see contact.MULTIPLIERS
+    multiplier: str = "linear"             # one of MULTIPLIERS
 
 
 @dataclass(frozen=True)

@@ -165,8 +165,8 @@ class SlavePoints:
 
 
 # A 6-node face is integrated on its four linear sub-triangles (corners in
-# reference coordinates, as node indices of the face): the gap is quadratic
-# on each, and with the "split" multiplier they carry the test functions.
+# reference coordinates, as node indices of the face): the gap is smooth on
+# each, and with the "split" multiplier they carry the test functions.
 _SUB_TRIANGLES = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 _REF_NODES = np.array([[0, 0], [1, 0], [0, 1], [0.5, 0], [0.5, 0.5], [0, 0.5]], dtype=float)
 
@@ -273,10 +273,11 @@ class GapState:
     The weighted gap of node ``a`` is ``g_a = int phi_a g dA / A_a`` with
     ``A_a = int phi_a dA`` its tributary area: one constraint per slave node
     that carries a test function (all nodes of 3-node faces; the corners of
-    6-node faces with the linear multiplier), so the pressure ``eps <-g_a>``
-    is a smooth nodal field (a gap sampled at every quadrature point
-    over-constrains the surface and the pressure oscillates from point to
-    point).
+    6-node faces with the linear multiplier) and whose faces are all in the
+    face subset (a node on its edge would have a cut support), so the
+    pressure ``eps <-g_a>`` is a smooth nodal field (a gap sampled at every
+    quadrature point over-constrains the surface and the pressure oscillates
+    from point to point).
     """
 
     nodes: np.ndarray    # (n,) slave point indices

@@ -33,6 +33,8 @@ logger = logging.getLogger(__name__)
 #:   0.3% of p0 at a = 2.2 h and 0.04% at a = 4.5 h.
 #: - split pressure: a single node's pressure grows with the penalty (peak
 #:   pressure error 2% at 300 and 7% at 1000, a = 2.2 h), so it stays at 300.
+#:   3-node faces, where every node carries a pressure whatever the
+#:   multiplier, keep 300 as well.
 PENALTY_FACTOR = {"linear": 1000.0, "split": 300.0}
 #: Explicit integration: the penalty sets the stable time step (the contact
 #: nodes' frequency sqrt(eps w / m) grows with sqrt(eps)), so the auto penalty is
@@ -53,7 +55,8 @@ def contact_pairs(case: Case, mesh: FEMesh, model: ElasticModel,
         master = ContactSurface.from_mesh(mesh, spec.master)
         penalty = spec.penalty
         if penalty is None:
-            f = factor if factor is not None else PENALTY_FACTOR[spec.multiplier]
+            kind = spec.multiplier if slave.nodes_per_face == 6 else "split"
+            f = factor if factor is not None else PENALTY_FACTOR[kind]
             penalty = f * pair_modulus(mesh, model, slave, master) / min(
                 face_size(mesh, slave), face_size(mesh, master))
         pairs.append(ContactPair(slave, master, penalty, spec.multiplier))
@@ -119,7 +122,12 @@ class ContactZone:
                 zip(self.pairs, self.slave_faces, self.master_faces, strict=True)]
 
     def grow(self, mesh: FEMesh, up: np.ndarray, margin: float = 0.0) -> bool:
-        """Add faces outside the zone whose gap is below ``margin``; True if it grew."""
+        """Add faces outside the zone that hold a watched node whose gap is below ``margin``.
+
+        Watched: every slave node whose faces are not all in the zone (those
+        on its edge too), with its weighted gap over all its faces. True if
+        the zone grew.
+        """
         grew = False
         for k, pair in enumerate(self.pairs):
             outside = np.setdiff1d(np.arange(len(pair.slave.faces)), self.slave_faces[k])
@@ -182,6 +190,8 @@ def face_min_gap(pair: ContactPair, state, faces: np.ndarray) -> np.ndarray:
     with the linear multiplier).
     """
     f = pair.slave.faces[faces]
+    if len(state.nodes) == 0:
+        return np.full(len(f), np.inf)
     pos = np.minimum(np.searchsorted(state.nodes, f), len(state.nodes) - 1)
     gap = np.where(state.nodes[pos] == f, state.gap[pos], np.inf)
     return gap.min(axis=1)

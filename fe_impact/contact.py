@@ -33,6 +33,7 @@ small-slip contacts (Wriggers, Computational Contact Mechanics, ch. 4).
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass
 
@@ -101,10 +102,15 @@ class ContactSurface:
         A node's weighted gap integrates over all its faces; at the edge of a
         subset its support would be cut and its gap and area wrong.
         """
-        all_nodes, count = np.unique(self.faces, return_counts=True)
+        all_nodes, count = self._valence
         sub, sub_count = np.unique(self.faces[faces], return_counts=True)
         pos = np.searchsorted(all_nodes, sub)
         return sub[sub_count == count[pos]]
+
+    @functools.cached_property
+    def _valence(self) -> tuple[np.ndarray, np.ndarray]:
+        """The surface's nodes (sorted) and the number of faces holding each."""
+        return np.unique(self.faces, return_counts=True)
 
     def geometry(self, x: np.ndarray, xi: np.ndarray, eta: np.ndarray,
                  faces: np.ndarray | None = None):

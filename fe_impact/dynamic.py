@@ -993,8 +993,9 @@ class DynamicSolver:
     def result(self) -> DynamicResult:
         """Measurements and history of the steps done so far."""
         h = self.history
-        yielded = self.plastic is not None and bool(np.any(self.plastic.alpha > 0.0))
-        meas = impact_measurements(h, self.initial_gap, plastic=yielded)
+        plastic_points = (0 if self.plastic is None
+                          else int(np.count_nonzero(self.plastic.alpha > 0.0)))
+        meas = impact_measurements(h, self.initial_gap, plastic=plastic_points > 0)
         info = {
             "integrator": self.case.analysis.integrator,
             "hht_alpha": self.case.analysis.hht_alpha,
@@ -1022,7 +1023,7 @@ class DynamicSolver:
             "plasticity": None if self.plastic is None else {
                 "zone_elements": int(self.plastic.n_elements),
                 "zone_radius": self.plastic_radius,
-                "plastic_points": int(np.count_nonzero(self.plastic.alpha > 0.0)),
+                "plastic_points": plastic_points,
                 "boundary_yielded": bool(self.plastic.boundary_yielded()),
                 "dissipation": float(self.plastic.dissipation()),
                 "plastic_iterations": self.plastic_iterations,

@@ -121,7 +121,8 @@ class DynamicWriter:
                       "supported side is the fixed reference. restitution = -(relative normal "
                       "velocity after separation) / (before first touch). "
                       "residual_indentation: the approach at which the force falls to zero "
-                      "on unloading (permanent dent of both sides). energy_error = "
+                      "on unloading (permanent dent of both sides; 0 when no point yielded). "
+                      "energy_error = "
                       "max |E(t) - E(0)| / E(0), E = kinetic + strain + penalty energy."),
             **result.measurements,
             "model": result.info,

@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from fe_impact.calibrate import ImpactCase, Settings, mesh_impact_speed, plan_cases
-from fe_impact.cli import main
+from fe_impact.calibration.sweep import ImpactCase, Settings, mesh_impact_speed, plan_cases
+from fe_impact.cli.main import main
 from fe_impact.errors import CalibrationError
 from fe_impact.gears import default_gearset
 
@@ -72,7 +72,7 @@ def test_case_ids_are_stable():
 def test_resume_key_covers_settings_and_version(monkeypatch):
     # A stored result is reused only for the same case, settings and fe-impact
     # version: each of them must change the key.
-    from fe_impact import calibrate as cal
+    from fe_impact.calibration import sweep as cal
 
     c = cal.ImpactCase(2, 68, "mesh", 0.0387, 300.0)
     key = cal.case_hash(c, cal.Settings(), "gear set")

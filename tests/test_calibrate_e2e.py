@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from fe_impact import hertz
-from fe_impact.cli import main
+from fe_impact.cli.main import main
+from fe_impact.physics import hertz
 
 
 @pytest.fixture(scope="module")

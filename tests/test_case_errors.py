@@ -6,11 +6,11 @@ import re
 
 import pytest
 
-from fe_impact.case import load_case
-from fe_impact.cli import main
+from fe_impact.cli.main import main
 from fe_impact.errors import CaseError, MeshError
-from fe_impact.mesh import load_mesh
-from fe_impact.static import StaticSolver
+from fe_impact.fe.case import load_case
+from fe_impact.fe.mesh import load_mesh
+from fe_impact.solvers.static import StaticSolver
 
 
 def mutate(case, tmp_path, old, new):

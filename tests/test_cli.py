@@ -7,7 +7,7 @@ import json
 import meshio
 import numpy as np
 
-from fe_impact.cli import main
+from fe_impact.cli.main import main
 
 
 def test_solve_writes_summary_and_fields(coarse_hertz_case, tmp_path, capsys):

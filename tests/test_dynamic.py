@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from fe_impact import hertz
-from fe_impact.case import load_case
-from fe_impact.cli import main
-from fe_impact.dynamic import DynamicSolver
+from fe_impact.cli.main import main
 from fe_impact.errors import CaseError, SolverError
+from fe_impact.fe.case import load_case
+from fe_impact.physics import hertz
+from fe_impact.solvers.dynamic import DynamicSolver
 from validation.impact_cases import (
     RHO,
     R,
@@ -289,7 +289,7 @@ def test_residual_indentation_of_a_synthetic_unloading():
     # the extrapolation recovers d_p to round-off (1e-6 of a step asked; the last
     # loaded step itself is 0.73-0.88 steps off here); an elastic history
     # (d_p = 0) gives zero.
-    from fe_impact.dynamic import impact_measurements
+    from fe_impact.solvers.dynamic import impact_measurements
 
     for d_p in (0.0, 2e-6):
         t = np.linspace(0.0, 1.0, 201)

@@ -6,9 +6,9 @@ import meshio
 import numpy as np
 import pytest
 
-from fe_impact.case import MaterialSpec
-from fe_impact.elasticity import build_model
-from fe_impact.mesh import mesh_from_meshio
+from fe_impact.fe.case import MaterialSpec
+from fe_impact.fe.elasticity import build_model
+from fe_impact.fe.mesh import mesh_from_meshio
 
 STEEL = MaterialSpec(("body",), 212e9, 0.289, 7860.0)
 

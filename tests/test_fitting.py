@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from fe_impact import fitting, hertz, laws
+from fe_impact.calibration import fitting
 from fe_impact.errors import CalibrationError
+from fe_impact.physics import hertz, laws
 
 E_STAR = hertz.effective_modulus(212e9, 0.289)
 
@@ -15,7 +16,7 @@ def _impact_law(k, exponent, mass, speed, c, d_over_l):
     """IMPACT law from dimensionless damping ``c = cmax L/(m v)`` and ``d/L``.
 
     ``L = (m v^2 / k)^(1/(n+1))`` is the length scale of the impact (see the
-    module docstring of `fe_impact.fitting`); the restitution depends on
+    module docstring of `fe_impact.calibration.fitting`); the restitution depends on
     ``(exponent, c, d/L)`` only.
     """
     length = (mass * speed**2 / k) ** (1.0 / (exponent + 1.0))

@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.special import ellipe, ellipk
 
-from fe_impact import hertz
+from fe_impact.physics import hertz
 
 E_STEEL = 212e9  # 20CrMnTi, DESIGN section 2
 NU_STEEL = 0.289

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fe_impact import hertz, laws
+from fe_impact.physics import hertz, laws
 
 E_STAR = hertz.effective_modulus(212e9, 0.289)
 R = 0.01

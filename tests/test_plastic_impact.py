@@ -72,7 +72,7 @@ def test_newton_and_anderson_solve_the_same_steps(coarse_runs, tmp_path):
 def test_failed_newton_step_falls_back_to_anderson(coarse_runs, tmp_path, monkeypatch):
     # A step where Newton fails is redone by Anderson-accelerated modified Newton:
     # the run completes, counts the fallbacks and lands on the same impact.
-    import fe_impact.plasticity as plasticity
+    import fe_impact.fe.plasticity as plasticity
 
     def failing(*args, **kwargs):
         raise RuntimeError("forced failure")

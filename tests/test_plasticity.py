@@ -12,10 +12,10 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from fe_impact.case import MaterialSpec
-from fe_impact.elasticity import build_model, von_mises
-from fe_impact.mesh import mesh_from_meshio
-from fe_impact.plasticity import (
+from fe_impact.fe.case import MaterialSpec
+from fe_impact.fe.elasticity import build_model, von_mises
+from fe_impact.fe.mesh import mesh_from_meshio
+from fe_impact.fe.plasticity import (
     PlasticZone,
     consistent_tangent,
     elements_near,

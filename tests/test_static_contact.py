@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fe_impact.case import load_case
-from fe_impact.static import StaticSolver
+from fe_impact.fe.case import load_case
+from fe_impact.solvers.static import StaticSolver
 from validation import hertz_static
 
 

@@ -1,7 +1,7 @@
 """Lumped multistage ratio-switching model: kinematics, laws, conservation, CLI.
 
 Each test compares with a truth computed independently of the kernel
-(`fe_impact.laws`, rigid-body kinematics, momentum and energy theorems, the
+(`fe_impact.physics.laws`, rigid-body kinematics, momentum and energy theorems, the
 seed's printed values), with the tolerance justified where it is set.
 """
 
@@ -16,9 +16,10 @@ import re
 import numpy as np
 import pytest
 
-from fe_impact import laws
+from fe_impact.cli.switching import register
 from fe_impact.errors import CalibrationError, CaseError
 from fe_impact.gears import default_gearset
+from fe_impact.physics import laws
 from fe_impact.switching import (
     PRESETS,
     DriveModel,
@@ -36,7 +37,6 @@ from fe_impact.switching import (
     switching_speed,
 )
 from fe_impact.switching import _kernel as K
-from fe_impact.switching.command import register
 from fe_impact.switching.geometry import _RackPinionFrame
 from fe_impact.switching.seed_tables import SEED_TABLES
 
@@ -91,7 +91,7 @@ def test_kernel_law_is_the_adams_impact_law():
     law = laws.ImpactLaw(k=6.5e10, exponent=1.5, cmax=2e3, d=2e-6)
     for h, hd in [(1e-7, 0.1), (1e-6, -0.05), (3e-6, 0.2), (5e-6, -0.5), (-1e-6, 0.3)]:
         force, energy = K.impact_law(h, hd, law.k, law.exponent, law.cmax, law.d)
-        # fe_impact.laws is an independent implementation of seed eq. 11 (round-off only)
+        # fe_impact.physics.laws is an independent implementation of seed eq. 11 (round-off only)
         assert force == pytest.approx(float(law.force(h, hd)), rel=1e-12, abs=1e-12)
         # stored energy = integral of the elastic force, int_0^h k s^n ds
         assert energy == pytest.approx(max(h, 0.0) ** 2.5 * law.k / 2.5, rel=1e-12)

@@ -14,10 +14,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fe_impact import hertz
 from fe_impact.errors import GeometryError
 from fe_impact.gears import GearPair, contact_ellipse, default_gearset, relative_curvature
 from fe_impact.gears.tca import PrincipalCurvatures, equivalent_radius, principal_curvatures
+from fe_impact.physics import hertz
 
 E_STAR = hertz.effective_modulus(212e9, 0.289)
 

@@ -15,12 +15,12 @@ import tomllib
 import numpy as np
 import pytest
 
-from fe_impact import hertz
+from fe_impact.cli.mesh import register
 from fe_impact.errors import FeImpactError, GeometryError, MeshError
-from fe_impact.gears import GearPair, build_pair, default_gearset
-from fe_impact.gears.command import register
-from fe_impact.gears.toothmesh import MIN_SICN, PairSpec, pair_key
-from fe_impact.mesh import load_mesh
+from fe_impact.fe.mesh import load_mesh
+from fe_impact.gears import GearPair, default_gearset
+from fe_impact.meshing.toothpair import MIN_SICN, PairSpec, build_pair, pair_key
+from fe_impact.physics import hertz
 
 GAP = 5e-6
 SPEED = 0.1

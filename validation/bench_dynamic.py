@@ -37,10 +37,10 @@ import numpy as np
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fe_impact import hertz
-from fe_impact.case import load_case
-from fe_impact.dynamic import DynamicSolver
-from fe_impact.io import write_json
+from fe_impact.fe.case import load_case
+from fe_impact.output.files import write_json
+from fe_impact.physics import hertz
+from fe_impact.solvers.dynamic import DynamicSolver
 from validation.hertz_impact import HEMISPHERE_MASS, RIGID_MASS
 from validation.impact_cases import NU, E, R, sphere_block_mesh, write_sphere_impact
 

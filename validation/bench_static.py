@@ -17,9 +17,9 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fe_impact.case import load_case
-from fe_impact.io import write_json
-from fe_impact.static import StaticSolver
+from fe_impact.fe.case import load_case
+from fe_impact.output.files import write_json
+from fe_impact.solvers.static import StaticSolver
 from validation.hertz_static import write_case
 
 H_CONTACT = 0.092e-3  # gives ~31.6k DOF with the hertz_static specimen

@@ -17,7 +17,7 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fe_impact.io import write_json
+from fe_impact.output.files import write_json
 from fe_impact.switching import DriveModel, Segment, StageSchedule, get_preset, simulate
 
 TARGET_S = 10.0

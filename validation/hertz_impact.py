@@ -39,11 +39,11 @@ from scipy.interpolate import PchipInterpolator
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fe_impact import hertz
-from fe_impact.case import load_case
-from fe_impact.dynamic import DynamicSolver
-from fe_impact.io import write_csv, write_json
-from fe_impact.static import StaticSolver
+from fe_impact.fe.case import load_case
+from fe_impact.output.files import write_csv, write_json
+from fe_impact.physics import hertz
+from fe_impact.solvers.dynamic import DynamicSolver
+from fe_impact.solvers.static import StaticSolver
 from validation.hertz_static import CASE_TEMPLATE
 from validation.impact_cases import NU, RHO, E, R, sphere_block_mesh, write_sphere_impact
 

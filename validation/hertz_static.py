@@ -48,12 +48,12 @@ from scipy.optimize import brentq
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fe_impact import hertz
-from fe_impact.case import MULTIPLIERS, load_case
-from fe_impact.io import write_csv, write_json
-from fe_impact.specimens import SphereBlockSpec, build_sphere_block
-from fe_impact.static import StaticSolver
+from fe_impact.fe.case import MULTIPLIERS, load_case
+from fe_impact.output.files import write_csv, write_json
+from fe_impact.physics import hertz
+from fe_impact.solvers.static import StaticSolver
 from validation.impact_cases import NU, SPECIMEN, E, R
+from validation.specimens import SphereBlockSpec, build_sphere_block
 
 logger = logging.getLogger(__name__)
 

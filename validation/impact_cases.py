@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fe_impact.specimens import SphereBlockSpec, build_sphere_block, build_two_blocks
+from validation.specimens import SphereBlockSpec, build_sphere_block, build_two_blocks
 
 E, NU, RHO = 212e9, 0.289, 7860.0
 R = 10e-3

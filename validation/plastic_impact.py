@@ -10,7 +10,7 @@ speeds from 0.5 to 30 times Johnson's yield-onset speed
 ``V_y = sqrt(26 Y^5 / (rho E*^4))`` (0.0866 m/s), Newmark, with the contact
 mesh refined to about a quarter of the Hertz contact radius at each speed.
 Compared with Thornton's model (closed form,
-:func:`fe_impact.hertz.thornton_restitution`: e = 0.93, 0.77, 0.66, 0.50 at
+:func:`fe_impact.physics.hertz.thornton_restitution`: e = 0.93, 0.77, 0.66, 0.50 at
 V/V_y = 2, 5, 10, 30) and the seed's eq. 14 (Jackson-Green form as printed
 there).
 """
@@ -29,10 +29,10 @@ import numpy as np
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fe_impact import hertz
-from fe_impact.case import load_case
-from fe_impact.dynamic import DynamicSolver
-from fe_impact.io import write_csv, write_json
+from fe_impact.fe.case import load_case
+from fe_impact.output.files import write_csv, write_json
+from fe_impact.physics import hertz
+from fe_impact.solvers.dynamic import DynamicSolver
 from validation.impact_cases import NU, RHO, E, R, sphere_block_mesh, write_sphere_impact
 
 logger = logging.getLogger(__name__)
@@ -47,12 +47,12 @@ TOLERANCE = 0.15
 
 
 def thornton(ratio: float) -> float:
-    """Thornton (1997) restitution at V/V_y (:func:`fe_impact.hertz.thornton_restitution`)."""
+    """Thornton (1997) restitution at V/V_y (``hertz.thornton_restitution``)."""
     return hertz.thornton_restitution(ratio)
 
 
 def seed_eq14(ratio: float) -> float:
-    """The seed's eq. 14 at V/V_y (:func:`fe_impact.hertz.seed_restitution`)."""
+    """The seed's eq. 14 at V/V_y (:func:`fe_impact.physics.hertz.seed_restitution`)."""
     return hertz.seed_restitution(ratio)
 
 

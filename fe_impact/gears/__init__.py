@@ -10,10 +10,6 @@ First stage of the data flow (gear set -> tooth surfaces -> mesh ...):
   shaper and the usable face width (``FaceGearTooth``, ``face_gear_limits``);
 - :mod:`~fe_impact.gears.tca`: tooth contact analysis, curvatures and the
   Hertz ellipse (``GearPair``, ``ContactPoint``, ``contact_ellipse``);
-- :mod:`~fe_impact.gears.toothmesh`: Gmsh mesh of the tooth pair at its
-  contact, with the dynamic case file (``build_pair``);
-- :mod:`~fe_impact.gears.command`: the ``fe-impact mesh`` subcommand
-  (``register``), imported by the CLI only.
 
 The geometry modules work on plain numbers and do not import the gear-set
 module; :class:`GearSet` builds their objects (``pinion_tooth()``,
@@ -38,7 +34,6 @@ from fe_impact.gears.tca import (
     contact_ellipse,
     relative_curvature,
 )
-from fe_impact.gears.toothmesh import PairMesh, PairSpec, build_pair
 
 __all__ = [
     "ContactEllipse",
@@ -50,13 +45,10 @@ __all__ = [
     "GearPair",
     "GearSet",
     "Material",
-    "PairMesh",
-    "PairSpec",
     "Pinion",
     "PinionTooth",
     "SurfaceSample",
     "ToothProfile",
-    "build_pair",
     "contact_ellipse",
     "default_gearset",
     "face_gear_limits",

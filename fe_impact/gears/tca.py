@@ -9,7 +9,7 @@ TCA), then gives the principal curvatures of
 both flanks, their relative curvature and the Hertz contact ellipse. SI
 units: m, rad, N, Pa, kg.
 
-Frame (the *mesh frame*, shared with :mod:`fe_impact.gears.toothmesh`): the
+Frame (the *mesh frame*, shared with :mod:`fe_impact.meshing.toothpair`): the
 face-gear frame of :mod:`fe_impact.gears.facegear`. ``y`` is the face-gear
 axis (tooth height), the origin lies on that axis in the pitch plane, and
 the pinion axis is the line ``x = 0, y = r_p`` along ``z``. Positions:
@@ -53,10 +53,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fe_impact import hertz
 from fe_impact.errors import GeometryError
 from fe_impact.gears.facegear import FaceGearTooth
 from fe_impact.gears.pinion import PinionTooth
+from fe_impact.physics import hertz
 
 logger = logging.getLogger(__name__)
 
@@ -317,7 +317,7 @@ class ContactEllipse:
 def contact_ellipse(relative: RelativeCurvature, force: float, e_star: float) -> ContactEllipse:
     """Exact Hertz ellipse for the relative curvature ``relative`` under ``force``.
 
-    Uses :func:`fe_impact.hertz.ellipse_contact` with ``R_x = 1/lambda_min``,
+    Uses :func:`fe_impact.physics.hertz.ellipse_contact` with ``R_x = 1/lambda_min``,
     ``R_y = 1/lambda_max`` (Johnson 1985, sections 3.6 and 4.2).
 
     Parameters
@@ -326,7 +326,7 @@ def contact_ellipse(relative: RelativeCurvature, force: float, e_star: float) ->
     force : float
         Normal load [N], > 0.
     e_star : float
-        Effective modulus [Pa] (:func:`fe_impact.hertz.effective_modulus`).
+        Effective modulus [Pa] (:func:`fe_impact.physics.hertz.effective_modulus`).
     """
     rx, ry = relative.radii
     c = hertz.ellipse_contact(force, rx, ry, e_star)
@@ -339,7 +339,7 @@ def equivalent_radius(relative: RelativeCurvature, e_star: float) -> float:
     An elliptical Hertz contact also follows ``P = K delta^1.5``; ``K`` is
     independent of the load, and the sphere with
     ``(4/3) E* sqrt(R) = K`` has ``R = (3 K / (4 E*))^2``. It feeds the
-    impact estimates of :func:`fe_impact.hertz.impact`.
+    impact estimates of :func:`fe_impact.physics.hertz.impact`.
     """
     c = hertz.ellipse_contact(1.0, *relative.radii, e_star)
     stiffness = 1.0 / c.delta**1.5  # P = 1 N

@@ -17,7 +17,7 @@ conditions as presets and its Tables 1-4 for comparison.
 - :mod:`~fe_impact.switching.presets`, :mod:`~fe_impact.switching.seed_tables`:
   the seed's conditions and values;
 - :mod:`~fe_impact.switching.statistics`: statistics in the seed's layout;
-- :mod:`~fe_impact.switching.report`, :mod:`~fe_impact.switching.command`:
+- :mod:`~fe_impact.switching.report`, :mod:`~fe_impact.cli.switching`:
   result files and the ``fe-impact switching`` subcommand (leaves).
 """
 

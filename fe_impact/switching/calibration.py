@@ -1,7 +1,7 @@
 """IMPACT-law parameters per stage and impact speed: calibration file or closed forms.
 
 The torsional model applies the ADAMS ``IMPACT`` law (seed eq. 11,
-`fe_impact.laws.ImpactLaw`) to every tooth pair. Its parameters
+`fe_impact.physics.laws.ImpactLaw`) to every tooth pair. Its parameters
 ``(k, exponent, cmax, d)`` depend on the stage and on the impact speed, so
 the model keeps, for each stage and each kind of impact (``"mesh"``: tooth
 contact at mesh-in or rattle within the backlash; ``"switch"``: the first
@@ -25,10 +25,10 @@ Sources, in order of preference (`laws_for`):
    Only ``stage``, ``kind``, ``impact_speed`` and ``impact`` are used;
    ``face_teeth``, when given, must match the gear set.
 2. closed forms (`closed_form_laws`): Hertz stiffness of the contact ellipse
-   (`fe_impact.hertz.ellipse_contact`), exponent 1.5, ``cmax`` from seed eq.
-   13 (`fe_impact.laws.closed_form_cmax`) with the restitution of seed eq. 14
+   (`fe_impact.physics.hertz.ellipse_contact`), exponent 1.5, ``cmax`` from seed eq.
+   13 (`fe_impact.physics.laws.closed_form_cmax`) with the restitution of seed eq. 14
    and the approach of eq. 16, ``d`` from eq. 17
-   (`fe_impact.laws.closed_form_penetration_depth`).
+   (`fe_impact.physics.laws.closed_form_penetration_depth`).
 """
 
 from __future__ import annotations
@@ -44,9 +44,9 @@ from typing import Any
 
 import numpy as np
 
-from fe_impact import hertz, laws
 from fe_impact.errors import CalibrationError
 from fe_impact.gears.gearset import GearSet
+from fe_impact.physics import hertz, laws
 
 logger = logging.getLogger(__name__)
 
@@ -89,7 +89,7 @@ class LawTable:
     impact_speed : ndarray, shape (n,)
         Increasing closing speeds [m/s], > 0.
     k, exponent, cmax, d : ndarray, shape (n,)
-        Parameters of `fe_impact.laws.ImpactLaw` at those speeds (SI).
+        Parameters of `fe_impact.physics.laws.ImpactLaw` at those speeds (SI).
     source : str
         Where the numbers come from (file name or "closed form").
     """

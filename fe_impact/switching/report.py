@@ -1,7 +1,7 @@
 """Result files of a switching study: time series, impacts, statistics, report, plots.
 
 A leaf module: nothing numerical imports it. Every file is written
-atomically (`fe_impact.io`); matplotlib is imported lazily, with the Agg
+atomically (`fe_impact.output.files`); matplotlib is imported lazily, with the Agg
 backend.
 
 Files written to the output folder for a preset with cases ``C``:
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fe_impact.io import atomic_path, write_csv, write_json
+from fe_impact.output.files import atomic_path, write_csv, write_json
 from fe_impact.switching.geometry import seed_switching_speed, switching_speed
 from fe_impact.switching.model import DriveModel
 from fe_impact.switching.presets import Preset

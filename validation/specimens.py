@@ -19,7 +19,7 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-from .meshing import gmsh_session, write_msh
+from fe_impact.meshing.session import gmsh_session, write_msh
 
 logger = logging.getLogger(__name__)
 

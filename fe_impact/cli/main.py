@@ -15,8 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-from . import __version__
-from .errors import FeImpactError
+from fe_impact import __version__
+from fe_impact.errors import FeImpactError
 
 logger = logging.getLogger("fe_impact")
 
@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
     if not hasattr(args, "func"):
         parser.print_help()
         return 0
-    from .runtime import keep_freed_memory
+    from fe_impact.runtime import keep_freed_memory
 
     keep_freed_memory()
     try:
@@ -88,12 +88,12 @@ def _parser() -> argparse.ArgumentParser:
                    help="mesh cache folder (default: cache)")
     c.set_defaults(func=_cmd_calibrate)
     for module in _COMMAND_MODULES:
-        importlib.import_module(module, __package__).register(sub)
+        importlib.import_module(module).register(sub)
     return p
 
 
 #: Modules that add their own subcommands with ``register(subparsers)``.
-_COMMAND_MODULES = (".gears.command", ".switching.command")
+_COMMAND_MODULES = ("fe_impact.cli.mesh", "fe_impact.cli.switching")
 
 
 def _configure_logging(verbose: int) -> None:
@@ -105,9 +105,9 @@ def _configure_logging(verbose: int) -> None:
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
-    from .case import load_case
-    from .results import write_static_results
-    from .static import StaticSolver
+    from fe_impact.fe.case import load_case
+    from fe_impact.output.results import write_static_results
+    from fe_impact.solvers.static import StaticSolver
 
     case = load_case(args.case)
     if case.analysis.dynamic:
@@ -148,10 +148,10 @@ def _float_list(text: str) -> list[float]:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from .calibrate import Settings, calibrate, plan_cases
-    from .errors import CalibrationError
-    from .gears import default_gearset, load_gearset
-    from .gears.gearset import _default_candidates
+    from fe_impact.calibration.sweep import Settings, calibrate, plan_cases
+    from fe_impact.errors import CalibrationError
+    from fe_impact.gears import default_gearset, load_gearset
+    from fe_impact.gears.gearset import _default_candidates
 
     if args.workers is not None and args.workers < 1:
         raise CalibrationError(f"--workers {args.workers}: must be at least 1")
@@ -184,9 +184,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 def _solve_dynamic(case, out: Path) -> int:
     from tqdm import tqdm
 
-    from .dynamic import DynamicSolver
-    from .errors import SolverError
-    from .results import DynamicWriter
+    from fe_impact.errors import SolverError
+    from fe_impact.output.results import DynamicWriter
+    from fe_impact.solvers.dynamic import DynamicSolver
 
     t0 = time.perf_counter()
     a = case.analysis

@@ -40,9 +40,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .errors import CalibrationError
-from .io import atomic_path, write_csv, write_json
+from fe_impact import __version__
+from fe_impact.errors import CalibrationError
+from fe_impact.output.files import atomic_path, write_csv, write_json
 
 logger = logging.getLogger(__name__)
 
@@ -125,7 +125,7 @@ def mesh_impact_speed(pinion_pitch_radius: float, pressure_angle: float, rpm: fl
 def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
                impact_speeds=None, switch: bool = False) -> list[ImpactCase]:
     """The sweep: every stage at every speed (r/min via eq. 4/5, or impact speeds in m/s)."""
-    from .switching.geometry import seed_switching_speed
+    from fe_impact.switching.geometry import seed_switching_speed
 
     n = len(gearset.stages)
     stages = list(stages or range(1, n + 1))
@@ -173,13 +173,13 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     """Mesh, solve and fit one impact; writes ``cases/<id>/result.json``; returns it."""
     import tomllib
 
-    from .case import load_case
-    from .dynamic import DynamicSolver
-    from .gears import gearset_from_dict
-    from .gears.toothmesh import build_pair, hertz_impact_estimate
-    from .linalg import limit_threads
-    from .results import DynamicWriter
-    from .runtime import keep_freed_memory
+    from fe_impact.fe.case import load_case
+    from fe_impact.fe.linalg import limit_threads
+    from fe_impact.gears import gearset_from_dict
+    from fe_impact.meshing.toothpair import build_pair, hertz_impact_estimate
+    from fe_impact.output.results import DynamicWriter
+    from fe_impact.runtime import keep_freed_memory
+    from fe_impact.solvers.dynamic import DynamicSolver
 
     keep_freed_memory()
 
@@ -271,7 +271,7 @@ def _prepared_case(pair, settings: Settings) -> Path:
 def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, pair,
                     material) -> dict:
     """Measurements of one FE impact and the fitted/closed-form law parameters."""
-    from . import fitting
+    from fe_impact.calibration import fitting
 
     m, h = result.measurements, result.history
     if m["peak_force"] <= 0 or m["contact_duration"] is None:
@@ -330,7 +330,7 @@ def restitution_models(material, mass: float, tca: dict, speed: float) -> dict:
     yield-onset pressure ``p0 = 1.6 Y``: the peak force grows as ``v^1.2``
     and ``p0`` as ``F^(1/3)``, so ``v_y = v (1.6 Y / p0(v))^2.5``.
     """
-    from . import hertz
+    from fe_impact.physics import hertz
 
     vy15 = hertz.yield_onset_speed(material.yield_strength, material.density,
                                    tca["effective_modulus_Pa"])
@@ -397,7 +397,7 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
                   progress)
     wall = time.perf_counter() - t0
     records = [sweep.done[c.id] for c in cases]
-    from .report import write_calibration_report
+    from fe_impact.calibration.report import write_calibration_report
 
     doc = {
         "schema": SCHEMA, "fe_impact_version": __version__, "units": UNITS,

@@ -579,7 +579,7 @@ class PlasticZone:
     def von_mises(self, u: np.ndarray) -> np.ndarray:
         """Element-mean von Mises stress (Pa) of the zone's elements, (n_elements,).
 
-        Same averaging as :func:`fe_impact.elasticity.von_mises`, which is
+        Same averaging as :func:`fe_impact.fe.elasticity.von_mises`, which is
         wrong inside the zone once it has plastic strain: overwrite its
         values at :attr:`elements` with these.
         """

@@ -41,9 +41,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from .case import MULTIPLIERS
-from .errors import MeshError
-from .mesh import FEMesh
+from fe_impact.errors import MeshError
+from fe_impact.fe.case import MULTIPLIERS
+from fe_impact.fe.mesh import FEMesh
 
 logger = logging.getLogger(__name__)
 

@@ -29,13 +29,13 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.optimize import nnls
 
-from .case import Case
-from .contact import nodal_areas, nodal_pressure
-from .elasticity import ElasticModel, build_model, von_mises
-from .errors import CaseError, ContactError
-from .linalg import SPDSolver, condensed_compliance
-from .mesh import FEMesh, load_mesh
-from .zone import ContactZone, contact_pairs
+from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
+from fe_impact.contact.zone import ContactZone, contact_pairs
+from fe_impact.errors import CaseError, ContactError
+from fe_impact.fe.case import Case
+from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
+from fe_impact.fe.linalg import SPDSolver, condensed_compliance
+from fe_impact.fe.mesh import FEMesh, load_mesh
 
 logger = logging.getLogger(__name__)
 

@@ -68,7 +68,6 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from fe_impact import hertz
 from fe_impact.errors import GeometryError, MeshError
 from fe_impact.gears.facegear import FaceGearTooth
 from fe_impact.gears.tca import (
@@ -78,6 +77,7 @@ from fe_impact.gears.tca import (
     contact_ellipse,
     equivalent_radius,
 )
+from fe_impact.physics import hertz
 
 logger = logging.getLogger(__name__)
 
@@ -515,7 +515,7 @@ class PairSpec:
         Rim depth below the root of both sectors, in modules.
     design_force : float or None
         Load [N] whose Hertz ellipse sets the element sizes; None takes the
-        Hertz peak force of the impact (:func:`fe_impact.hertz.impact` with
+        Hertz peak force of the impact (:func:`fe_impact.physics.hertz.impact` with
         the effective mass and the ellipse's equivalent radius).
     velocity_split : {"momentum", "pinion", "face_gear"}
         How ``v_k`` is shared by the rotors: ``"momentum"`` gives each the
@@ -738,7 +738,7 @@ def _design(gearset, spec: PairSpec, max_stretch: float | None = None) -> _Desig
 def hertz_impact_estimate(gearset, stage: int, roll_angle_deg: float, impact_speed: float):
     """Hertz impact of a stage's tooth pair at the TCA contact, without meshing.
 
-    Returns the :func:`fe_impact.hertz.impact` result (``delta_max``,
+    Returns the :func:`fe_impact.physics.hertz.impact` result (``delta_max``,
     ``force_max``, ``contact_time``) for the effective mass and the equivalent
     radius of the contact at ``roll_angle_deg``.
     """
@@ -939,7 +939,7 @@ def _mesh(model, design: _Design, spec: PairSpec, path: Path, started: float) ->
     """
     import gmsh
 
-    from fe_impact.meshing import write_msh
+    from fe_impact.meshing.session import write_msh
 
     pinion, pinion_groups = _add_pinion(model, design, spec)
     face, face_groups = _add_face_gear(model, design, spec)
@@ -1006,7 +1006,7 @@ def _case_text(gearset, spec: PairSpec, design: _Design, key: str, mesh_name: st
     p_axis, p_dir = pair.pinion_axis
     f_axis, f_dir = pair.face_axis
     lines = [
-        "# Dynamic single-tooth impact written by fe_impact.gears.toothmesh.build_pair",
+        "# Dynamic single-tooth impact written by fe_impact.meshing.toothpair.build_pair",
         f"# gear set {gearset.name!r}, stage {spec.stage} ({pair.face.teeth} teeth), "
         f"roll angle {spec.roll_angle_deg:g} deg, level {spec.level}, P{spec.order}, key {key}",
         "# Mesh frame: y = face-gear axis (origin on it, in the pitch plane); pinion axis",
@@ -1144,7 +1144,7 @@ def build_pair(
         For invalid options (the message names the option and what is
         allowed) and meshes that cannot be made.
     """
-    from fe_impact.io import atomic_path, write_json
+    from fe_impact.output.files import atomic_path, write_json
 
     started = time.perf_counter()
     try:
@@ -1179,7 +1179,7 @@ _RETRY_STRETCH = (None, 5.0, 2.5, 1.0)
 def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
                        started: float) -> tuple[_Design, MeshStats]:
     """Mesh, lowering the anisotropy if an element comes out inverted."""
-    from fe_impact.meshing import gmsh_session
+    from fe_impact.meshing.session import gmsh_session
 
     for cap in _RETRY_STRETCH:
         design = _design(gearset, spec, cap)

@@ -14,11 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .case import Case
-from .contact import ContactPair, ContactSurface
-from .elasticity import ElasticModel
-from .hertz import effective_modulus
-from .mesh import FEMesh
+from fe_impact.contact.surfaces import ContactPair, ContactSurface
+from fe_impact.fe.case import Case
+from fe_impact.fe.elasticity import ElasticModel
+from fe_impact.fe.mesh import FEMesh
+from fe_impact.physics.hertz import effective_modulus
 
 logger = logging.getLogger(__name__)
 

@@ -17,7 +17,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .mesh import FEMesh
+from fe_impact.fe.mesh import FEMesh
 
 
 @contextlib.contextmanager

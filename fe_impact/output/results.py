@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .case import Case
-from .io import write_csv, write_json, write_pvd, write_vtu
-from .static import StaticResult, StepResult
+from fe_impact import __version__
+from fe_impact.fe.case import Case
+from fe_impact.output.files import write_csv, write_json, write_pvd, write_vtu
+from fe_impact.solvers.static import StaticResult, StepResult
 
 SUMMARY_SCHEMA = "fe-impact/static-summary/1"
 
@@ -141,7 +141,7 @@ def plot_impact(out: Path, history: dict) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .io import atomic_path
+    from fe_impact.output.files import atomic_path
 
     t, F, d = history["time"], history["contact_force"], history["approach"]
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .case import MaterialSpec
-from .mesh import FEMesh
+from fe_impact.fe.case import MaterialSpec
+from fe_impact.fe.mesh import FEMesh
 
 logger = logging.getLogger(__name__)
 

@@ -2,7 +2,7 @@
 
 ``fe-impact mesh [GEARSET] --stage 1 --roll-angle DEG --level coarse|default|fine
 --order 1|2 --gap UM --impact-speed M/S --out DIR`` writes ``pair.msh``,
-``case.toml``, ``tca.json`` (see :mod:`fe_impact.gears.toothmesh`) and
+``case.toml``, ``tca.json`` (see :mod:`fe_impact.meshing.toothpair`) and
 ``pair.png``, a picture of the pair with the Hertz contact ellipse.
 
 :func:`register` adds the subcommand to an ``argparse`` subparsers object;
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``fe-impact mesh``; returns the exit status."""
     from fe_impact.errors import GeometryError
     from fe_impact.gears import default_gearset, load_gearset
-    from fe_impact.gears.toothmesh import build_pair
+    from fe_impact.meshing.toothpair import build_pair
 
     _check_options(args)
     gearset = default_gearset() if args.gearset is None else load_gearset(args.gearset)

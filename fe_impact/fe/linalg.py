@@ -19,7 +19,7 @@ import logging
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import SolverError
+from fe_impact.errors import SolverError
 
 logger = logging.getLogger(__name__)
 

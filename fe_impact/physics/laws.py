@@ -27,7 +27,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import OptimizeResult, minimize_scalar
 
 from fe_impact.errors import SolverError
-from fe_impact.hertz import _require_positive
+from fe_impact.physics.hertz import _require_positive
 
 logger = logging.getLogger(__name__)
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .errors import MeshError
+from fe_impact.errors import MeshError
 
 logger = logging.getLogger(__name__)
 

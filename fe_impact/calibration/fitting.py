@@ -4,7 +4,7 @@ An FE single-tooth impact (DESIGN.md section 4) gives a history: time ``t``,
 total normal contact force ``F(t)``, approach ``delta(t)``, together with the
 effective mass ``m``, the impact speed ``v`` and the measured restitution
 ``e``. This module turns it into the parameters of the lumped laws of
-`fe_impact.laws` (DESIGN.md section 5):
+`fe_impact.physics.laws` (DESIGN.md section 5):
 
 - `fit_power_law`: stiffness law ``F = K delta^xi`` on the loading branch;
 - `mesh_stiffness`: linearised stiffness ``dF/d delta`` at a nominal load;
@@ -13,7 +13,7 @@ effective mass ``m``, the impact speed ``v`` and the measured restitution
   ``m delta'' = -F_IMPACT(delta, delta')`` from ``delta'(0) = v`` reproduces
   the FE force history and restitution;
 - `hysteresis_chis`: the hysteresis factors of the five models of
-  `fe_impact.laws.CHI_MODELS` and the restitution each actually produces;
+  `fe_impact.physics.laws.CHI_MODELS` and the restitution each actually produces;
 - `closed_form_parameters` and `compare`: the seed's eq. 12-17 values and
   their relative difference from a fit.
 
@@ -32,7 +32,7 @@ problem with fixed-step classical Runge-Kutta (numba, about 0.2 ms per
 history), which keeps the residual a smooth function of the parameters for
 finite-difference Jacobians, and reads it at the sample times with cubic
 Hermite interpolation. The final quality figures are recomputed with
-`fe_impact.laws.simulate_impact` (adaptive DOP853), independently of the
+`fe_impact.physics.laws.simulate_impact` (adaptive DOP853), independently of the
 fast integrator.
 """
 
@@ -49,8 +49,8 @@ from numba import njit
 from numpy.typing import ArrayLike
 from scipy.optimize import brentq, least_squares
 
-from fe_impact import hertz, laws
 from fe_impact.errors import CalibrationError, FeImpactError
+from fe_impact.physics import hertz, laws
 
 logger = logging.getLogger(__name__)
 
@@ -69,7 +69,7 @@ __all__ = [
     "mesh_stiffness",
 ]
 
-#: The five hysteresis-damping models of `fe_impact.laws.CHI_MODELS` (without
+#: The five hysteresis-damping models of `fe_impact.physics.laws.CHI_MODELS` (without
 #: the undamped ``"hertz"`` entry), in the order of DESIGN.md section 5.
 HYSTERESIS_MODELS: tuple[str, ...] = tuple(m for m in laws.CHI_MODELS if m != "hertz")
 
@@ -536,7 +536,7 @@ class ImpactFit:
         Penetration at which the damping reaches ``cmax`` [m].
     residual_force_rms : float
         RMS of ``F_model - F_FE`` over the common normalised time, relative
-        to the FE peak force [-] (from `fe_impact.laws.simulate_impact`).
+        to the FE peak force [-] (from `fe_impact.physics.laws.simulate_impact`).
     restitution_model : float
         Restitution of the fitted law in the one-DOF impact [-].
     restitution_error : float
@@ -968,10 +968,10 @@ class ModelChi:
     Attributes
     ----------
     chi : float
-        ``chi(e)`` of the model [-] (`fe_impact.laws.hysteresis_factor`).
+        ``chi(e)`` of the model [-] (`fe_impact.physics.laws.hysteresis_factor`).
     restitution : float
         Restitution the law ``K h^n (1 + chi hdot / v)`` actually produces in
-        a one-DOF impact [-] (`fe_impact.laws.restitution_of`).
+        a one-DOF impact [-] (`fe_impact.physics.laws.restitution_of`).
     """
 
     chi: float
@@ -1077,14 +1077,14 @@ def closed_form_parameters(
 ) -> ClosedFormParameters:
     """The seed's closed-form IMPACT parameters for one impact.
 
-    - ``k = (4/3) E* sqrt(R)`` (eq. 12; `fe_impact.hertz.sphere_stiffness`),
+    - ``k = (4/3) E* sqrt(R)`` (eq. 12; `fe_impact.physics.hertz.sphere_stiffness`),
       unless ``k`` is given (e.g. from an elliptical Hertz contact);
     - ``exponent = 1.5``;
     - ``delta_max = (5 m v^2 / (4 k))^(2/5)`` (eq. 16), ``F_max = k delta_max^1.5``;
     - ``cmax = 3 k (1 - e^2) exp(2 (1 - e)) delta_max^1.5 / (4 v)`` (eq. 13,
-      `fe_impact.laws.closed_form_cmax`);
+      `fe_impact.physics.laws.closed_form_cmax`);
     - ``d = (9 F_max^2 / (16 R E*^2))^(1/3)`` (eq. 17,
-      `fe_impact.laws.closed_form_penetration_depth`).
+      `fe_impact.physics.laws.closed_form_penetration_depth`).
 
     Parameters
     ----------
@@ -1136,7 +1136,7 @@ def compare(fit: _ImpactParameters, closed: ClosedFormParameters) -> dict[str, d
 
     Parameters
     ----------
-    fit : ImpactFit or fe_impact.laws.ImpactLaw
+    fit : ImpactFit or fe_impact.physics.laws.ImpactLaw
         Anything with ``k``, ``exponent``, ``cmax`` and ``d``.
     closed : ClosedFormParameters
 

@@ -51,20 +51,20 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from .case import Case, RigidBodySpec
-from .contact import GapState, nodal_pressure
-from .elasticity import assemble_mass, build_model, lumped_mass, von_mises
-from .errors import CaseError, ContactError, SolverError
-from .linalg import SPDSolver, condensed_compliance
-from .mesh import FEMesh, load_mesh
-from .static import solve_penalty_lcp
-from .zone import (
+from fe_impact.contact.surfaces import GapState, nodal_pressure
+from fe_impact.contact.zone import (
     PENALTY_FACTOR_EXPLICIT,
     ContactZone,
     contact_pairs,
     face_size,
     reference_states,
 )
+from fe_impact.errors import CaseError, ContactError, SolverError
+from fe_impact.fe.case import Case, RigidBodySpec
+from fe_impact.fe.elasticity import assemble_mass, build_model, lumped_mass, von_mises
+from fe_impact.fe.linalg import SPDSolver, condensed_compliance
+from fe_impact.fe.mesh import FEMesh, load_mesh
+from fe_impact.solvers.static import solve_penalty_lcp
 
 logger = logging.getLogger(__name__)
 
@@ -569,7 +569,7 @@ class DynamicSolver:
         """
         if not any(m.yield_strength is not None for m in self.case.materials):
             return None
-        from .plasticity import PlasticZone, elements_near
+        from fe_impact.fe.plasticity import PlasticZone, elements_near
 
         radius = self.case.analysis.plastic_zone
         if radius is None:
@@ -885,12 +885,12 @@ class DynamicSolver:
 
         ``z = step(F_p(z))`` with ``step`` one elastic solve (plastic force on
         the right, contact condensed). ``[analysis] plastic_solver``:
-        ``newton`` (:func:`~fe_impact.plasticity.solve_newton`) with the zone's
+        ``newton`` (:func:`~fe_impact.fe.plasticity.solve_newton`) with the zone's
         consistent tangent, GMRES on the elastic factorisation for each
-        correction; ``anderson`` (:func:`~fe_impact.plasticity.solve_fixed_point`)
+        correction; ``anderson`` (:func:`~fe_impact.fe.plasticity.solve_fixed_point`)
         modified Newton on the elastic factorisation with Anderson mixing.
         """
-        from .plasticity import solve_fixed_point, solve_newton
+        from fe_impact.fe.plasticity import solve_fixed_point, solve_newton
 
         state = {"active": active}
 

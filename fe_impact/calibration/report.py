@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import atomic_path
+from fe_impact.output.files import atomic_path
 
 logger = logging.getLogger(__name__)
 
@@ -126,7 +126,7 @@ def _plot_histories(out: Path, cases: list[dict], path: Path) -> bool:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .laws import ImpactLaw, simulate_impact
+    from fe_impact.physics.laws import ImpactLaw, simulate_impact
 
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
     for c in cases:

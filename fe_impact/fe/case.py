@@ -65,8 +65,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import CaseError, MeshError
-from .mesh import UNITS, FEMesh
+from fe_impact.errors import CaseError, MeshError
+from fe_impact.fe.mesh import UNITS, FEMesh
 
 COMPONENTS = {"x": 0, "y": 1, "z": 2}
 ANALYSIS_TYPES = ("static", "dynamic")
@@ -78,7 +78,7 @@ MOTIONS = ("translation", "rotation")
 #: Contact pressure (multiplier) interpolation on 6-node slave faces: linear
 #: between the corners (stable with quadratic displacements), or linear on the
 #: four sub-triangles (twice the resolution, but the pressure oscillates at
-#: stiff penalties); see :mod:`fe_impact.contact`.
+#: stiff penalties); see :mod:`fe_impact.contact.surfaces`.
 MULTIPLIERS = ("linear", "split")
 _TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "analysis",
              "initial_velocities", "rigid_bodies"}

@@ -558,3 +558,75 @@ def thornton_impact(mass: float, speed: float, R: float, E_star: float,
     w = (F_max / k_p) ** (2.0 / 3.0)
     return ThorntonImpact(v_y, float(d_y + x), float(F_max), float(d_y + x - w),
                           float(np.sqrt(0.4 * k_p * w ** 2.5 / W)))
+
+
+def jackson_green_factor(poisson: float) -> float:
+    """Jackson and Green's yield factor ``C = 1.295 exp(0.736 nu)`` [-].
+
+    The Hertz centre pressure at first yield is ``C S_y`` (1.61 at nu = 0.3,
+    close to Johnson's 1.6 Y); R. L. Jackson and I. Green, J. Tribol. 127,
+    2005, eq. (3).
+    """
+    return 1.295 * float(np.exp(0.736 * _require_poisson("poisson", poisson)))
+
+
+def jgm_restitution(
+    yield_ratio: ArrayLike,
+    yield_strength: float,
+    E_star: float,
+    poisson: float | None = None,
+) -> np.ndarray | float:
+    """Restitution of an elastic-perfectly plastic sphere, Jackson-Green-Marghitu fit.
+
+    ``e = 1 - 0.0361 (S_y/E')^-0.114 ln(V*) (V* - 1)^(9.5 S_y/E')`` for
+    ``V* = V / V_y > 1`` and ``e = 1`` at or below yield (R. L. Jackson,
+    I. Green and D. B. Marghitu, "Predicting the coefficient of restitution
+    of impacting elastic-perfectly plastic spheres", Nonlinear Dynamics 60,
+    2010, 217-229; a fit to finite-element impacts). ``V_y`` is the speed of
+    first yield; JGM take it from Jackson and Green's critical interference
+    (centre pressure ``C S_y``), which differs from the seed's eq. 15 (1.6 Y)
+    by the factor ``(C/1.6)^(5/2)`` (1.003 at nu = 0.289).
+
+    Sources write the material group ``S_y/E'`` in two ways:
+
+    - ``S_y / E'`` with ``E'`` the effective modulus of the pair, i.e. E*
+      (``1/E' = (1 - nu1^2)/E1 + (1 - nu2^2)/E2``). This is the default.
+    - ``C S_y / E'`` with ``C = 1.295 exp(0.736 nu)`` (`jackson_green_factor`),
+      the yield pressure over E'; pass ``poisson`` to use it.
+
+    For 20CrMnTi (S_y = 835 MPa, E* = 115.66 GPa, nu = 0.289) the default gives
+    0.956, 0.888, 0.830, 0.729 at V* = 2, 5, 10, 30; the C form moves these
+    by +0.2%, -0.05%, -0.8%, -3.3%.
+
+    Parameters
+    ----------
+    yield_ratio : float or array_like
+        ``V* = V / V_y`` [-], >= 0; any shape.
+    yield_strength : float
+        Yield strength in simple tension S_y [Pa].
+    E_star : float
+        Effective modulus of the pair E' = E* [Pa].
+    poisson : float, optional
+        Poisson's ratio; when given, the material group is ``C S_y / E*``.
+
+    Returns
+    -------
+    float or ndarray
+        Coefficient of restitution [-], same shape as ``yield_ratio``.
+
+    Examples
+    --------
+    >>> round(jgm_restitution(5.0, 835e6, 115.66e9), 3)
+    0.888
+    """
+    group = _require_positive("yield_strength", yield_strength) / _require_positive(
+        "E_star", E_star)
+    if poisson is not None:
+        group *= jackson_green_factor(poisson)
+    j = np.asarray(yield_ratio, dtype=float)
+    if np.any(~np.isfinite(j)) or np.any(j < 0.0):
+        raise ValueError(f"yield_ratio must be finite and >= 0, got {yield_ratio!r}")
+    jj = np.maximum(j, 1.0)
+    loss = 0.0361 * group ** -0.114 * np.log(jj) * (jj - 1.0) ** (9.5 * group)
+    e = np.where(j <= 1.0, 1.0, 1.0 - loss)
+    return float(e) if e.ndim == 0 else e

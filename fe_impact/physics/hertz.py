@@ -565,7 +565,8 @@ def jackson_green_factor(poisson: float) -> float:
 
     The Hertz centre pressure at first yield is ``C S_y`` (1.61 at nu = 0.3,
     close to Johnson's 1.6 Y); R. L. Jackson and I. Green, J. Tribol. 127,
-    2005, eq. (3).
+    2005, 343-354, with their critical interference
+    ``delta_c = (pi C S_y / (2 E'))^2 R``.
     """
     return 1.295 * float(np.exp(0.736 * _require_poisson("poisson", poisson)))
 

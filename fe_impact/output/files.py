@@ -38,22 +38,36 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             os.remove(tmp)
 
 
-def _jsonable(obj):
+def standard_json(obj):
+    """``obj`` with NumPy values made plain and every NaN or infinity made ``None``.
+
+    JSON has no NaN or Infinity: Python writes them, but strict readers
+    (JavaScript's ``JSON.parse``, most non-Python libraries) reject the file.
+    A quantity that has no finite value is written as ``null``.
+    """
+    if isinstance(obj, dict):
+        return {str(k): standard_json(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [standard_json(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return obj.tolist()
+        return standard_json(obj.tolist())
+    if isinstance(obj, bool | np.bool_):
+        return bool(obj)
     if isinstance(obj, np.integer):
         return int(obj)
-    if isinstance(obj, np.floating):
-        return float(obj)
+    if isinstance(obj, float | np.floating):
+        return float(obj) if np.isfinite(obj) else None
     if isinstance(obj, Path):
         return str(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+    return obj
 
 
 def write_json(path: str | Path, data: dict) -> Path:
-    """Write ``data`` as indented JSON, atomically."""
+    """Write ``data`` as indented, standard JSON (no NaN/Infinity: see
+    :func:`standard_json`), atomically."""
+    text = json.dumps(standard_json(data), indent=2, allow_nan=False)
     with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(data, indent=2, default=_jsonable) + "\n")
+        tmp.write_text(text + "\n")
     return Path(path)
 
 

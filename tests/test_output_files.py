@@ -1,0 +1,39 @@
+"""Result files are standard JSON and appear atomically."""
+
+import json
+
+import numpy as np
+import pytest
+
+from fe_impact.output.files import atomic_path, write_json
+
+
+def strict_load(text: str):
+    """Parse as a strict reader (JavaScript's JSON.parse) does: no NaN or Infinity."""
+    def refuse(name):
+        raise ValueError(f"non-standard JSON constant {name}")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_non_finite_values_are_written_as_null(tmp_path):
+    data = {"relative_difference": float("inf"), "nan": np.nan, "neg": -np.inf,
+            "array": np.array([1.0, np.nan]), "f32": np.float32(2.5), "i": np.int64(3),
+            "flag": np.bool_(True), "nested": [{"x": (np.float64("nan"), 1)}]}
+    path = write_json(tmp_path / "r.json", data)
+    doc = strict_load(path.read_text())
+    assert doc == {"relative_difference": None, "nan": None, "neg": None,
+                   "array": [1.0, None], "f32": 2.5, "i": 3, "flag": True,
+                   "nested": [{"x": [None, 1]}]}
+
+
+def test_unserialisable_value_leaves_no_file(tmp_path):
+    with pytest.raises(TypeError):
+        write_json(tmp_path / "r.json", {"x": object()})
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_path_removes_the_temporary_file_on_error(tmp_path):
+    with pytest.raises(RuntimeError), atomic_path(tmp_path / "a.txt") as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("interrupted")
+    assert list(tmp_path.iterdir()) == []

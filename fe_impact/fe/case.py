@@ -54,7 +54,9 @@ initial velocities and rigid bodies::
     initial_velocity = -1.0         # m/s or rad/s along/about the direction
 
 Parsing checks every key and value; :meth:`Case.check_groups` then checks the
-group names against a loaded mesh.
+group names against a loaded mesh. :func:`fe_impact.fe.casefile.write_case`
+writes a :class:`Case` back to such a file; variants of a case are made in
+memory with :func:`dataclasses.replace`.
 """
 
 from __future__ import annotations

@@ -63,7 +63,7 @@ from fe_impact.errors import CaseError, ContactError, SolverError
 from fe_impact.fe.case import Case, RigidBodySpec
 from fe_impact.fe.elasticity import assemble_mass, build_model, lumped_mass, von_mises
 from fe_impact.fe.linalg import SPDSolver, condensed_compliance
-from fe_impact.fe.mesh import FEMesh, load_mesh
+from fe_impact.fe.mesh import FEMesh
 from fe_impact.solvers.static import solve_penalty_lcp
 
 logger = logging.getLogger(__name__)
@@ -476,7 +476,7 @@ HISTORY_KEYS = ("time", "contact_force", "approach", "normal_velocity", "kinetic
 class DynamicSolver:
     """Set up once per case; :meth:`run` integrates to the case's duration."""
 
-    def __init__(self, case: Case, mesh: FEMesh | None = None) -> None:
+    def __init__(self, case: Case, mesh: FEMesh) -> None:
         if not case.analysis.dynamic:
             raise CaseError(f"{case.path.name}: [analysis] type = '{case.analysis.type}': the "
                             "transient solver needs type = \"dynamic\"")
@@ -486,7 +486,7 @@ class DynamicSolver:
         a = case.analysis
         self.timings: dict[str, float] = {}
         t = time.perf_counter()
-        self.mesh = mesh if mesh is not None else load_mesh(case.mesh_file, case.unit)
+        self.mesh = mesh
         case.check_groups(self.mesh)
         self.timings["mesh"] = time.perf_counter() - t
         t = time.perf_counter()

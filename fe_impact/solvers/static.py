@@ -35,7 +35,7 @@ from fe_impact.errors import CaseError, ContactError
 from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
 from fe_impact.fe.linalg import SPDSolver, condensed_compliance
-from fe_impact.fe.mesh import FEMesh, load_mesh
+from fe_impact.fe.mesh import FEMesh
 
 logger = logging.getLogger(__name__)
 
@@ -69,11 +69,11 @@ class StaticResult:
 class StaticSolver:
     """Set up once per case; :meth:`run` solves the load steps."""
 
-    def __init__(self, case: Case, mesh: FEMesh | None = None) -> None:
+    def __init__(self, case: Case, mesh: FEMesh) -> None:
         self.case = case
         self.timings: dict[str, float] = {}
         t = time.perf_counter()
-        self.mesh = mesh if mesh is not None else load_mesh(case.mesh_file, case.unit)
+        self.mesh = mesh
         case.check_groups(self.mesh)
         self.timings["mesh"] = time.perf_counter() - t
         t = time.perf_counter()

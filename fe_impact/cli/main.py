@@ -106,6 +106,7 @@ def _configure_logging(verbose: int) -> None:
 
 def _cmd_solve(args: argparse.Namespace) -> int:
     from fe_impact.fe.case import load_case
+    from fe_impact.fe.mesh import load_mesh
     from fe_impact.output.results import write_static_results
     from fe_impact.solvers.static import StaticSolver
 
@@ -114,7 +115,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         return _solve_dynamic(case, args.out)
     t0 = time.perf_counter()
     print(f"{case.path.name}: setting up (mesh, assembly, factorisation)", flush=True)
-    solver = StaticSolver(case)
+    solver = StaticSolver(case, load_mesh(case.mesh_file, case.unit))
     info = (f"{solver.model.n_dofs} DOFs, P{solver.mesh.order}, "
             f"{len(solver.zone_dofs)} contact-zone DOFs")
     print(f"  {info} ({time.perf_counter() - t0:.1f} s)", flush=True)
@@ -185,6 +186,7 @@ def _solve_dynamic(case, out: Path) -> int:
     from tqdm import tqdm
 
     from fe_impact.errors import SolverError
+    from fe_impact.fe.mesh import load_mesh
     from fe_impact.output.results import DynamicWriter
     from fe_impact.solvers.dynamic import DynamicSolver
 
@@ -192,7 +194,7 @@ def _solve_dynamic(case, out: Path) -> int:
     a = case.analysis
     print(f"{case.path.name}: setting up (mesh, assembly, contact zone, "
           f"{'stable step' if a.integrator == 'explicit' else 'factorisation'})", flush=True)
-    solver = DynamicSolver(case)
+    solver = DynamicSolver(case, load_mesh(case.mesh_file, case.unit))
     n_steps = max(1, round(a.duration / solver.dt))
     print(f"  {solver.model.n_dofs} DOFs, P{solver.mesh.order}, {a.integrator}, time step "
           f"{solver.dt:.4g} s x {n_steps} steps ({time.perf_counter() - t0:.1f} s)", flush=True)

@@ -38,6 +38,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from fe_impact.fe.case import load_case
+from fe_impact.fe.mesh import load_mesh
 from fe_impact.output.files import write_json
 from fe_impact.physics import hertz
 from fe_impact.solvers.dynamic import DynamicSolver
@@ -77,7 +78,7 @@ def newmark(out: Path, solver: str | None = None) -> dict:
             "density = 7860\n", "density = 7860\nyield_strength = 835e6\n").replace(
             'integrator = "newmark"\n', f'integrator = "newmark"\nplastic_solver = "{solver}"\n'))
     t0 = time.perf_counter()
-    dyn = DynamicSolver(load_case(case))
+    dyn = DynamicSolver(load_case(case), load_mesh(mesh))
     res = dyn.run()
     wall = time.perf_counter() - t0
     m = res.measurements
@@ -100,7 +101,7 @@ def _explicit_case(out: Path, steps: int, plastic: bool) -> Path:
     mesh = sphere_block_mesh(folder, H_CONTACT, gap=1e-6)
     probe = write_sphere_impact(folder, mesh, SPEED, 1e-6, integrator="explicit",
                                 rigid_mass=RIGID_MASS, frames=1, name="explicit_probe.toml")
-    dt = DynamicSolver(load_case(probe)).dt
+    dt = DynamicSolver(load_case(probe), load_mesh(mesh)).dt
     case = write_sphere_impact(folder, mesh, SPEED, steps * dt, integrator="explicit",
                                rigid_mass=RIGID_MASS, frames=1,
                                name="explicit_plastic.toml" if plastic else "explicit.toml")
@@ -111,7 +112,8 @@ def _explicit_case(out: Path, steps: int, plastic: bool) -> Path:
 
 
 def explicit_plastic(out: Path, elastic_step_ms: float, steps: int = 2000) -> dict:
-    solver = DynamicSolver(load_case(_explicit_case(out, steps, plastic=True)))
+    case = load_case(_explicit_case(out, steps, plastic=True))
+    solver = DynamicSolver(case, load_mesh(case.mesh_file, case.unit))
     t = time.perf_counter()
     res = solver.run()
     step = (time.perf_counter() - t) / res.info["steps"]
@@ -122,7 +124,8 @@ def explicit_plastic(out: Path, elastic_step_ms: float, steps: int = 2000) -> di
 
 
 def explicit(out: Path, steps: int = 2000) -> dict:
-    solver = DynamicSolver(load_case(_explicit_case(out, steps, plastic=False)))
+    case = load_case(_explicit_case(out, steps, plastic=False))
+    solver = DynamicSolver(case, load_mesh(case.mesh_file, case.unit))
     dt = solver.dt
     K = solver.K
     x = np.random.default_rng(0).random(K.shape[0])

@@ -18,6 +18,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from fe_impact.fe.case import load_case
+from fe_impact.fe.mesh import load_mesh
 from fe_impact.output.files import write_json
 from fe_impact.solvers.static import StaticSolver
 from validation.hertz_static import write_case
@@ -29,7 +30,7 @@ REFERENCE_S = 230.0
 def run(out: Path, h_contact: float = H_CONTACT) -> dict:
     case = load_case(write_case(out, h_contact))
     t0 = time.perf_counter()
-    solver = StaticSolver(case)
+    solver = StaticSolver(case, load_mesh(case.mesh_file, case.unit))
     result = solver.run()
     wall = time.perf_counter() - t0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB -> MiB

@@ -40,6 +40,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from fe_impact.fe.case import load_case
+from fe_impact.fe.mesh import load_mesh
 from fe_impact.output.files import write_csv, write_json
 from fe_impact.physics import hertz
 from fe_impact.solvers.dynamic import DynamicSolver
@@ -71,7 +72,7 @@ def specimen_impact(mesh: Path, folder: Path, mass: float, speed: float, gap: fl
     # (1e-4 of the contact displacement) stops active-set cycling on them.
     case.write_text(CASE_TEMPLATE.format(mesh=mesh.name, values=[-float(d) for d in disp])
                     + "\n[analysis]\ntolerance = 1e-4\nmax_iterations = 60\n")
-    result = StaticSolver(load_case(case)).run()
+    result = StaticSolver(load_case(case), load_mesh(mesh)).run()
     force = np.array([SYMMETRY * s.contact_force[0] for s in result.steps])
     curve = PchipInterpolator(np.concatenate([[gap], disp]), np.concatenate([[0.0], force]))
 
@@ -103,7 +104,7 @@ def run_rigid(speed: float, h: float, out: Path) -> dict:
     t = time.perf_counter()
     case = write_sphere_impact(folder, mesh, speed, GAP / speed + 1.3 * ref.contact_time,
                                rigid_mass=RIGID_MASS, frames=20)
-    solver = DynamicSolver(load_case(case))
+    solver = DynamicSolver(load_case(case), load_mesh(mesh))
     res = solver.run()
     secs = time.perf_counter() - t
     meas = res.measurements
@@ -135,7 +136,7 @@ def run_free(integrator: str, h: float, out: Path, speed: float = 1.0) -> dict:
     t = time.perf_counter()
     case = write_sphere_impact(folder, mesh, speed, GAP / speed + 1.5 * ref.contact_time,
                                integrator=integrator, frames=20, name=f"{integrator}.toml")
-    res = DynamicSolver(load_case(case)).run()
+    res = DynamicSolver(load_case(case), load_mesh(mesh)).run()
     meas = res.measurements
     e = meas["restitution"]
     return {"integrator": integrator, "speed": speed, "h_contact_mm": h * 1e3,

@@ -49,6 +49,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from fe_impact.fe.case import MULTIPLIERS, load_case
+from fe_impact.fe.mesh import load_mesh
 from fe_impact.output.files import write_csv, write_json
 from fe_impact.physics import hertz
 from fe_impact.solvers.static import StaticSolver
@@ -169,7 +170,7 @@ def run_level(level: str, h_contact: float, out: Path,
               multiplier: str = "linear") -> LevelResult:
     t = time.perf_counter()
     case = load_case(write_case(out / level, h_contact, multiplier=multiplier))
-    solver = StaticSolver(case)
+    solver = StaticSolver(case, load_mesh(case.mesh_file, case.unit))
     ps = axis_point(solver, "sphere", DEPTH)
     pb = axis_point(solver, "block", -DEPTH)
     result = solver.run()

@@ -154,7 +154,38 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
                 r_f = 0.5 * gearset.module * teeth
                 vs = seed_switching_speed(w, pin.pitch_radius, r_f, teeth / pin.teeth, alpha)
                 cases.append(ImpactCase(s, teeth, "switch", vs, float(rpm)))
+    _check_impact_speeds(cases, impact_speeds is not None)
     return cases
+
+
+def _check_impact_speeds(cases: list[ImpactCase], given: bool) -> None:
+    """Refuse, before any work starts, speeds the tooth-pair builder would refuse."""
+    from fe_impact.meshing.toothpair import MAX_IMPACT_SPEED
+
+    bad = [c for c in cases if not c.impact_speed <= MAX_IMPACT_SPEED]
+    if not bad:
+        return
+    c = bad[0]
+    if given:
+        raise CalibrationError(f"--impact-speeds {c.impact_speed:g}: allowed impact speeds "
+                               f"are (0, {MAX_IMPACT_SPEED:g}] m/s")
+    what = "switching" if c.kind == "switch" else "in-mesh"
+    raise CalibrationError(f"--speeds {c.speed_rpm:g}: gives an {what} impact speed of "
+                           f"{c.impact_speed:.4g} m/s at stage {c.stage}; allowed impact speeds "
+                           f"are (0, {MAX_IMPACT_SPEED:g}] m/s")
+
+
+def check_scheduler_address(address: str) -> str:
+    """``address`` if it names a Dask scheduler (``[tcp://]host:port``), else a clear error."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        _, location = parse_address(address)
+        parse_host_port(location)
+    except ValueError as exc:
+        raise CalibrationError(f"--scheduler {address!r}: not a scheduler address ({exc}); "
+                               "give host:port or tcp://host:port") from None
+    return address
 
 
 def case_hash(case: ImpactCase, settings: Settings, gearset_text: str) -> str:
@@ -444,7 +475,7 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
     if scheduler:
         try:
             client = Client(scheduler, timeout="10s")
-        except OSError as exc:
+        except (OSError, ValueError) as exc:
             raise CalibrationError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
         cluster = None
     else:

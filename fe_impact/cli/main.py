@@ -24,7 +24,10 @@ logger = logging.getLogger("fe_impact")
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fe-impact`` command; returns the exit status."""
     parser = _parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:   # --help, or a bad option (argparse printed why)
+        return int(exc.code or 0)
     _configure_logging(args.verbose)
     if not hasattr(args, "func"):
         parser.print_help()
@@ -134,28 +137,41 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 def _int_list(text: str) -> list[int]:
     try:
-        return [int(x) for x in text.split(",") if x.strip()]
+        values = [int(x) for x in text.split(",") if x.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r}: need comma-separated integers") from None
+    if not values:
+        raise argparse.ArgumentTypeError(f"{text!r}: need at least one integer")
+    return values
 
 
 def _float_list(text: str) -> list[float]:
     try:
-        return [float(x) for x in text.split(",") if x.strip()]
+        values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r}: need comma-separated numbers") from None
+    if not values:
+        raise argparse.ArgumentTypeError(f"{text!r}: need at least one number")
+    return values
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from fe_impact.calibration.sweep import Settings, calibrate, plan_cases
+    from fe_impact.calibration.sweep import (
+        Settings,
+        calibrate,
+        check_scheduler_address,
+        plan_cases,
+    )
     from fe_impact.errors import CalibrationError
     from fe_impact.gears import default_gearset, load_gearset
     from fe_impact.gears.gearset import _default_candidates
 
     if args.workers is not None and args.workers < 1:
         raise CalibrationError(f"--workers {args.workers}: must be at least 1")
+    if args.scheduler is not None:
+        check_scheduler_address(args.scheduler)
     if args.gearset is not None:
         gearset = load_gearset(args.gearset)
         text = args.gearset.read_text()

@@ -28,7 +28,8 @@ the IMPACT impact becomes
 ``x'(0) = 1``, with ``c = cmax L / (m v)``; forces scale with
 ``k L^n = m v^2 / L``. So ``k`` only scales time and force, and the shape of
 the history depends on ``(n, c, d/L)`` alone. The fit integrates this
-problem with fixed-step classical Runge-Kutta (numba, about 0.2 ms per
+problem, with the force of `fe_impact.physics.impact_law.impact_force_scalar`
+at ``k = 1``, by fixed-step classical Runge-Kutta (numba, about 0.2 ms per
 history), which keeps the residual a smooth function of the parameters for
 finite-difference Jacobians, and reads it at the sample times with cubic
 Hermite interpolation. The final quality figures are recomputed with
@@ -51,6 +52,7 @@ from scipy.optimize import brentq, least_squares
 
 from fe_impact.errors import CalibrationError, FeImpactError
 from fe_impact.physics import hertz, laws
+from fe_impact.physics.impact_law import impact_force_scalar
 
 logger = logging.getLogger(__name__)
 
@@ -406,13 +408,8 @@ def mesh_stiffness(
 # -- fast dimensionless impact ------------------------------------------------------------
 @njit(cache=True)
 def _force(x: float, u: float, n: float, c: float, dd: float) -> float:
-    """Dimensionless IMPACT force ``max(0, x^n + STEP(x, 0, 0, dd, c) u)``, 0 for x <= 0."""
-    if x <= 0.0:
-        return 0.0
-    s = x / dd
-    ramp = 1.0 if s >= 1.0 else s * s * (3.0 - 2.0 * s)
-    f = x**n + ramp * c * u
-    return f if f > 0.0 else 0.0
+    """Dimensionless IMPACT force ``max(0, x^n + STEP(x, 0, 0, dd, c) u)``: k = 1."""
+    return impact_force_scalar(x, u, 1.0, n, c, dd)
 
 
 @njit(cache=True)

@@ -28,6 +28,7 @@ from scipy.optimize import OptimizeResult, minimize_scalar
 
 from fe_impact.errors import SolverError
 from fe_impact.physics.hertz import _require_positive
+from fe_impact.physics.impact_law import impact_force_ufunc, step_ufunc
 
 logger = logging.getLogger(__name__)
 
@@ -77,8 +78,8 @@ def step(x: ArrayLike, x0: float, h0: float, x1: float, h1: float) -> FloatOrArr
     """
     if not x1 > x0:
         raise ValueError(f"step needs x0 < x1, got x0={x0!r}, x1={x1!r}")
-    blend = np.clip((np.asarray(x, dtype=float) - x0) / (x1 - x0), 0.0, 1.0)
-    return _as_output(h0 + (h1 - h0) * blend**2 * (3.0 - 2.0 * blend))
+    values = step_ufunc(np.asarray(x, dtype=float), float(x0), float(h0), float(x1), float(h1))
+    return _as_output(np.asarray(values))
 
 
 def impact_force(
@@ -117,13 +118,17 @@ def impact_force(
     -------
     float or ndarray
         Force [N], >= 0, pushing the bodies apart.
+
+    Notes
+    -----
+    Evaluated in penetration form, ``h = x1 - x`` and ``hd = -xdot``, by
+    `fe_impact.physics.impact_law.impact_force_scalar` (``STEP(x, x1 - d,
+    cmax, x1, 0)`` equals ``STEP(h, 0, 0, d, cmax)``).
     """
-    x = np.asarray(x, dtype=float)
-    penetration = x1 - x
-    inside = penetration > 0.0
-    elastic = k * np.where(inside, penetration, 0.0) ** exponent
-    damping = step(x, x1 - d, cmax, x1, 0.0) * np.asarray(xdot, dtype=float)
-    return _as_output(np.where(inside, np.maximum(elastic - damping, 0.0), 0.0))
+    penetration = x1 - np.asarray(x, dtype=float)
+    closing = -np.asarray(xdot, dtype=float)
+    return _as_output(np.asarray(impact_force_ufunc(
+        penetration, closing, float(k), float(exponent), float(cmax), float(d))))
 
 
 class ContactLaw(Protocol):
@@ -175,9 +180,11 @@ class ImpactLaw:
 
     def force(self, penetration: ArrayLike, penetration_rate: ArrayLike) -> FloatOrArray:
         """Contact force [N] for penetration [m] and closing rate [m/s]."""
-        x = -np.asarray(penetration, dtype=float)
-        xdot = -np.asarray(penetration_rate, dtype=float)
-        return impact_force(x, xdot, 0.0, self.k, self.exponent, self.cmax, self.d)
+        force = impact_force_ufunc(np.asarray(penetration, dtype=float),
+                                   np.asarray(penetration_rate, dtype=float),
+                                   float(self.k), float(self.exponent), float(self.cmax),
+                                   float(self.d))
+        return _as_output(np.asarray(force))
 
 
 def _check_restitution(e: float) -> float:

@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from fe_impact.cli.main import main
 from fe_impact.errors import CaseError, SolverError
-from fe_impact.fe.case import load_case
+from fe_impact.fe.case import Case, load_case
+from fe_impact.fe.casefile import write_case
+from fe_impact.fe.mesh import load_mesh
 from fe_impact.physics import hertz
 from fe_impact.solvers.dynamic import DynamicSolver
 from validation.impact_cases import (
@@ -34,10 +37,20 @@ GAP = 1e-8
 DURATION = GAP / SPEED + 2.0 * T_CONTACT
 
 
-def run_sdof(folder, integrator, dt, extra=""):
-    case = write_sdof(folder, integrator, dt, DURATION, PENALTY, MASS, SPEED, extra=extra,
-                      size=SIZE, gap=GAP)
-    solver = DynamicSolver(load_case(case))
+def solver_for(case: Case) -> DynamicSolver:
+    """The transient solver on the case's mesh file."""
+    return DynamicSolver(case, load_mesh(case.mesh_file, case.unit))
+
+
+def sdof_case(folder, integrator, dt, **analysis) -> Case:
+    """The SDOF case file, read back; ``analysis`` changes its [analysis] fields."""
+    case = load_case(write_sdof(folder, integrator, dt, DURATION, PENALTY, MASS, SPEED,
+                                size=SIZE, gap=GAP))
+    return replace(case, analysis=replace(case.analysis, **analysis))
+
+
+def run_sdof(folder, integrator, dt, **analysis):
+    solver = solver_for(sdof_case(folder, integrator, dt, **analysis))
     return solver, solver.run()
 
 
@@ -106,8 +119,7 @@ def test_run_stops_after_separation(tmp_path, integrator):
     """
     dt = T_CONTACT / 64
     _, full = run_sdof(tmp_path / "full", integrator, dt)
-    _, short = run_sdof(tmp_path / "short", integrator, dt,
-                        extra="stop_after_separation = 0.25")
+    _, short = run_sdof(tmp_path / "short", integrator, dt, stop_after_separation=0.25)
     m = short.measurements
     assert short.info["end_time"] == pytest.approx(
         m["separation"] + 0.25 * m["contact_duration"], abs=1.5 * dt)
@@ -123,21 +135,21 @@ def test_explicit_stable_step_matches_closed_form(tmp_path):
 
 
 def test_explicit_step_above_limit_is_refused(tmp_path):
-    case = write_sdof(tmp_path, "explicit", 3.0 / OMEGA, DURATION, PENALTY, MASS, SPEED,
-                      size=SIZE, gap=GAP)
+    case = sdof_case(tmp_path, "explicit", 3.0 / OMEGA)
     with pytest.raises(CaseError, match=r"time_step = 3\.001e-07 s is above the explicit "
                                         r"stability limit 2\.001e-07 s"):
-        DynamicSolver(load_case(case))
+        solver_for(case)
 
 
 def test_energy_growth_stops_the_run_and_keeps_frames(tmp_path, capsys):
     """A tiny energy_limit makes the switch-step energy change count as growth."""
-    case = write_sdof(tmp_path, "explicit", T_CONTACT / 8, DURATION, PENALTY, MASS, SPEED,
-                      extra="energy_limit = 1e-9\noutput_interval = 1e-9", size=SIZE, gap=GAP)
+    case = sdof_case(tmp_path, "explicit", T_CONTACT / 8, energy_limit=1e-9,
+                     output_interval=1e-9)
     with pytest.raises(SolverError, match=r"energy grew to .* at t = .* \(step \d+\)"):
-        DynamicSolver(load_case(case)).run()
+        solver_for(case).run()
     out = tmp_path / "out"
-    assert main(["solve", str(case), "--out", str(out)]) == 2
+    path = write_case(case, tmp_path / "energy.toml")
+    assert main(["solve", str(path), "--out", str(out)]) == 2
     assert "energy grew" in capsys.readouterr().err
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "stopped" and "energy grew" in summary["error"]
@@ -145,10 +157,10 @@ def test_energy_growth_stops_the_run_and_keeps_frames(tmp_path, capsys):
 
 
 def test_cli_dynamic_outputs(tmp_path):
-    case = write_sdof(tmp_path, "newmark", T_CONTACT / 32, DURATION, PENALTY, MASS, SPEED,
-                      extra=f"output_interval = {DURATION / 10}", size=SIZE, gap=GAP)
+    case = sdof_case(tmp_path, "newmark", T_CONTACT / 32, output_interval=DURATION / 10)
     out = tmp_path / "out"
-    assert main(["solve", str(case), "--out", str(out)]) == 0
+    path = write_case(case, tmp_path / "frames.toml")
+    assert main(["solve", str(path), "--out", str(out)]) == 0
     s = json.loads((out / "summary.json").read_text())
     for key in ("peak_force", "max_approach", "contact_duration", "restitution",
                 "energy_error"):
@@ -177,7 +189,7 @@ def test_coarse_hemisphere_impact_against_hertz(tmp_path):
     ref = hertz.impact(m, 1.0, R, hertz.effective_modulus(212e9, 0.289))
     case = write_sphere_impact(tmp_path, mesh, 1.0, 1.4 * ref.contact_time, rigid_mass=0.5,
                                frames=10)
-    result = DynamicSolver(load_case(case)).run()
+    result = DynamicSolver(load_case(case), load_mesh(mesh)).run()
     meas = result.measurements
     assert 4.0 * meas["peak_force"] == pytest.approx(ref.force_max, rel=0.05)
     assert meas["max_approach"] == pytest.approx(ref.delta_max, rel=0.05)
@@ -204,13 +216,13 @@ def test_contact_zone_grows_before_faces_outside_touch(tmp_path):
     mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
     m = 0.5 + 2.0 / 3.0 * math.pi * R ** 3 * RHO
     ref = hertz.impact(m, 1.0, R, hertz.effective_modulus(212e9, 0.289))
-    runs = {}
-    for name, extra in (("auto", ""), ("small", "search_distance = 2e-6")):
-        case = write_sphere_impact(tmp_path, mesh, 1.0, 1.4 * ref.contact_time,
-                                   rigid_mass=0.5, frames=10, name=f"{name}.toml")
-        case.write_text(case.read_text().replace('penalty = "auto"',
-                                                 f'penalty = "auto"\n{extra}'))
-        runs[name] = DynamicSolver(load_case(case)).run()
+    auto = load_case(write_sphere_impact(tmp_path, mesh, 1.0, 1.4 * ref.contact_time,
+                                         rigid_mass=0.5, frames=10))
+    (contact,) = auto.contacts
+    small = replace(auto, contacts=(replace(contact, search_distance=2e-6),))
+    fe_mesh = load_mesh(mesh)
+    runs = {name: DynamicSolver(case, fe_mesh).run()
+            for name, case in (("auto", auto), ("small", small))}
     small, auto = runs["small"], runs["auto"]
     assert small.info["zone_growths"] >= 1
     assert auto.info["zone_growths"] == 0
@@ -228,7 +240,7 @@ def test_normal_condensation_is_exact_on_a_flat_master(tmp_path):
     """
     mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
     case = write_sphere_impact(tmp_path, mesh, 1.0, 1e-5, rigid_mass=0.5, frames=2)
-    solver = DynamicSolver(load_case(case))
+    solver = DynamicSolver(load_case(case), load_mesh(mesh))
     c = solver.contact
     full, projected = c.B_full.toarray(), c.B.toarray()
     assert np.abs(projected - full).max() < 1e-9 * np.abs(full).max()
@@ -274,13 +286,11 @@ def test_dynamic_case_errors(tmp_path, old, new, pattern):
 
 
 def test_rigid_body_clashing_with_support_is_refused(tmp_path):
-    case = write_sdof(tmp_path, "newmark", 1e-9, 1e-7, PENALTY, MASS, SPEED, size=SIZE,
-                      gap=GAP)
-    text = case.read_text().replace('surface = "lower_all"', 'surface = "upper_all"')
-    bad = tmp_path / "bad.toml"
-    bad.write_text(text)
+    case = sdof_case(tmp_path, "newmark", 1e-9, duration=1e-7)
+    (support,) = case.supports
+    bad = replace(case, supports=(replace(support, surface="upper_all"),))
     with pytest.raises(CaseError, match=r"moves \d+ DOFs that \[\[supports\]\] fix"):
-        DynamicSolver(load_case(bad))
+        solver_for(bad)
 
 
 def test_residual_indentation_of_a_synthetic_unloading():

@@ -2,22 +2,29 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from fe_impact.fe.case import load_case
+from fe_impact.fe.case import Case, load_case
+from fe_impact.fe.mesh import FEMesh, load_mesh
 from fe_impact.solvers.static import StaticSolver
 from validation import hertz_static
 
 
-def _run(case_path, **replace):
-    text = case_path.read_text()
-    for old, new in replace.items():
-        text = text.replace(old, new)
-    if replace:
-        case_path = case_path.with_name("variant.toml")
-        case_path.write_text(text)
-    solver = StaticSolver(load_case(case_path))
+def _loaded(case_path) -> tuple[Case, FEMesh]:
+    case = load_case(case_path)
+    return case, load_mesh(case.mesh_file, case.unit)
+
+
+def _with_contact(case: Case, **changes) -> Case:
+    """``case`` with its contact pair changed (``dataclasses.replace`` fields)."""
+    return replace(case, contacts=(replace(case.contacts[0], **changes),))
+
+
+def _run(case: Case, mesh: FEMesh):
+    solver = StaticSolver(case, mesh)
     ps = hertz_static.axis_point(solver, "sphere", hertz_static.DEPTH)
     pb = hertz_static.axis_point(solver, "block", -hertz_static.DEPTH)
     result = solver.run()
@@ -26,13 +33,23 @@ def _run(case_path, **replace):
 
 
 @pytest.fixture(scope="module")
-def coarse_run(coarse_hertz_case):
-    return _run(coarse_hertz_case)
+def coarse(coarse_hertz_case):
+    return _loaded(coarse_hertz_case)
 
 
 @pytest.fixture(scope="module")
-def medium_run(medium_hertz_case):
-    return _run(medium_hertz_case)
+def medium(medium_hertz_case):
+    return _loaded(medium_hertz_case)
+
+
+@pytest.fixture(scope="module")
+def coarse_run(coarse):
+    return _run(*coarse)
+
+
+@pytest.fixture(scope="module")
+def medium_run(medium):
+    return _run(*medium)
 
 
 def test_force_matches_hertz_locally(medium_run):
@@ -63,23 +80,24 @@ def test_peak_pressure_converges(coarse_run, medium_run):
     assert abs(medium["pressure_error"]) < 0.25 * abs(coarse["pressure_error"])
 
 
-def test_pressure_settles_as_the_penalty_grows(medium_hertz_case, medium_run):
+def test_pressure_settles_as_the_penalty_grows(medium, medium_run):
     # The linear pressure is stable with quadratic displacements: a ten times
     # stiffer penalty (towards the Lagrange-multiplier limit) changes the
     # largest nodal pressure by less than 1% of p0 at any step (measured 0.41%). The split
     # pressure is not: its peak error went from 2% to 7% for 300 -> 1000 E*/h.
+    case, mesh = medium
     eps = medium_run[0].pairs[0].penalty
-    _, _, rows = _run(medium_hertz_case, **{'penalty = "auto"': f"penalty = {10 * eps:.6g}"})
+    _, _, rows = _run(_with_contact(case, penalty=10 * eps), mesh)
     change = [abs(a["pressure_error"] - b["pressure_error"])
               for a, b in zip(rows, medium_run[2], strict=True)]
     assert max(change) < 0.01
 
 
-def test_split_multiplier_agrees_in_force(medium_hertz_case, medium_run):
+def test_split_multiplier_agrees_in_force(medium, medium_run):
     # Both pressure interpolations enforce the same contact; the force differs
     # by the discretisation only (measured 0.12% at full load).
-    _, result, _ = _run(medium_hertz_case, **{'penalty = "auto"':
-                                              'penalty = "auto"\nmultiplier = "split"'})
+    case, mesh = medium
+    _, result, _ = _run(_with_contact(case, multiplier="split"), mesh)
     f_split = result.steps[-1].contact_force[0]
     f_lin = medium_run[1].steps[-1].contact_force[0]
     assert abs(f_split / f_lin - 1) < 0.01
@@ -132,18 +150,16 @@ def test_force_grows_like_hertz_power(coarse_run):
 def test_p1_mesh_runs_and_agrees(coarse_hertz_case_p1, coarse_run):
     # Linear tetrahedra are stiffer (faceted sphere, locking-free but coarse):
     # within 15% of the P2 force at full load on the same coarse sizes.
-    result = StaticSolver(load_case(coarse_hertz_case_p1)).run()
+    result = StaticSolver(*_loaded(coarse_hertz_case_p1)).run()
     p2 = coarse_run[1].steps[-1].contact_force[0]
     assert abs(result.steps[-1].contact_force[0] / p2 - 1) < 0.15
 
 
-def test_no_contact_without_load(coarse_hertz_case, tmp_path):
-    text = coarse_hertz_case.read_text().replace(
-        "values = [-5e-06, -1e-05, -1.5e-05, -2e-05, -2.5e-05]", "values = [1e-6]")
-    case = tmp_path / "lift.toml"
-    case.write_text(text.replace('file = "sphere_block.msh"',
-                                 f'file = "{coarse_hertz_case.parent / "sphere_block.msh"}"'))
-    step = StaticSolver(load_case(case)).run().steps[0]
+def test_no_contact_without_load(coarse):
+    case, mesh = coarse
+    (push,) = case.displacements
+    lift = replace(case, displacements=(replace(push, values=(1e-6,)),))
+    step = StaticSolver(lift, mesh).run().steps[0]
     assert step.contact_force[0] == 0.0
     assert step.contact_area[0] == 0.0
 

@@ -127,19 +127,19 @@ INVALID = {
     ),
     "unknown pinion key": (
         [_set(("pinion", "modulus_mm"), 3.0)],
-        ["unknown key 'modulus_mm' in [pinion]", "allowed:", "module_mm", "face_width_mm"],
+        ["unknown key(s) ['modulus_mm'] in [pinion]", "allowed:", "module_mm", "face_width_mm"],
     ),
     "unknown stage key": (
         [_set((*STAGE1, "width_mm"), 3.0)],
-        ["unknown key 'width_mm' in [face_gear.stages 1]", "inner_radius_mm"],
+        ["unknown key(s) ['width_mm'] in [face_gear.stages 1]", "inner_radius_mm"],
     ),
     "unknown top-level key": (
         [_set(("gears",), 3)],
-        ["unknown key 'gears' at the top level", "allowed:", "pinion"],
+        ["unknown key(s) ['gears'] at the top level", "allowed:", "pinion"],
     ),
     "missing key": (
         [_set(("material", "density_kg_m3"), None)],
-        ["missing key 'density_kg_m3' in [material]"],
+        ["missing key(s) ['density_kg_m3'] in [material]"],
     ),
     "crowning in mm by mistake": (
         [_set(("pinion", "lengthwise_crowning_um"), 10000.0)],
@@ -159,7 +159,7 @@ INVALID = {
     ),
     "number given as text": (
         [_set(("pinion", "module_mm"), "3")],
-        ["module_mm = '3' must be a number"],
+        ["[pinion] module_mm = '3': must be a number"],
     ),
 }
 

@@ -62,13 +62,13 @@ memory with :func:`dataclasses.replace`.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from fe_impact.errors import CaseError, MeshError
 from fe_impact.fe.mesh import UNITS, FEMesh
+from fe_impact.inputs import Reader, read_document
 
 COMPONENTS = {"x": 0, "y": 1, "z": 2}
 ANALYSIS_TYPES = ("static", "dynamic")
@@ -236,52 +236,45 @@ def _group(getter, name: str, where: str) -> None:
 def load_case(path: str | Path) -> Case:
     """Read and validate a case file (the mesh itself is not read here)."""
     path = Path(path)
-    if not path.is_file():
-        raise CaseError(f"case file not found: {path}")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise CaseError(f"{path.name} is not valid TOML: {exc}") from exc
-    return parse_case(data, path)
+    return parse_case(read_document(path, "case file", CaseError, "toml"), path)
 
 
 def parse_case(data: dict[str, Any], path: Path) -> Case:
     """Validate a parsed TOML document; ``path`` locates relative files."""
-    r = _Reader(path.name)
+    r = Reader(str(path), CaseError, "toml")
     r.keys(data, "", _TOP_KEYS, required={"mesh", "materials"})
-    mesh = r.table(data, "mesh")
+    mesh = r.table(data, "", "mesh")
     r.keys(mesh, "mesh", {"file", "unit"}, required={"file"})
     unit = r.choice(mesh, "mesh", "unit", tuple(UNITS), default="m")
     mesh_file = (path.parent / r.string(mesh, "mesh", "file")).resolve()
     if not mesh_file.is_file():
-        raise CaseError(f"{path.name}: [mesh] file = '{mesh['file']}': no such file "
-                        f"(looked for {mesh_file})")
-    analysis = _analysis(r, data.get("analysis", {}))
+        raise r.fail("mesh", "file", mesh["file"], f"no such file (looked for {mesh_file})")
+    analysis = _analysis(r, r.table(data, "", "analysis", default={}))
     if analysis.dynamic and data.get("displacements"):
-        raise CaseError(f"{path.name}: [[displacements]] apply to static analysis; a dynamic "
-                        "case moves the bodies with [[initial_velocities]] and [[rigid_bodies]]")
+        raise r.problem("[[displacements]] apply to static analysis; a dynamic case moves "
+                        "the bodies with [[initial_velocities]] and [[rigid_bodies]]")
     if not analysis.dynamic:
         for key in ("initial_velocities", "rigid_bodies"):
             if data.get(key):
-                raise CaseError(f"{path.name}: [[{key}]] needs [analysis] type = \"dynamic\"")
+                raise r.problem(f"[[{key}]] needs [analysis] type = \"dynamic\"")
+
+    def each(key: str, read, required: bool = False) -> tuple:
+        return tuple(read(r, t, f"{key}[{i}]")
+                     for i, t in enumerate(r.array(data, "", key, required=required)))
+
     return Case(
         path=path, mesh_file=mesh_file, unit=unit,
-        materials=tuple(_material(r, t, f"materials[{i}]")
-                        for i, t in enumerate(r.array(data, "materials", required=True))),
-        contacts=tuple(_contact(r, t, f"contacts[{i}]")
-                       for i, t in enumerate(r.array(data, "contacts"))),
-        supports=tuple(_support(r, t, f"supports[{i}]")
-                       for i, t in enumerate(r.array(data, "supports"))),
-        displacements=_displacements(r, r.array(data, "displacements")),
+        materials=each("materials", _material, required=True),
+        contacts=each("contacts", _contact),
+        supports=each("supports", _support),
+        displacements=_displacements(r, r.array(data, "", "displacements")),
         analysis=analysis,
-        initial_velocities=tuple(_initial_velocity(r, t, f"initial_velocities[{i}]")
-                                 for i, t in enumerate(r.array(data, "initial_velocities"))),
-        rigid_bodies=tuple(_rigid_body(r, t, f"rigid_bodies[{i}]")
-                           for i, t in enumerate(r.array(data, "rigid_bodies"))),
+        initial_velocities=each("initial_velocities", _initial_velocity),
+        rigid_bodies=each("rigid_bodies", _rigid_body),
     )
 
 
-def _material(r: _Reader, t: dict, where: str) -> MaterialSpec:
+def _material(r: Reader, t: dict, where: str) -> MaterialSpec:
     r.keys(t, where, {"volumes", "youngs_modulus", "poisson_ratio", "density",
                       "yield_strength", "hardening_modulus"},
            required={"volumes", "youngs_modulus", "poisson_ratio"})
@@ -297,13 +290,13 @@ def _material(r: _Reader, t: dict, where: str) -> MaterialSpec:
     return MaterialSpec(tuple(r.strings(t, where, "volumes")), E, nu, rho, yield_, hard)
 
 
-def _initial_velocity(r: _Reader, t: dict, where: str) -> InitialVelocitySpec:
+def _initial_velocity(r: Reader, t: dict, where: str) -> InitialVelocitySpec:
     r.keys(t, where, {"volumes", "value"}, required={"volumes", "value"})
     return InitialVelocitySpec(tuple(r.strings(t, where, "volumes")),
                                r.vector(t, where, "value", "m/s"))
 
 
-def _rigid_body(r: _Reader, t: dict, where: str) -> RigidBodySpec:
+def _rigid_body(r: Reader, t: dict, where: str) -> RigidBodySpec:
     r.keys(t, where, {"surface", "motion", "direction", "point", "inertia",
                       "initial_velocity"}, required={"surface", "motion", "direction"})
     motion = r.choice(t, where, "motion", MOTIONS)
@@ -320,53 +313,44 @@ def _rigid_body(r: _Reader, t: dict, where: str) -> RigidBodySpec:
                          tuple(c / norm for c in d), point, inertia, v0)
 
 
-def _contact(r: _Reader, t: dict, where: str) -> ContactSpec:
+def _contact(r: Reader, t: dict, where: str) -> ContactSpec:
     r.keys(t, where, {"slave", "master", "penalty", "search_distance", "multiplier"},
            required={"slave", "master"})
-    pen = t.get("penalty", "auto")
-    if pen == "auto":
-        penalty = None
-    else:
+    penalty = search = None
+    if t.get("penalty", "auto") != "auto":
         penalty = r.number(t, where, "penalty", low=0.0, low_open=True, hint='or "auto"')
-    search = None
     if t.get("search_distance", "auto") != "auto":
         search = r.number(t, where, "search_distance", low=0.0, low_open=True,
                           hint='or "auto"')
     slave, master = r.string(t, where, "slave"), r.string(t, where, "master")
     if slave == master:
-        raise CaseError(f"{r.file}: [{where}] slave and master are both '{slave}': "
-                        "a contact pair needs two different surfaces")
+        raise r.problem(f"[{where}] slave and master are both '{slave}': a contact pair "
+                        "needs two different surfaces")
     multiplier = r.choice(t, where, "multiplier", MULTIPLIERS, default="linear")
     return ContactSpec(slave, master, penalty, search, multiplier)
 
 
-def _support(r: _Reader, t: dict, where: str) -> SupportSpec:
+def _support(r: Reader, t: dict, where: str) -> SupportSpec:
     r.keys(t, where, {"surface", "fix"}, required={"surface", "fix"})
-    comps = r.strings(t, where, "fix")
-    bad = [c for c in comps if c not in COMPONENTS]
-    if bad or not comps:
-        raise CaseError(f"{r.file}: [{where}] fix = {comps}: components must be a "
-                        f"non-empty list of {list(COMPONENTS)}")
+    comps = r.strings(t, where, "fix", what="components")
+    if any(c not in COMPONENTS for c in comps):
+        raise r.fail(where, "fix", comps, f"components must be a non-empty list of "
+                                          f"{list(COMPONENTS)}")
     return SupportSpec(r.string(t, where, "surface"), tuple(COMPONENTS[c] for c in comps))
 
 
-def _displacements(r: _Reader, tables: list) -> tuple[DisplacementSpec, ...]:
+def _displacements(r: Reader, tables: list) -> tuple[DisplacementSpec, ...]:
     out = []
     for i, t in enumerate(tables):
         where = f"displacements[{i}]"
         r.keys(t, where, {"surface", "component", "values"},
                required={"surface", "component", "values"})
         comp = r.choice(t, where, "component", tuple(COMPONENTS))
-        values = t["values"]
-        if (not isinstance(values, list) or not values
-                or not all(_is_real(v) for v in values)):
-            raise CaseError(f"{r.file}: [{where}] values = {values!r}: must be a non-empty "
-                            "list of numbers (m)")
-        out.append(DisplacementSpec(r.string(t, where, "surface"), COMPONENTS[comp],
-                                    tuple(float(v) for v in values)))
+        values = r.numbers(t, where, "values", unit="(m)")
+        out.append(DisplacementSpec(r.string(t, where, "surface"), COMPONENTS[comp], values))
     lengths = {len(d.values) for d in out}
     if len(lengths) > 1:
-        raise CaseError(f"{r.file}: [[displacements]] have different numbers of values "
+        raise r.problem(f"[[displacements]] have different numbers of values "
                         f"{sorted(lengths)}: every entry needs one value per load step")
     return tuple(out)
 
@@ -377,16 +361,11 @@ _DYNAMIC_KEYS = _STATIC_KEYS | {"integrator", "duration", "time_step", "output_i
                                 "stop_after_separation", "plastic_solver"}
 
 
-def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
-    if not isinstance(t, dict):
-        raise CaseError(f"{r.file}: [analysis] must be a table")
+def _analysis(r: Reader, t: dict) -> AnalysisSpec:
     kind = r.choice(t, "analysis", "type", ANALYSIS_TYPES, default="static")
     r.keys(t, "analysis", _DYNAMIC_KEYS if kind == "dynamic" else _STATIC_KEYS,
            required={"duration"} if kind == "dynamic" else set())
-    iters = t.get("max_iterations", 30)
-    if not isinstance(iters, int) or isinstance(iters, bool) or iters < 1:
-        raise CaseError(f"{r.file}: [analysis] max_iterations = {iters!r}: must be an "
-                        "integer >= 1")
+    iters = r.integer(t, "analysis", "max_iterations", low=1, default=30)
     tol = r.number(t, "analysis", "tolerance", low=0.0, high=1.0, low_open=True,
                    default=1e-6)
     if kind == "static":
@@ -423,87 +402,3 @@ def _analysis(r: _Reader, t: dict) -> AnalysisSpec:
         raise r.fail(w, "plastic_solver", solver, 'applies to integrator = "newmark" only')
     return AnalysisSpec(kind, iters, tol, integrator, duration, dt, out_dt, alpha, safety,
                         energy, zone, stop, solver)
-
-
-def _is_real(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-
-@dataclass(frozen=True)
-class _Reader:
-    """Typed access to TOML tables with messages that name file, table and key."""
-
-    file: str
-
-    def fail(self, where: str, key: str, value: Any, allowed: str) -> CaseError:
-        loc = f"[{where}] {key}" if where else key
-        return CaseError(f"{self.file}: {loc} = {value!r}: {allowed}")
-
-    def keys(self, t: dict, where: str, allowed: set, required: set = frozenset()) -> None:
-        if not isinstance(t, dict):
-            raise CaseError(f"{self.file}: [{where}] must be a table")
-        unknown = sorted(set(t) - allowed)
-        if unknown:
-            loc = f"[{where}]" if where else "top level"
-            raise CaseError(f"{self.file}: unknown key(s) {unknown} in {loc}; "
-                            f"allowed: {sorted(allowed)}")
-        missing = sorted(required - set(t))
-        if missing:
-            loc = f"[{where}]" if where else "the top level"
-            raise CaseError(f"{self.file}: missing key(s) {missing} in {loc}")
-
-    def table(self, t: dict, key: str) -> dict:
-        v = t[key]
-        if not isinstance(v, dict):
-            raise self.fail("", key, v, "must be a table, e.g. [mesh]")
-        return v
-
-    def array(self, t: dict, key: str, required: bool = False) -> list:
-        v = t.get(key, [])
-        if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
-            raise self.fail("", key, v, f"must be an array of tables, e.g. [[{key}]]")
-        if required and not v:
-            raise CaseError(f"{self.file}: at least one [[{key}]] is required")
-        return v
-
-    def string(self, t: dict, where: str, key: str) -> str:
-        v = t[key]
-        if not isinstance(v, str) or not v:
-            raise self.fail(where, key, v, "must be a non-empty string")
-        return v
-
-    def strings(self, t: dict, where: str, key: str) -> list[str]:
-        v = t[key]
-        if isinstance(v, str):
-            v = [v]
-        if not isinstance(v, list) or not v or not all(isinstance(s, str) and s for s in v):
-            raise self.fail(where, key, v, "must be a non-empty list of group names")
-        return v
-
-    def vector(self, t: dict, where: str, key: str, unit: str) -> tuple[float, float, float]:
-        v = t[key]
-        if not isinstance(v, list) or len(v) != 3 or not all(_is_real(c) for c in v):
-            raise self.fail(where, key, v, f"must be a list of three numbers {unit}".rstrip())
-        return tuple(float(c) for c in v)
-
-    def choice(self, t: dict, where: str, key: str, choices: tuple, default=None) -> str:
-        v = t.get(key, default)
-        if v not in choices:
-            raise self.fail(where, key, v, f"pick one of {list(choices)}")
-        return v
-
-    def number(self, t: dict, where: str, key: str, low: float | None = None,
-               high: float | None = None, low_open: bool = False, high_open: bool = False,
-               default: float | None = None, hint: str = "") -> float:
-        v = t.get(key, default)
-        lo = "(" if low_open else "["
-        hi = ")" if high_open else "]"
-        rng = f"{lo}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi}"
-        extra = f" {hint}" if hint else ""
-        if not _is_real(v):
-            raise self.fail(where, key, v, f"must be a number in {rng}{extra}")
-        bad_low = low is not None and (v <= low if low_open else v < low)
-        bad_high = high is not None and (v >= high if high_open else v > high)
-        if bad_low or bad_high:
-            raise self.fail(where, key, v, f"must be in {rng}{extra}")
-        return float(v)

@@ -50,9 +50,7 @@ from __future__ import annotations
 
 import logging
 import math
-import numbers
-import tomllib
-from collections.abc import Collection, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -68,6 +66,15 @@ from fe_impact.gears.pinion import (
     PinionTooth,
     max_fillet_radius_coeff,
     min_teeth_without_undercut,
+)
+from fe_impact.inputs import (
+    Reader,
+    check_choice,
+    check_flag,
+    check_integer,
+    check_number,
+    invalid,
+    read_document,
 )
 
 logger = logging.getLogger(__name__)
@@ -97,28 +104,23 @@ _UM = 1e-6
 
 # -- small checks ------------------------------------------------------------------
 def _positive(field: str, value: float, unit: str = "mm", scale: float = 1e3) -> None:
-    """Raise GeometryError naming ``field`` unless ``value`` is finite and > 0."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise GeometryError(f"{field} = {value!r} must be a number")
-    if not math.isfinite(value) or value <= 0.0:
-        raise GeometryError(f"{field} = {value * scale:g} {unit} must be > 0")
+    """Raise GeometryError naming ``field`` unless ``value`` is finite and > 0.
+
+    The value is shown times ``scale`` in ``unit`` (a length in m shown in mm).
+    """
+    check_number(field, value, low=0.0, low_open=True, unit=unit, scale=scale,
+                 error=GeometryError)
 
 
 def _integer(field: str, value: Any, minimum: int) -> None:
     """Raise GeometryError unless ``value`` is an integer >= ``minimum``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise GeometryError(f"{field} = {value!r} must be an integer >= {minimum}")
+    check_integer(field, value, low=minimum, error=GeometryError)
 
 
 def _crowning(field: str, value: float, module: float) -> None:
     """Crowning must be >= 0 and at most ``MAX_CROWNING_PER_MODULE`` modules."""
-    upper = MAX_CROWNING_PER_MODULE * module
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0.0 <= value <= upper:
-        shown = value * 1e6 if isinstance(value, numbers.Real) else value
-        raise GeometryError(
-            f"{field} = {shown} um must lie in [0, {upper * 1e6:g}] um "
-            f"({MAX_CROWNING_PER_MODULE} module)"
-        )
+    check_number(field, value, low=0, high=MAX_CROWNING_PER_MODULE * module, unit="um",
+                 scale=1e6, hint=f"({MAX_CROWNING_PER_MODULE} module)", error=GeometryError)
 
 
 # -- records -----------------------------------------------------------------------------
@@ -147,9 +149,8 @@ class Material:
         _positive("material.youngs_modulus", self.youngs_modulus, "Pa", 1.0)
         _positive("material.density", self.density, "kg/m^3", 1.0)
         _positive("material.yield_strength", self.yield_strength, "Pa", 1.0)
-        nu = self.poisson_ratio
-        if isinstance(nu, bool) or not isinstance(nu, numbers.Real) or not -1.0 < nu < 0.5:
-            raise GeometryError(f"material.poisson_ratio = {nu!r} must lie in (-1, 0.5)")
+        check_number("material.poisson_ratio", self.poisson_ratio, low=-1, high=0.5,
+                     low_open=True, high_open=True, error=GeometryError)
 
 
 @dataclass(frozen=True)
@@ -193,10 +194,8 @@ class Pinion:
         _positive("pinion.addendum_coeff", self.addendum_coeff, "", 1.0)
         _positive("pinion.clearance_coeff", self.clearance_coeff, "", 1.0)
         _positive("pinion.inertia", self.inertia, "kg m^2", 1.0)
-        if not 0.0 < self.pressure_angle_deg < 45.0:
-            raise GeometryError(
-                f"pinion.pressure_angle_deg = {self.pressure_angle_deg!r} must lie in (0, 45) deg"
-            )
+        check_number("pinion.pressure_angle_deg", self.pressure_angle_deg, low=0, high=45,
+                     low_open=True, high_open=True, unit="deg", error=GeometryError)
         rho_max = max_fillet_radius_coeff(
             self.pressure_angle_deg, self.addendum_coeff, self.clearance_coeff
         )
@@ -266,10 +265,7 @@ class FaceGearStage:
                 f"face_gear.stages.outer_radius = {self.outer_radius * 1e3:g} mm must exceed "
                 f"inner_radius = {self.inner_radius * 1e3:g} mm"
             )
-        if not isinstance(self.force_shaper, bool):
-            raise GeometryError(
-                f"face_gear.stages.force_shaper = {self.force_shaper!r} must be true or false"
-            )
+        check_flag("face_gear.stages.force_shaper", self.force_shaper, GeometryError)
 
     @property
     def face_width(self) -> float:
@@ -314,14 +310,11 @@ class GearSet:
     def __post_init__(self) -> None:
         object.__setattr__(self, "stages", tuple(self.stages))
         if not isinstance(self.name, str) or not self.name:
-            raise GeometryError(f"name = {self.name!r} must be a non-empty string")
+            raise invalid("name", self.name, "must be a non-empty string", GeometryError)
         _integer("n_pinions", self.n_pinions, 1)
         if not self.stages:
             raise GeometryError("face_gear.stages is empty: give at least one stage")
-        if self.inner_limit not in INNER_LIMIT_RULES:
-            raise GeometryError(
-                f"face_gear.inner_limit = {self.inner_limit!r}; pick one of {INNER_LIMIT_RULES}"
-            )
+        check_choice("face_gear.inner_limit", self.inner_limit, INNER_LIMIT_RULES, GeometryError)
         self._check_module()
         for number, stage in enumerate(self.stages, start=1):
             self._check_stage(number, stage)
@@ -444,78 +437,99 @@ class GearSet:
 
 
 # -- TOML -------------------------------------------------------------------------------------
-# key -> (field, scale to SI); a scale of None keeps the value as it is
-_TOP_KEYS = {"name": ("name", None), "notes": ("notes", None), "n_pinions": ("n_pinions", None)}
+# Each key carries its unit in its suffix; a reader takes the value, checks its type
+# and converts it to SI. Ranges and the relations between values are the records'.
+_Read = Callable[[Reader, Mapping[str, Any], str, str], Any]
+
+
+def _si(scale: float) -> _Read:
+    """A number in the key's unit, times ``scale`` to SI."""
+
+    def read(r: Reader, t: Mapping[str, Any], where: str, key: str) -> float:
+        return r.number(t, where, key) * scale
+
+    return read
+
+
+def _count(r: Reader, t: Mapping[str, Any], where: str, key: str) -> int:
+    return r.integer(t, where, key)
+
+
+def _name(r: Reader, t: Mapping[str, Any], where: str, key: str) -> str:
+    return r.string(t, where, key)
+
+
+def _text(r: Reader, t: Mapping[str, Any], where: str, key: str) -> str:
+    return r.string(t, where, key, empty=True)
+
+
+def _flag(r: Reader, t: Mapping[str, Any], where: str, key: str) -> bool:
+    return r.boolean(t, where, key)
+
+
+# key -> (record field, reader)
+_TOP_KEYS: dict[str, tuple[str, _Read]] = {
+    "name": ("name", _name), "notes": ("notes", _text), "n_pinions": ("n_pinions", _count),
+}
 _MATERIAL_KEYS = {
-    "youngs_modulus_pa": ("youngs_modulus", 1.0),
-    "poisson_ratio": ("poisson_ratio", 1.0),
-    "density_kg_m3": ("density", 1.0),
-    "yield_strength_pa": ("yield_strength", 1.0),
+    "youngs_modulus_pa": ("youngs_modulus", _si(1.0)),
+    "poisson_ratio": ("poisson_ratio", _si(1.0)),
+    "density_kg_m3": ("density", _si(1.0)),
+    "yield_strength_pa": ("yield_strength", _si(1.0)),
 }
 _PINION_KEYS = {
-    "teeth": ("teeth", None),
-    "module_mm": ("module", _MM),
-    "pressure_angle_deg": ("pressure_angle_deg", 1.0),
-    "addendum_coeff": ("addendum_coeff", 1.0),
-    "clearance_coeff": ("clearance_coeff", 1.0),
-    "face_width_mm": ("face_width", _MM),
-    "fillet_radius_coeff": ("fillet_radius_coeff", 1.0),
-    "lengthwise_crowning_um": ("lengthwise_crowning", _UM),
-    "profile_crowning_um": ("profile_crowning", _UM),
-    "inertia_kg_m2": ("inertia", 1.0),
+    "teeth": ("teeth", _count),
+    "module_mm": ("module", _si(_MM)),
+    "pressure_angle_deg": ("pressure_angle_deg", _si(1.0)),
+    "addendum_coeff": ("addendum_coeff", _si(1.0)),
+    "clearance_coeff": ("clearance_coeff", _si(1.0)),
+    "face_width_mm": ("face_width", _si(_MM)),
+    "fillet_radius_coeff": ("fillet_radius_coeff", _si(1.0)),
+    "lengthwise_crowning_um": ("lengthwise_crowning", _si(_UM)),
+    "profile_crowning_um": ("profile_crowning", _si(_UM)),
+    "inertia_kg_m2": ("inertia", _si(1.0)),
 }
 _FACE_GEAR_KEYS = {
-    "module_mm": ("face_gear_module", _MM),
-    "inner_limit": ("inner_limit", None),
-    "stages": ("stages", None),
+    "module_mm": ("face_gear_module", _si(_MM)),
+    "inner_limit": ("inner_limit", _text),
 }
 _STAGE_KEYS = {
-    "teeth": ("teeth", None),
-    "shaper_teeth": ("shaper_teeth", None),
-    "inner_radius_mm": ("inner_radius", _MM),
-    "outer_radius_mm": ("outer_radius", _MM),
-    "lengthwise_crowning_um": ("lengthwise_crowning", _UM),
-    "inertia_kg_m2": ("inertia", 1.0),
-    "force_shaper": ("force_shaper", None),
+    "teeth": ("teeth", _count),
+    "shaper_teeth": ("shaper_teeth", _count),
+    "inner_radius_mm": ("inner_radius", _si(_MM)),
+    "outer_radius_mm": ("outer_radius", _si(_MM)),
+    "lengthwise_crowning_um": ("lengthwise_crowning", _si(_UM)),
+    "inertia_kg_m2": ("inertia", _si(1.0)),
+    "force_shaper": ("force_shaper", _flag),
 }
 _OPTIONAL = {"notes", "n_pinions", "force_shaper", "inner_limit", "module_mm"}
-
-
-def _table(data: Any, where: str) -> Mapping[str, Any]:
-    if not isinstance(data, Mapping):
-        raise GeometryError(f"[{where}] must be a table, got {type(data).__name__}")
-    return data
+_READER = Reader(error=GeometryError, syntax="toml")
 
 
 def _convert(
     data: Mapping[str, Any],
-    keys: Mapping[str, tuple[str, float | None]],
+    keys: Mapping[str, tuple[str, _Read]],
     where: str,
     optional: Collection[str] = (),
+    more: Collection[str] = (),
 ) -> dict[str, Any]:
-    """Map TOML keys to record fields in SI units, rejecting unknown or missing keys."""
-    unknown = sorted(set(data) - set(keys))
-    if unknown:
-        raise GeometryError(
-            f"unknown key {unknown[0]!r} in [{where}]; allowed: {', '.join(sorted(keys))}"
-        )
-    missing = sorted(set(keys) - set(data) - set(optional))
-    if missing:
-        raise GeometryError(f"missing key {missing[0]!r} in [{where}]")
+    """Map TOML keys to record fields in SI units, rejecting unknown or missing keys.
+
+    ``more`` are further keys allowed (and required) here, read by the caller.
+    """
+    r = _READER
+    r.keys(data, where, {*keys, *more}, required=set(keys) - set(optional) | set(more))
     out: dict[str, Any] = {}
-    for key, value in data.items():
-        field, scale = keys[key]
-        if scale is not None:
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise GeometryError(f"[{where}] {key} = {value!r} must be a number")
-            value = float(value) * scale
-        out[field] = value
+    for key in data:
+        if key in keys:
+            field, read = keys[key]
+            out[field] = read(r, data, where, key)
     return out
 
 
-def _stage_from_dict(data: Any, number: int) -> FaceGearStage:
+def _stage_from_dict(data: Mapping[str, Any], number: int) -> FaceGearStage:
     where = f"face_gear.stages {number}"
-    fields = _convert(_table(data, where), _STAGE_KEYS, where, _OPTIONAL)
+    fields = _convert(data, _STAGE_KEYS, where, _OPTIONAL)
     try:
         return FaceGearStage(**fields)
     except GeometryError as exc:
@@ -531,29 +545,13 @@ def gearset_from_dict(data: Mapping[str, Any]) -> GearSet:
         For unknown or missing keys and for any invalid value; the message
         names the key or field, the value and what is allowed.
     """
-    data = _table(data, "top level")
-    top_keys = {**_TOP_KEYS, "material": None, "pinion": None, "face_gear": None}
-    unknown = sorted(set(data) - set(top_keys))
-    if unknown:
-        raise GeometryError(
-            f"unknown key {unknown[0]!r} at the top level; allowed: {', '.join(sorted(top_keys))}"
-        )
-    for key in ("name", "material", "pinion", "face_gear"):
-        if key not in data:
-            raise GeometryError(f"missing key {key!r} at the top level")
-    top = _convert(
-        {k: v for k, v in data.items() if k in _TOP_KEYS}, _TOP_KEYS, "top level", _OPTIONAL
-    )
-    material = Material(
-        **_convert(_table(data["material"], "material"), _MATERIAL_KEYS, "material")
-    )
-    pinion = Pinion(**_convert(_table(data["pinion"], "pinion"), _PINION_KEYS, "pinion"))
-    face = _convert(
-        _table(data["face_gear"], "face_gear"), _FACE_GEAR_KEYS, "face_gear", _OPTIONAL
-    )
-    raw_stages = face.pop("stages")
-    if not isinstance(raw_stages, list):
-        raise GeometryError("face_gear.stages must be an array of tables [[face_gear.stages]]")
+    r = _READER
+    top = _convert(data, _TOP_KEYS, "", _OPTIONAL, more=("material", "pinion", "face_gear"))
+    material = Material(**_convert(r.table(data, "", "material"), _MATERIAL_KEYS, "material"))
+    pinion = Pinion(**_convert(r.table(data, "", "pinion"), _PINION_KEYS, "pinion"))
+    face_data = r.table(data, "", "face_gear")
+    face = _convert(face_data, _FACE_GEAR_KEYS, "face_gear", _OPTIONAL, more=("stages",))
+    raw_stages = r.array(face_data, "face_gear", "stages", required=True)
     stages = tuple(_stage_from_dict(s, i) for i, s in enumerate(raw_stages, start=1))
     return GearSet(pinion=pinion, stages=stages, material=material, **top, **face)
 
@@ -573,13 +571,7 @@ def load_gearset(path: str | Path) -> GearSet:
         set; the message starts with the path.
     """
     path = Path(path)
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError as exc:
-        raise GeometryError(f"{path}: gear-set file not found") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise GeometryError(f"{path}: not valid TOML: {exc}") from exc
+    data = read_document(path, "gear-set file", GeometryError, "toml")
     try:
         gearset = gearset_from_dict(data)
     except GeometryError as exc:

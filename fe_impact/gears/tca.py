@@ -498,7 +498,7 @@ class GearPair:
     >>> from fe_impact.gears import default_gearset
     >>> pair = GearPair.from_gearset(default_gearset(), stage=1)
     >>> c = pair.contact(0.0)
-    >>> [round(float(v) * 1e3, 6) for v in c.point]  # the pitch point at L = r_2 [mm]
+    >>> [round(float(v) * 1e3, 6) + 0.0 for v in c.point]  # pitch point at L = r_2 [mm]
     [0.0, 0.0, 84.0]
     """
 

@@ -7,6 +7,8 @@ import json
 import pytest
 
 from fe_impact.cli.main import main
+from fe_impact.gears import default_gearset
+from fe_impact.meshing.toothpair import PairSpec, analyse_pair
 from fe_impact.physics import hertz
 
 
@@ -40,11 +42,13 @@ def test_calibration_outputs(calibrated):
     assert models["seed_eq14"] == 1.0
     # The tooth's own yield-onset speed: its Hertz impact there (effective mass,
     # equivalent radius) loads the TCA ellipse to p0 = 1.6 Y.
-    tca = json.loads((out / "cache" / "meshes" / case["hash"] / "tca.json").read_text())
-    e_star = tca["effective_modulus_Pa"]
-    hit = hertz.impact(tca["masses"]["effective_mass"], models["v_y_tooth"],
-                       tca["equivalent_radius_m"], e_star)
-    rx, ry = tca["contact"]["relative_radii_m"]
+    tca = analyse_pair(default_gearset(), PairSpec(stage=1, level="coarse",
+                                                   gap=case["initial_gap"],
+                                                   impact_speed=case["impact_speed"]))
+    e_star = tca.effective_modulus
+    hit = hertz.impact(tca.masses.effective_mass, models["v_y_tooth"], tca.equivalent_radius,
+                       e_star)
+    rx, ry = tca.contact.relative.radii
     p0 = hertz.ellipse_contact(hit.force_max, rx, ry, e_star).p0
     assert p0 == pytest.approx(1.6 * 835e6, rel=1e-6)
     for name in ("calibration.csv", "report.md", "force_time.png", "parameters.png"):

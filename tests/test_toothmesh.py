@@ -10,13 +10,14 @@ from __future__ import annotations
 import argparse
 import json
 import time
-import tomllib
+from dataclasses import asdict
 
 import numpy as np
 import pytest
 
 from fe_impact.cli.mesh import register
 from fe_impact.errors import FeImpactError, GeometryError, MeshError
+from fe_impact.fe.case import ContactSpec, load_case
 from fe_impact.fe.mesh import load_mesh
 from fe_impact.gears import GearPair, default_gearset
 from fe_impact.meshing.toothpair import MIN_SICN, PairSpec, build_pair, pair_key
@@ -140,14 +141,13 @@ def test_hub_faces_lie_where_expected(mesh, coarse, gearset):
     measured 4.5 um) and mid-edge nodes are straight, so on the rim arc they sit on
     the chord: sagitta h^2 / (8 r) with h up to the far size 3.75 mm, 94 um."""
     pair, _ = coarse
-    summary = json.loads(pair.tca_path.read_text())
     g = GearPair.from_gearset(gearset, 1)
     p, f = g.pinion, g.face
     planes = 10e-6
     rim = p.root_radius - 2 * p.module
     chord = (1.25 * 3e-3) ** 2 / (8 * rim) + planes
     # pinion frame: undo Rz(pi + pi/(2 N_p) + phi) about (0, r_p, z0)
-    phi = summary["pinion_roll_angle_placed_rad"]
+    phi = pair.analysis.pinion_roll_placed
     x = mesh.points[mesh.surface_points("pinion_hub")] - [0.0, p.pitch_radius, g.z0]
     a = -(np.pi + np.pi / (2 * p.teeth) + phi)
     xp = np.stack([np.cos(a) * x[:, 0] - np.sin(a) * x[:, 1],
@@ -177,52 +177,75 @@ def test_element_quality(mesh, coarse):
     assert vol.min() > 0.0
 
 
-def test_case_file(coarse, gearset):
-    """Keys and values of case.toml against the gear set, the TCA and Hertz."""
+def test_impact_case(coarse, gearset):
+    """The impact case against the gear set, the TCA and Hertz; case.toml reads back to it."""
     pair, _ = coarse
-    case = tomllib.loads(pair.case_path.read_text())
-    tca = json.loads(pair.tca_path.read_text())
-    assert case["mesh"] == {"file": "pair.msh", "unit": "mm"}
-    # every number of the solver's keys is a TOML float, as the format shows them
-    numbers = [v for t in case["rigid_bodies"] for k, v in t.items() if k != "surface"
-               and k != "motion"]
-    assert all(isinstance(x, float) for v in numbers for x in (v if isinstance(v, list)
-                                                              else [v]))
-    mat = case["materials"][0]
-    assert mat["volumes"] == ["pinion", "face_gear"]
-    assert mat["youngs_modulus"] == 212e9 and mat["poisson_ratio"] == 0.289
-    assert mat["density"] == 7860.0 and mat["yield_strength"] == 835e6
-    assert case["contacts"] == [{"slave": "pinion_flank", "master": "face_flank",
-                                 "penalty": "auto"}]
-    pinion, face = case["rigid_bodies"]
-    assert pinion["surface"] == "pinion_hub" and face["surface"] == "face_hub"
-    assert pinion["direction"] == [0.0, 0.0, 1.0] and face["direction"] == [0.0, 1.0, 0.0]
-    assert pinion["point"] == [0.0, 0.0285, 0.0] and face["point"] == [0.0, 0.0, 0.0]
-    assert pinion["inertia"] == 1.96e-4 and face["inertia"] == 7.15e-3
+    case, tca = pair.case, pair.analysis
+    assert load_case(pair.case_path) == case
+    assert pair.case_path.read_text().startswith("# Dynamic single-tooth impact")
+    assert case.mesh_file == pair.mesh_path.resolve() and case.unit == "mm"
+    (mat,) = case.materials
+    assert mat.volumes == ("pinion", "face_gear")
+    assert mat.youngs_modulus == 212e9 and mat.poisson_ratio == 0.289
+    assert mat.density == 7860.0 and mat.yield_strength == 835e6
+    # automatic penalty and contact zone
+    assert case.contacts == (ContactSpec("pinion_flank", "face_flank"),)
+    pinion, face = case.rigid_bodies
+    assert pinion.surface == "pinion_hub" and face.surface == "face_hub"
+    assert pinion.motion == face.motion == "rotation"
+    assert pinion.direction == (0.0, 0.0, 1.0) and face.direction == (0.0, 1.0, 0.0)
+    assert pinion.point == (0.0, 0.0285, 0.0) and face.point == (0.0, 0.0, 0.0)
+    assert pinion.inertia == 1.96e-4 and face.inertia == 7.15e-3
     # closing at the impact speed: (v_pinion - v_face) . n = -v_k, n into the pinion
-    x, n = np.array(tca["contact"]["point_m"]), np.array(tca["contact"]["normal"])
+    x, n = tca.contact.point, tca.contact.normal
     velocity = []
     for body in (pinion, face):
-        arm = x - np.array(body["point"])
-        velocity.append(body["initial_velocity"] * np.cross(body["direction"], arm) @ n)
-    # the values are printed with 10 significant digits
-    assert velocity[0] - velocity[1] == pytest.approx(-SPEED, rel=1e-9)
+        arm = x - np.array(body.point)
+        velocity.append(body.initial_velocity * np.cross(body.direction, arm) @ n)
+    # the case holds the velocities as computed: the lever arms recomputed here
+    # differ by rounding only
+    assert velocity[0] - velocity[1] == pytest.approx(-SPEED, rel=1e-12)
     # momentum split: m1 v1 + m2 v2 = 0 with m_i = I_i / l_i^2, l_i recomputed here
-    levers = [np.cross(b["direction"], x - np.array(b["point"])) @ n for b in (pinion, face)]
-    masses = [b["inertia"] / lev**2 for b, lev in zip((pinion, face), levers, strict=True)]
-    assert masses[0] * velocity[0] + masses[1] * velocity[1] == pytest.approx(0.0, abs=1e-9)
+    levers = [np.cross(b.direction, x - np.array(b.point)) @ n for b in (pinion, face)]
+    masses = [b.inertia / lev**2 for b, lev in zip((pinion, face), levers, strict=True)]
+    momentum = masses[0] * abs(velocity[0])
+    assert masses[0] * velocity[0] + masses[1] * velocity[1] == pytest.approx(
+        0.0, abs=1e-12 * momentum)
     m_eff = masses[0] * masses[1] / (masses[0] + masses[1])
-    assert tca["masses"]["effective_mass"] == pytest.approx(m_eff, rel=1e-12)
+    assert tca.masses.effective_mass == pytest.approx(m_eff, rel=1e-12)
     # duration: 2.5 Hertz contact times of the effective mass on the equivalent radius
     e_star = hertz.effective_modulus(212e9, 0.289)
-    hit = hertz.impact(m_eff, SPEED, tca["equivalent_radius_m"], e_star)
-    analysis = case["analysis"]
-    assert analysis["type"] == "dynamic" and analysis["integrator"] == "newmark"
-    assert analysis["time_step"] == "auto"
-    assert analysis["duration"] == pytest.approx(2.5 * hit.contact_time, rel=1e-9)
+    hit = hertz.impact(m_eff, SPEED, tca.equivalent_radius, e_star)
+    analysis = case.analysis
+    assert analysis.type == "dynamic" and analysis.integrator == "newmark"
+    assert analysis.time_step is None  # automatic
+    assert analysis.duration == pytest.approx(2.5 * hit.contact_time, rel=1e-9)
     # ParaView frames: FRAMES_PER_CONTACT (20) per Hertz contact time
-    assert analysis["output_interval"] == pytest.approx(hit.contact_time / 20, rel=1e-5)
-    assert tca["key"] == pair.key
+    assert analysis.output_interval == pytest.approx(hit.contact_time / 20, rel=1e-9)
+
+
+def test_tca_json_holds_the_analysis(coarse):
+    """tca.json: its keys, and the values of the PairAnalysis it is written from."""
+    pair, _ = coarse
+    tca, a = json.loads(pair.tca_path.read_text()), pair.analysis
+    assert list(tca) == ["key", "gearset", "spec", "frame", "contact",
+                         "pinion_roll_angle_placed_rad", "effective_modulus_Pa",
+                         "equivalent_radius_m", "ellipses", "design_ellipse", "masses",
+                         "impact", "mesh", "stretch_factor"]
+    assert tca["key"] == pair.key and tca["spec"]["gap"] == GAP == a.gap
+    assert tca["impact"] == {
+        "speed_m_s": SPEED, "delta_max_m": a.impact.delta_max,
+        "force_max_N": a.impact.force_max, "contact_time_s": a.impact.contact_time,
+        "velocity_split": "momentum", "omega_pinion_rad_s": a.velocities[0],
+        "omega_face_rad_s": a.velocities[1]}
+    assert tca["masses"] == asdict(a.masses)
+    assert tca["contact"]["point_m"] == a.contact.point.tolist()
+    assert [e["force_N"] for e in tca["ellipses"]] == [37.0, 100.0, 1000.0]
+    assert [e["approach_m"] for e in tca["ellipses"]] == [e.approach for e in a.ellipses]
+    assert tca["design_ellipse"]["p0_Pa"] == a.design_ellipse.p0 == pair.ellipse.p0
+    assert tca["pinion_roll_angle_placed_rad"] == a.pinion_roll_placed
+    assert tca["mesh"]["n_dofs"] == pair.stats.n_dofs
+    assert tca["stretch_factor"] == pair.stats.element_sizes["factor"]
 
 
 def test_key_and_reuse(coarse, gearset):
@@ -238,6 +261,9 @@ def test_key_and_reuse(coarse, gearset):
                        reuse=True)
     assert time.perf_counter() - t0 < 2.0  # TCA only, no meshing
     assert again.key == pair.key and again.stats == pair.stats
+    # the case and the analysis are derived again, equal to those of the build
+    assert again.case == pair.case
+    assert again.analysis.to_dict() == pair.analysis.to_dict()
     assert pair.mesh_path.stat().st_mtime_ns == stamp
 
 

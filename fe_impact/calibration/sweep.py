@@ -32,17 +32,21 @@ import hashlib
 import json
 import logging
 import math
-import re
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fe_impact import __version__
 from fe_impact.errors import CalibrationError
-from fe_impact.output.files import atomic_path, write_csv, write_json
+from fe_impact.output.files import write_csv, write_json
+
+if TYPE_CHECKING:
+    from fe_impact.fe.case import Case
+    from fe_impact.meshing.toothpair import PairAnalysis
 
 logger = logging.getLogger(__name__)
 
@@ -204,8 +208,8 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     """Mesh, solve and fit one impact; writes ``cases/<id>/result.json``; returns it."""
     import tomllib
 
-    from fe_impact.fe.case import load_case
     from fe_impact.fe.linalg import limit_threads
+    from fe_impact.fe.mesh import load_mesh
     from fe_impact.gears import gearset_from_dict
     from fe_impact.meshing.toothpair import build_pair, hertz_impact_estimate
     from fe_impact.output.results import DynamicWriter
@@ -232,8 +236,8 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
                           settings.order, gap, case.impact_speed, mesh_dir, reuse=True)
         timings["mesh"] = time.perf_counter() - t
         t = time.perf_counter()
-        fe_case = load_case(_prepared_case(pair, settings))
-        solver = DynamicSolver(fe_case)
+        fe_case = _prepared_case(pair, settings)
+        solver = DynamicSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit))
         timings["fe_setup"] = time.perf_counter() - t
         writer = DynamicWriter(folder / "fe", fe_case, solver.mesh, solver.model.material)
         output = [0.0]
@@ -256,7 +260,7 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     timings["fit"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     record.update({"id": case.id, "hash": key, "timings_s": timings,
-                   "initial_gap": pair.summary["spec"]["gap"],
+                   "initial_gap": pair.analysis.gap,
                    "model": {k: result.info[k] for k in ("n_dofs", "n_elements",
                                                          "element_order", "integrator",
                                                          "time_step", "steps")}})
@@ -264,39 +268,41 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     return record
 
 
-def _prepared_case(pair, settings: Settings) -> Path:
-    """The generated case file with this run's integrator and calibration controls.
+def _prepared_case(pair, settings: Settings) -> Case:
+    """The tooth pair's impact case with this run's integrator and calibration controls.
 
-    Sets the contact search distance, FRAMES_PER_CONTACT output frames,
-    ``stop_after_separation`` and (Newmark) a step of t_c / STEPS_PER_CONTACT.
-    The flanks are nearly flat along the ellipse's major axis (relative radius
-    about 1 m), so a search distance of a few element sizes would take in the
-    whole flank; the Hertz estimate of the approach bounds the zone instead
-    (it grows by itself if the teeth come closer elsewhere).
+    Sets the contact search distance (where the case leaves it automatic),
+    FRAMES_PER_CONTACT output frames, ``stop_after_separation`` (unless set)
+    and (Newmark, automatic step) a step of t_c / STEPS_PER_CONTACT, with
+    t_c the Hertz contact time. The flanks are nearly flat along the
+    ellipse's major axis (relative radius about 1 m), so a search distance of
+    a few element sizes would take in the whole flank; the Hertz estimate of
+    the approach bounds the zone instead (it grows by itself if the teeth
+    come closer elsewhere). The case is also written next to the mesh as
+    ``case_<integrator>_calibration.toml``, for ``fe-impact solve``.
     """
-    text = pair.case_path.read_text()
-    text = re.sub(r'integrator = "\w+"', f'integrator = "{settings.integrator}"', text)
-    if "search_distance" not in text:
-        # Hertz: the gap at the edge of the contact is about delta/2, so faces
-        # closer than 1.2 delta cover the whole patch with room to spare.
-        reach = pair.summary["spec"]["gap"] + 1.2 * pair.summary["impact"]["delta_max_m"]
-        text = text.replace('penalty = "auto"',
-                            f'penalty = "auto"\nsearch_distance = {reach:.6g}', 1)
-    t_c = pair.summary["impact"]["contact_time_s"]
-    text = re.sub(r"output_interval = \S+", f"output_interval = {t_c / FRAMES_PER_CONTACT:.6g}",
-                  text)
-    if "stop_after_separation" not in text:
-        text = text.replace('type = "dynamic"', 'type = "dynamic"\n'
-                            f"stop_after_separation = {STOP_AFTER_SEPARATION}", 1)
-    if settings.integrator == "newmark" and 'time_step = "auto"' in text:
+    from fe_impact.fe.casefile import write_case
+
+    case, tca = pair.case, pair.analysis
+    t_c = tca.impact.contact_time
+    # Hertz: the gap at the edge of the contact is about delta/2, so faces
+    # closer than 1.2 delta cover the whole patch with room to spare.
+    reach = tca.gap + 1.2 * tca.impact.delta_max
+    contacts = tuple(c if c.search_distance is not None else replace(c, search_distance=reach)
+                     for c in case.contacts)
+    a = replace(case.analysis, integrator=settings.integrator,
+                output_interval=t_c / FRAMES_PER_CONTACT)
+    if a.stop_after_separation is None:
+        a = replace(a, stop_after_separation=STOP_AFTER_SEPARATION)
+    if settings.integrator == "newmark" and a.time_step is None:
         # 60 steps over the Hertz contact time: the impact benchmark resolves peak
         # force and contact time to 0.4% with 59 steps over the contact.
-        dt = t_c / STEPS_PER_CONTACT
-        text = text.replace('time_step = "auto"', f"time_step = {dt:.6g}")
-    out = pair.case_path.with_name(f"case_{settings.integrator}_calibration.toml")
-    with atomic_path(out) as tmp:
-        tmp.write_text(text)
-    return out
+        a = replace(a, time_step=t_c / STEPS_PER_CONTACT)
+    path = pair.case_path.with_name(f"case_{settings.integrator}_calibration.toml")
+    prepared = replace(case, path=path, contacts=contacts, analysis=a)
+    write_case(prepared, path, header=f"{pair.case_path.name} with the {settings.integrator} "
+               "calibration's controls (fe_impact.calibration.sweep)")
+    return prepared
 
 
 def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, pair,
@@ -331,13 +337,12 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
         logger.info("case %s: %s", case.id, exc)
         fe["mesh_stiffness"] = fe["mesh_stiffness_power_law"] = None
     fit = fitting.fit_impact_law(h["time"], h["contact_force"], h["approach"], mass, speed, e)
-    tca = pair.summary
+    tca = pair.analysis
     # Elliptical Hertz contact: F = k delta^1.5 exactly, k from the TCA ellipse.
-    ell = tca["ellipses"][-1]
-    k_hertz = ell["force_N"] / ell["approach_m"] ** 1.5
-    closed = fitting.closed_form_parameters(tca["equivalent_radius_m"],
-                                            tca["effective_modulus_Pa"], mass, speed, e,
-                                            k=k_hertz)
+    ell = tca.ellipses[-1]
+    k_hertz = ell.force / ell.approach ** 1.5
+    closed = fitting.closed_form_parameters(tca.equivalent_radius, tca.effective_modulus,
+                                            mass, speed, e, k=k_hertz)
     return {
         "stage": case.stage, "face_teeth": case.face_teeth, "kind": case.kind,
         "restitution_models": restitution_models(material, mass, tca, speed),
@@ -352,7 +357,7 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
     }
 
 
-def restitution_models(material, mass: float, tca: dict, speed: float) -> dict:
+def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -> dict:
     """The seed's eq. 14 restitution at this impact, with two yield-onset speeds.
 
     ``v_y_eq15`` is the seed's eq. 15 (a solid sphere of the gear steel,
@@ -364,10 +369,10 @@ def restitution_models(material, mass: float, tca: dict, speed: float) -> dict:
     from fe_impact.physics import hertz
 
     vy15 = hertz.yield_onset_speed(material.yield_strength, material.density,
-                                   tca["effective_modulus_Pa"])
-    ell, hit = tca["design_ellipse"], tca["impact"]
-    p0 = ell["p0_Pa"] * (hit["force_max_N"] / ell["force_N"]) ** (1.0 / 3.0)
-    vyt = hit["speed_m_s"] * (1.6 * material.yield_strength / p0) ** 2.5
+                                   tca.effective_modulus)
+    ell, hit = tca.design_ellipse, tca.impact
+    p0 = ell.p0 * (hit.force_max / ell.force) ** (1.0 / 3.0)
+    vyt = tca.impact_speed * (1.6 * material.yield_strength / p0) ** 2.5
     return {"v_y_eq15": vy15, "v_y_tooth": vyt,
             "yield_ratio_eq15": speed / vy15, "yield_ratio_tooth": speed / vyt,
             "seed_eq14": hertz.seed_restitution(speed / vy15),

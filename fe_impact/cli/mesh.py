@@ -100,11 +100,11 @@ def run(args: argparse.Namespace) -> int:
           f"{np.round(c.normal, 5).tolist()}", flush=True)
     print(f"  Hertz ellipse at {e.force:.4g} N: a = {e.a * 1e3:.4g} mm, b = {e.b * 1e3:.4g} mm "
           f"(b/a = {e.slenderness:.3f}), p0 = {e.p0 / 1e6:.4g} MPa", flush=True)
-    hit = pair.summary["impact"]
+    hit = pair.analysis.impact
     print(f"  impact at {args.impact_speed:g} m/s: m_eff = "
-          f"{pair.summary['masses']['effective_mass']:.4g} kg, delta_max = "
-          f"{hit['delta_max_m'] * 1e6:.4g} um, F_max = {hit['force_max_N']:.4g} N, "
-          f"t_c = {hit['contact_time_s'] * 1e6:.4g} us", flush=True)
+          f"{pair.analysis.masses.effective_mass:.4g} kg, delta_max = "
+          f"{hit.delta_max * 1e6:.4g} um, F_max = {hit.force_max:.4g} N, "
+          f"t_c = {hit.contact_time * 1e6:.4g} us", flush=True)
     print(f"  mesh: {s.n_elements['total']} elements, {s.n_nodes} nodes, {s.n_dofs} DOFs, "
           f"min SICN {s.min_sicn:.3f} (mean {s.mean_sicn:.3f}), stretch factor "
           f"{s.element_sizes['factor']:.3g} ({s.seconds:.1f} s)", flush=True)
@@ -149,8 +149,7 @@ def _ellipse_outline(pair, gearset=None, n: int = 400) -> np.ndarray:
     if gearset is not None:
         from fe_impact.gears.tca import GearPair
 
-        spec = pair.summary["spec"]
-        face = GearPair.from_gearset(gearset, spec["stage"]).face
+        face = GearPair.from_gearset(gearset, pair.analysis.spec.stage).face
         ca, sa = np.cos(c.face_angle), np.sin(c.face_angle)
         local = np.stack([ca * pts[:, 0] - sa * pts[:, 2], pts[:, 1],
                           sa * pts[:, 0] + ca * pts[:, 2]], axis=1)

@@ -15,6 +15,11 @@
   angular velocities giving the requested normal impact speed);
 - ``tca.json``: the tooth contact analysis and Hertz estimates.
 
+and returns them as a :class:`PairMesh`, which carries the case as a
+:class:`~fe_impact.fe.case.Case` and the analysis as a :class:`PairAnalysis`
+(the files are written from these; the calibration adapts the case with
+:func:`dataclasses.replace`).
+
 Geometry (the mesh frame of :mod:`fe_impact.gears.tca`): one pinion tooth from
 space centre to space centre with a rim ``rim_modules`` modules deep, over
 the pinion's whole face width; ``n_face_teeth`` face-gear teeth (the
@@ -69,6 +74,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fe_impact.errors import GeometryError, MeshError
+from fe_impact.fe.case import AnalysisSpec, Case, ContactSpec, MaterialSpec, RigidBodySpec
 from fe_impact.gears.facegear import FaceGearTooth
 from fe_impact.gears.tca import (
     ContactEllipse,
@@ -87,8 +93,11 @@ __all__ = [
     "ContactStretch",
     "MeshLevel",
     "MeshStats",
+    "PairAnalysis",
     "PairMesh",
     "PairSpec",
+    "ReducedMasses",
+    "analyse_pair",
     "build_pair",
 ]
 
@@ -605,8 +614,107 @@ class MeshStats:
 
 
 @dataclass(frozen=True)
+class ReducedMasses:
+    """Rotor inertias reduced to the contact normal (:func:`~fe_impact.gears.tca.effective_mass`).
+
+    Attributes
+    ----------
+    pinion_mass, face_mass : float
+        ``I_i / l_i^2`` [kg].
+    pinion_lever, face_lever : float
+        Signed lever arms ``l_i = (e_i x (x_c - p_i)) . n`` [m].
+    effective_mass : float
+        ``1 / (1/m_1 + 1/m_2)`` [kg].
+    """
+
+    pinion_mass: float
+    pinion_lever: float
+    face_mass: float
+    face_lever: float
+    effective_mass: float
+
+
+@dataclass(frozen=True)
+class PairAnalysis:
+    """Tooth contact analysis and Hertz estimates of one tooth pair (SI units, mesh frame).
+
+    Attributes
+    ----------
+    spec : PairSpec
+        What the pair is built for (gap, impact speed, velocity split, ...).
+    contact : ContactPoint
+        The TCA contact at the requested roll angle (before opening the gap).
+    pinion_roll_placed : float
+        Pinion roll angle of the mesh [rad]: the contact's, turned back by
+        ``gap / l_1`` to open the gap.
+    effective_modulus : float
+        ``E*`` of the gear material [Pa].
+    equivalent_radius : float
+        Radius of the sphere contact with the ellipse's load-approach law [m]
+        (:func:`~fe_impact.gears.tca.equivalent_radius`).
+    masses : ReducedMasses
+    impact : HertzImpact
+        Hertz impact of ``masses.effective_mass`` on ``equivalent_radius`` at
+        ``spec.impact_speed`` (Johnson 1985, section 11.4).
+    velocities : tuple of float
+        Initial angular velocities [rad/s] of the pinion (about +z) and the
+        face gear (about +y) closing at the impact speed (:func:`_velocities`).
+    design_ellipse : ContactEllipse
+        Hertz ellipse at the design force (it sets the element sizes).
+    ellipses : tuple of ContactEllipse
+        Hertz ellipses at :data:`REPORT_FORCES`.
+    """
+
+    spec: PairSpec
+    contact: ContactPoint
+    pinion_roll_placed: float
+    effective_modulus: float
+    equivalent_radius: float
+    masses: ReducedMasses
+    impact: hertz.HertzImpact
+    velocities: tuple[float, float]
+    design_ellipse: ContactEllipse
+    ellipses: tuple[ContactEllipse, ...]
+
+    @property
+    def gap(self) -> float:
+        """Initial normal gap at the contact point [m]."""
+        return self.spec.gap
+
+    @property
+    def impact_speed(self) -> float:
+        """Closing normal speed at the contact point [m/s]."""
+        return self.spec.impact_speed
+
+    def to_dict(self) -> dict:
+        """JSON-friendly record (SI units): the TCA part of ``tca.json``."""
+        hit = self.impact
+        return {
+            "spec": asdict(self.spec),
+            "frame": "mesh frame: y = face-gear axis, origin on it in the pitch plane; pinion "
+                     "axis x = 0, y = r_p along z; normal points out of the face gear",
+            "contact": self.contact.to_dict(),
+            "pinion_roll_angle_placed_rad": self.pinion_roll_placed,
+            "effective_modulus_Pa": self.effective_modulus,
+            "equivalent_radius_m": self.equivalent_radius,
+            "ellipses": [e.to_dict() for e in self.ellipses],
+            "design_ellipse": self.design_ellipse.to_dict(),
+            "masses": asdict(self.masses),
+            "impact": {
+                "speed_m_s": self.spec.impact_speed,
+                "delta_max_m": hit.delta_max,
+                "force_max_N": hit.force_max,
+                "contact_time_s": hit.contact_time,
+                "velocity_split": self.spec.velocity_split,
+                "omega_pinion_rad_s": self.velocities[0],
+                "omega_face_rad_s": self.velocities[1],
+            },
+        }
+
+
+@dataclass(frozen=True)
 class PairMesh:
-    """Files written by :func:`build_pair` and what they contain.
+    """What :func:`build_pair` made: the files, the impact case and the analysis.
 
     Attributes
     ----------
@@ -614,12 +722,10 @@ class PairMesh:
     key : str
         Hash of every input (gear set and :class:`PairSpec`): same key, same files.
     stats : MeshStats
-    contact : ContactPoint
-        The TCA contact at the requested roll angle (before opening the gap).
-    ellipse : ContactEllipse
-        Hertz ellipse at the design force.
-    summary : dict
-        The content of ``tca.json``.
+    case : Case
+        The dynamic impact case on the mesh (the content of ``case.toml``).
+    analysis : PairAnalysis
+        Tooth contact analysis and Hertz estimates (the content of ``tca.json``).
     """
 
     mesh_path: Path
@@ -627,9 +733,18 @@ class PairMesh:
     tca_path: Path
     key: str
     stats: MeshStats
-    contact: ContactPoint
-    ellipse: ContactEllipse
-    summary: dict = field(repr=False)
+    case: Case = field(repr=False)
+    analysis: PairAnalysis = field(repr=False)
+
+    @property
+    def contact(self) -> ContactPoint:
+        """The TCA contact at the requested roll angle (before opening the gap)."""
+        return self.analysis.contact
+
+    @property
+    def ellipse(self) -> ContactEllipse:
+        """Hertz ellipse at the design force."""
+        return self.analysis.design_ellipse
 
 
 def pair_key(gearset, spec: PairSpec) -> str:
@@ -647,28 +762,32 @@ class _Design:
     """Everything computed before meshing (SI units, mesh frame)."""
 
     pair: GearPair
-    contact: ContactPoint
-    e_star: float
-    masses: dict[str, float]
-    equivalent_radius: float
-    impact: hertz.HertzImpact
-    design_force: float
-    ellipse: ContactEllipse
-    pinion_roll: float
-    velocities: tuple[float, float]
+    analysis: PairAnalysis
     sizes: dict[str, float]
     stretch: ContactStretch
 
+    @property
+    def contact(self) -> ContactPoint:
+        return self.analysis.contact
 
-def _velocities(spec: PairSpec, masses: dict[str, float]) -> tuple[float, float]:
+    @property
+    def ellipse(self) -> ContactEllipse:
+        return self.analysis.design_ellipse
+
+    @property
+    def pinion_roll(self) -> float:
+        return self.analysis.pinion_roll_placed
+
+
+def _velocities(spec: PairSpec, masses: ReducedMasses) -> tuple[float, float]:
     """Angular velocities (pinion, face gear) [rad/s] about +z and +y closing at ``v_k``.
 
     The normal velocity of rotor i at the contact is ``omega_i l_i`` (signed
     lever arm); the normal points into the pinion, so closing means
     ``omega_1 l_1 - omega_2 l_2 = -v_k``.
     """
-    v, m1, m2 = spec.impact_speed, masses["pinion_mass"], masses["face_mass"]
-    l1, l2 = masses["pinion_lever"], masses["face_lever"]
+    v, m1, m2 = spec.impact_speed, masses.pinion_mass, masses.face_mass
+    l1, l2 = masses.pinion_lever, masses.face_lever
     share = {"momentum": m2 / (m1 + m2), "pinion": 1.0, "face_gear": 0.0}[spec.velocity_split]
     return -share * v / l1, (1.0 - share) * v / l2
 
@@ -703,7 +822,8 @@ def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllip
     )
 
 
-def _design(gearset, spec: PairSpec, max_stretch: float | None = None) -> _Design:
+def _analyse(gearset, spec: PairSpec) -> tuple[GearPair, PairAnalysis]:
+    """The stage's gear pair and the TCA and Hertz estimates at ``spec``'s contact."""
     if not 1 <= spec.stage <= len(gearset.stages):
         raise GeometryError(
             f"stage = {spec.stage}; this gear set has stages 1..{len(gearset.stages)}"
@@ -718,25 +838,37 @@ def _design(gearset, spec: PairSpec, max_stretch: float | None = None) -> _Desig
         )
     mat = gearset.material
     e_star = hertz.effective_modulus(mat.youngs_modulus, mat.poisson_ratio)
-    masses = pair.effective_masses(contact, gearset.pinion.inertia,
-                                   gearset.stages[spec.stage - 1].inertia)
+    masses = ReducedMasses(**pair.effective_masses(contact, gearset.pinion.inertia,
+                                                   gearset.stages[spec.stage - 1].inertia))
     radius = equivalent_radius(contact.relative, e_star)
-    impact = hertz.impact(masses["effective_mass"], spec.impact_speed, radius, e_star)
+    impact = hertz.impact(masses.effective_mass, spec.impact_speed, radius, e_star)
     force = spec.design_force if spec.design_force is not None else impact.force_max
-    ellipse = contact_ellipse(contact.relative, force, e_star)
+    return pair, PairAnalysis(
+        spec=spec, contact=contact,
+        pinion_roll_placed=contact.roll_angle + spec.gap / masses.pinion_lever,
+        effective_modulus=e_star, equivalent_radius=radius, masses=masses, impact=impact,
+        velocities=_velocities(spec, masses),
+        design_ellipse=contact_ellipse(contact.relative, force, e_star),
+        ellipses=tuple(contact_ellipse(contact.relative, f, e_star) for f in REPORT_FORCES),
+    )
+
+
+def analyse_pair(gearset, spec: PairSpec) -> PairAnalysis:
+    """Tooth contact analysis and Hertz estimates of a tooth pair, without meshing."""
+    return _analyse(gearset, spec)[1]
+
+
+def _design(gearset, spec: PairSpec, max_stretch: float | None = None) -> _Design:
+    pair, analysis = _analyse(gearset, spec)
+    ellipse = analysis.design_ellipse
     level = LEVELS[spec.level]
     minor = level.minor_fraction * ellipse.b
     cap = level.max_stretch if max_stretch is None else min(max_stretch, level.max_stretch)
     factor = float(np.clip(level.major_fraction * ellipse.a / minor, 1.0, cap))
     sizes = {"minor": minor, "major": factor * minor, "factor": factor,
              "far": level.far_modules * pair.pinion.module}
-    return _Design(
-        pair=pair, contact=contact, e_star=e_star, masses=masses, equivalent_radius=radius,
-        impact=impact, design_force=force, ellipse=ellipse,
-        pinion_roll=contact.roll_angle + spec.gap / masses["pinion_lever"],
-        velocities=_velocities(spec, masses), sizes=sizes,
-        stretch=_stretch(contact, spec, ellipse, sizes),
-    )
+    return _Design(pair=pair, analysis=analysis, sizes=sizes,
+                   stretch=_stretch(analysis.contact, spec, ellipse, sizes))
 
 
 def hertz_impact_estimate(gearset, stage: int, roll_angle_deg: float, impact_speed: float):
@@ -747,7 +879,7 @@ def hertz_impact_estimate(gearset, stage: int, roll_angle_deg: float, impact_spe
     radius of the contact at ``roll_angle_deg``.
     """
     spec = PairSpec(stage=stage, roll_angle_deg=roll_angle_deg, impact_speed=impact_speed)
-    return _design(gearset, spec).impact
+    return analyse_pair(gearset, spec).impact
 
 
 # -- building the model ---------------------------------------------------------------------------
@@ -989,121 +1121,83 @@ def _mesh(model, design: _Design, spec: PairSpec, path: Path, started: float) ->
     return stats
 
 
-# -- case file and summary ------------------------------------------------------------------------
-def _num(value: float) -> str:
-    """A TOML float literal (10 significant digits; never an integer literal)."""
-    text = f"{float(value):.10g}"
-    return text if any(ch in text for ch in ".en") else text + ".0"
+# -- impact case and summary ----------------------------------------------------------------------
+def _impact_case(gearset, design: _Design, case_path: Path, mesh_path: Path) -> Case:
+    """The dynamic impact case on the pair's mesh (``case.toml``).
+
+    The gear set's material on both sectors; the pinion flank (slave) on the
+    face flank (master) with the automatic penalty; each hub tied to a rigid
+    rotor with the gear's inertia about its axis, turning at the
+    :attr:`PairAnalysis.velocities` that close the gap at the impact speed;
+    Newmark with the automatic step over :data:`DURATION_FACTOR` Hertz
+    contact times, :data:`FRAMES_PER_CONTACT` output frames per contact time.
+    """
+    a, pair, mat = design.analysis, design.pair, gearset.material
+    t_c = a.impact.contact_time
+    rotors = (("pinion_hub", pair.pinion_axis, gearset.pinion.inertia, a.velocities[0]),
+              ("face_hub", pair.face_axis, gearset.stages[a.spec.stage - 1].inertia,
+               a.velocities[1]))
+    return Case(
+        path=case_path, mesh_file=mesh_path.resolve(), unit="mm",
+        materials=(MaterialSpec(
+            ("pinion", "face_gear"), float(mat.youngs_modulus), float(mat.poisson_ratio),
+            float(mat.density),
+            None if mat.yield_strength is None else float(mat.yield_strength)),),
+        contacts=(ContactSpec("pinion_flank", "face_flank"),),
+        rigid_bodies=tuple(
+            RigidBodySpec(surface, "rotation", direction=_floats(direction),
+                          point=_floats(point), inertia=float(inertia),
+                          initial_velocity=float(omega))
+            for surface, (point, direction), inertia, omega in rotors),
+        analysis=AnalysisSpec(type="dynamic", integrator="newmark",
+                              duration=DURATION_FACTOR * t_c,
+                              output_interval=t_c / FRAMES_PER_CONTACT),
+    )
+
+
+def _floats(v: NDArray) -> tuple[float, ...]:
+    return tuple(float(c) for c in v)
 
 
 def _vec(v: NDArray) -> str:
-    return "[" + ", ".join(_num(c) for c in v) + "]"
+    return "[" + ", ".join(f"{float(c):.10g}" for c in v) + "]"
 
 
-def _case_text(gearset, spec: PairSpec, design: _Design, key: str, mesh_name: str) -> str:
-    """The dynamic case (format of fe_impact's case files), with the TCA in comments."""
-    c, m, hit, mat = design.contact, design.masses, design.impact, gearset.material
-    pair = design.pair
+def _case_header(gearset, design: _Design, key: str) -> str:
+    """Comment lines of ``case.toml``: where the case comes from, and the TCA."""
+    a, pair = design.analysis, design.pair
+    spec, c, m, hit, ell = a.spec, a.contact, a.masses, a.impact, a.design_ellipse
     rx, ry = c.relative.radii
-    duration = DURATION_FACTOR * hit.contact_time
-    w1, w2 = design.velocities
-    p_axis, p_dir = pair.pinion_axis
-    f_axis, f_dir = pair.face_axis
-    lines = [
-        "# Dynamic single-tooth impact written by fe_impact.meshing.toothpair.build_pair",
-        f"# gear set {gearset.name!r}, stage {spec.stage} ({pair.face.teeth} teeth), "
+    w1, w2 = a.velocities
+    return "\n".join([
+        "Dynamic single-tooth impact written by fe_impact.meshing.toothpair.build_pair",
+        f"gear set {gearset.name!r}, stage {spec.stage} ({pair.face.teeth} teeth), "
         f"roll angle {spec.roll_angle_deg:g} deg, level {spec.level}, P{spec.order}, key {key}",
-        "# Mesh frame: y = face-gear axis (origin on it, in the pitch plane); pinion axis",
-        f"# x = 0, y = {pair.pinion.pitch_radius:.6g} m along z. pair.msh is in millimetres;",
-        "# every other length here is in metres (SI).",
-        f"# Contact point (TCA) {_vec(c.point)} m, normal (out of the face gear)"
-        f" {_vec(c.normal)}",
-        f"# Initial gap {spec.gap * 1e6:g} um: the pinion is turned by gap / l1 out of contact.",
-        f"# Relative radii Rx = {rx:.6g} m, Ry = {ry:.6g} m; equivalent (sphere) radius"
-        f" {design.equivalent_radius:.6g} m; E* = {design.e_star:.6g} Pa",
-        f"# Lever arms |(e x (x_c - p)) . n|: pinion {abs(m['pinion_lever']):.6g} m, face gear"
-        f" {abs(m['face_lever']):.6g} m",
-        f"# Masses I/l^2: pinion {m['pinion_mass']:.6g} kg, face gear {m['face_mass']:.6g} kg;"
-        f" m_eff = {m['effective_mass']:.6g} kg",
-        f"# Hertz impact at v_k = {spec.impact_speed:g} m/s: delta_max {hit.delta_max:.4g} m,"
+        "Mesh frame: y = face-gear axis (origin on it, in the pitch plane); pinion axis",
+        f"x = 0, y = {pair.pinion.pitch_radius:.6g} m along z. pair.msh is in millimetres;",
+        "every other length here is in metres (SI).",
+        f"Contact point (TCA) {_vec(c.point)} m, normal (out of the face gear) {_vec(c.normal)}",
+        f"Initial gap {spec.gap * 1e6:g} um: the pinion is turned by gap / l1 out of contact.",
+        f"Relative radii Rx = {rx:.6g} m, Ry = {ry:.6g} m; equivalent (sphere) radius"
+        f" {a.equivalent_radius:.6g} m; E* = {a.effective_modulus:.6g} Pa",
+        f"Lever arms |(e x (x_c - p)) . n|: pinion {abs(m.pinion_lever):.6g} m, face gear"
+        f" {abs(m.face_lever):.6g} m",
+        f"Masses I/l^2: pinion {m.pinion_mass:.6g} kg, face gear {m.face_mass:.6g} kg;"
+        f" m_eff = {m.effective_mass:.6g} kg",
+        f"Hertz impact at v_k = {spec.impact_speed:g} m/s: delta_max {hit.delta_max:.4g} m,"
         f" F_max {hit.force_max:.4g} N, t_c {hit.contact_time:.4g} s",
-        f"# Hertz ellipse at {design.design_force:.4g} N (sets the mesh):"
-        f" a {design.ellipse.a:.4g} m, b {design.ellipse.b:.4g} m, p0 {design.ellipse.p0:.4g} Pa",
-        f"# Initial velocities ({spec.velocity_split!r} split): normal speeds omega_i l_i"
-        f" {w1 * m['pinion_lever']:.6g} and {w2 * m['face_lever']:.6g} m/s, closing at"
+        f"Hertz ellipse at {ell.force:.4g} N (sets the mesh):"
+        f" a {ell.a:.4g} m, b {ell.b:.4g} m, p0 {ell.p0:.4g} Pa",
+        f"Initial velocities ({spec.velocity_split!r} split): normal speeds omega_i l_i"
+        f" {w1 * m.pinion_lever:.6g} and {w2 * m.face_lever:.6g} m/s, closing at"
         f" {spec.impact_speed:g} m/s",
-        "",
-        "[mesh]",
-        f'file = "{mesh_name}"',
-        'unit = "mm"',
-        "",
-        "[[materials]]",
-        'volumes = ["pinion", "face_gear"]',
-        f"youngs_modulus = {_num(mat.youngs_modulus)}",
-        f"poisson_ratio = {_num(mat.poisson_ratio)}",
-        f"density = {_num(mat.density)}",
-        f"yield_strength = {_num(mat.yield_strength)}",
-        "",
-        "[[contacts]]",
-        'slave = "pinion_flank"',
-        'master = "face_flank"',
-        'penalty = "auto"',
-    ]
-    rotors = (("pinion_hub", p_dir, p_axis, gearset.pinion.inertia, w1),
-              ("face_hub", f_dir, f_axis, gearset.stages[spec.stage - 1].inertia, w2))
-    for surface, direction, point, inertia, omega in rotors:
-        lines += [
-            "",
-            "[[rigid_bodies]]",
-            f'surface = "{surface}"',
-            'motion = "rotation"',
-            f"direction = {_vec(direction)}",
-            f"point = {_vec(point)}",
-            f"inertia = {_num(inertia)}",
-            f"initial_velocity = {_num(omega)}",
-        ]
-    lines += [
-        "",
-        "[analysis]",
-        'type = "dynamic"',
-        'integrator = "newmark"',
-        f"duration = {_num(duration)}",
-        'time_step = "auto"',
-        f"output_interval = {_num(hit.contact_time / FRAMES_PER_CONTACT)}",
-        "",
-    ]
-    return "\n".join(lines)
+    ])
 
 
-def _summary(gearset, spec: PairSpec, design: _Design, key: str, stats: MeshStats | None) -> dict:
+def _summary(gearset, design: _Design, key: str, stats: MeshStats) -> dict:
     """Content of tca.json (SI units)."""
-    c, hit = design.contact, design.impact
-    ellipses = [contact_ellipse(c.relative, f, design.e_star).to_dict() for f in REPORT_FORCES]
-    return {
-        "key": key,
-        "gearset": gearset.name,
-        "spec": asdict(spec),
-        "frame": "mesh frame: y = face-gear axis, origin on it in the pitch plane; pinion "
-                 "axis x = 0, y = r_p along z; normal points out of the face gear",
-        "contact": c.to_dict(),
-        "pinion_roll_angle_placed_rad": design.pinion_roll,
-        "effective_modulus_Pa": design.e_star,
-        "equivalent_radius_m": design.equivalent_radius,
-        "ellipses": ellipses,
-        "design_ellipse": design.ellipse.to_dict(),
-        "masses": design.masses,
-        "impact": {
-            "speed_m_s": spec.impact_speed,
-            "delta_max_m": hit.delta_max,
-            "force_max_N": hit.force_max,
-            "contact_time_s": hit.contact_time,
-            "velocity_split": spec.velocity_split,
-            "omega_pinion_rad_s": design.velocities[0],
-            "omega_face_rad_s": design.velocities[1],
-        },
-        "mesh": None if stats is None else asdict(stats),
-        "stretch_factor": design.sizes["factor"],
-    }
+    return {"key": key, "gearset": gearset.name, **design.analysis.to_dict(),
+            "mesh": asdict(stats), "stretch_factor": design.sizes["factor"]}
 
 
 def build_pair(
@@ -1131,7 +1225,8 @@ def build_pair(
         Folder for ``pair.msh``, ``case.toml`` and ``tca.json`` (created).
     reuse : bool
         If ``out_dir`` already holds the three files written for the same
-        :func:`pair_key`, return them without meshing again.
+        :func:`pair_key`, return them without meshing again (the case and the
+        analysis are derived again from the inputs; the files are left as they are).
     verbose : bool
         Let gmsh print its log.
     **options
@@ -1141,6 +1236,9 @@ def build_pair(
     Returns
     -------
     PairMesh
+        With the impact :class:`~fe_impact.fe.case.Case` (also written to
+        ``case.toml`` by :func:`~fe_impact.fe.casefile.write_case`) and the
+        :class:`PairAnalysis` (also written to ``tca.json``).
 
     Raises
     ------
@@ -1148,7 +1246,8 @@ def build_pair(
         For invalid options (the message names the option and what is
         allowed) and meshes that cannot be made.
     """
-    from fe_impact.output.files import atomic_path, write_json
+    from fe_impact.fe.casefile import write_case
+    from fe_impact.output.files import write_json
 
     started = time.perf_counter()
     try:
@@ -1162,17 +1261,16 @@ def build_pair(
     cached = _cached(paths, key) if reuse else None
     if cached is not None:
         design = _design(gearset, spec, cached["stretch_factor"])
-        return PairMesh(*paths, key=key, stats=MeshStats(**cached["mesh"]),
-                        contact=design.contact, ellipse=design.ellipse, summary=cached)
-    design, stats = _mesh_with_retries(gearset, spec, paths[0], key, verbose, started)
-    summary = _summary(gearset, spec, design, key, stats)
-    with atomic_path(paths[1]) as tmp:
-        tmp.write_text(_case_text(gearset, spec, design, key, paths[0].name))
-    write_json(paths[2], summary)
-    logger.info("wrote %s (%d elements, %d DOFs, %.1f s)", paths[0], stats.n_elements["total"],
-                stats.n_dofs, stats.seconds)
-    return PairMesh(*paths, key=key, stats=stats, contact=design.contact,
-                    ellipse=design.ellipse, summary=summary)
+        stats = MeshStats(**cached["mesh"])
+    else:
+        design, stats = _mesh_with_retries(gearset, spec, paths[0], key, verbose, started)
+    case = _impact_case(gearset, design, paths[1], paths[0])
+    if cached is None:
+        write_case(case, paths[1], header=_case_header(gearset, design, key))
+        write_json(paths[2], _summary(gearset, design, key, stats))
+        logger.info("wrote %s (%d elements, %d DOFs, %.1f s)", paths[0],
+                    stats.n_elements["total"], stats.n_dofs, stats.seconds)
+    return PairMesh(*paths, key=key, stats=stats, case=case, analysis=design.analysis)
 
 
 #: Stretch caps tried in turn when a mesh comes out with an element turned

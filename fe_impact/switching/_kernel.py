@@ -1,8 +1,12 @@
 """Compiled core of the torsional model: right-hand side, integrator, impact detection.
 
 Private module: `fe_impact.switching.simulation` packs the model into the
-arrays below and calls `integrate` chunk by chunk. Everything here is a pure
-function of its arrays (numba ``njit``, cached on disk).
+records and arrays below and calls `integrate` chunk by chunk. Everything
+here is a pure function of its arguments (numba ``njit``, cached on disk).
+Scalars travel as NumPy structured records (`PARAMS`, `PROGRESS`) read by
+field name; per-ring data, schedule segments, contact slots, tooth pairs and
+events are arrays of records (`STAGE`, `SEGMENT`, `SLOT`, `FLANK`, `PAIR`,
+`EVENT`). The contact law is `fe_impact.physics.impact_law`.
 
 Degrees of freedom, ``n`` rings: 0 pinion, 1..n rings, n+1 output. The state
 holds deviations from a reference rotation, ``theta_j = q_j + c_j psi(t) +
@@ -26,57 +30,94 @@ import math
 import numpy as np
 from numba import njit
 
-# -- scalar parameters P[...] ----------------------------------------------------------
-RBP = 0  # pinion base radius [m]
-PB = 1  # base pitch [m]
-SSTART = 2  # start of the active path [m]
-SEND = 3  # end of the active path [m]
-NPIN = 4  # pinions (identical meshes in phase)
-TEA = 5  # transmission-error amplitude [m]
-MUS = 6  # static friction coefficient
-MUD = 7  # dynamic friction coefficient
-VS = 8  # stiction speed [m/s]
-VT = 9  # friction transition speed [m/s]
-FRIC = 10  # 1 with friction
-DRIVE = 11  # 0 speed-driven pinion, 1 torque-driven
-RAMP = 12  # speed/load ramp time [s]
-X0 = 13  # mesh-coordinate offset of the engaged ring [m]
-ENG = 14  # engaged ring, 0-based
-U0 = 15  # roll offset of the tooth-pair numbering [m]
-RATIO = 16  # c of rings and output
-RTOL = 17
-HMAX = 18  # largest step [s]
-BH = 19  # half backlash of the engaged mesh [m]
-R2SIN = 20  # face-gear friction lever r_2 sin(alpha0) of the engaged ring [m]
-PEND = 21  # 1 until the first contact after a switch
-JP = 22  # pinion inertia, all pinions [kg m^2]
-JO = 23  # output inertia [kg m^2]
-SAMPLE_DT = 24  # sampling interval [s]
-DRAG = 25  # drag torque on the output [N m]
-N_P = 26
+from fe_impact.physics.impact_law import impact_force_energy, unit_step
 
-# -- integer slot data SI[flank, slot, ...] and float slot data SF[flank, slot, ...] -----
+# -- records ---------------------------------------------------------------------------------
+# Scalar parameters of a run: one record (a structured NumPy scalar passed by reference, so
+# the kernel's write to ``pending`` is seen by the caller). Fields are read by name.
+PARAMS = np.dtype([
+    ("base_radius", np.float64),  # pinion base radius r_bp [m]
+    ("base_pitch", np.float64),  # base pitch p_b [m]
+    ("s_start", np.float64),  # start of the active path [m]
+    ("s_end", np.float64),  # end of the active path [m]
+    ("pinions", np.float64),  # pinions (identical meshes in phase)
+    ("te_amplitude", np.float64),  # transmission-error amplitude [m]
+    ("mu_static", np.float64),  # static friction coefficient
+    ("mu_dynamic", np.float64),  # dynamic friction coefficient
+    ("stiction_speed", np.float64),  # [m/s]
+    ("transition_speed", np.float64),  # friction transition speed [m/s]
+    ("friction", np.int64),  # 1 with friction
+    ("drive", np.int64),  # 0 speed-driven pinion, 1 torque-driven
+    ("ramp", np.float64),  # speed/load ramp time [s]
+    ("x0", np.float64),  # mesh-coordinate offset of the engaged ring [m]
+    ("engaged", np.int64),  # engaged ring, 0-based
+    ("u0", np.float64),  # roll offset of the tooth-pair numbering [m]
+    ("ratio", np.float64),  # c of rings and output
+    ("rtol", np.float64),
+    ("max_step", np.float64),  # largest step [s]
+    ("half_backlash", np.float64),  # of the engaged mesh [m]
+    ("friction_lever", np.float64),  # face-gear lever r_2 sin(alpha0) of the engaged ring [m]
+    ("pending", np.int64),  # 1 until the first contact after a switch
+    ("pinion_inertia", np.float64),  # all pinions [kg m^2]
+    ("output_inertia", np.float64),  # [kg m^2]
+    ("sample_dt", np.float64),  # sampling interval [s]
+    ("drag", np.float64),  # drag torque on the output [N m]
+    ("corner_in", np.float64),  # roll span of the approach corner table [m]
+    ("corner_out", np.float64),  # roll span of the recess corner table [m]
+    # IMPACT law of a tooth pair before its first onset: k, exponent, cmax, d
+    ("law_k", np.float64), ("law_n", np.float64), ("law_cmax", np.float64), ("law_d", np.float64),
+], align=True)
+
+#: Per ring (stage): inertia [kg m^2], web stiffness [N m/rad] and damping [N m s/rad],
+#: base lever r_b [m].
+STAGE = np.dtype([("inertia", np.float64), ("coupling", np.float64), ("damping", np.float64),
+                  ("lever", np.float64)], align=True)
+
+#: Schedule segment, for `reference`.
+SEGMENT = np.dtype([("t_start", np.float64), ("speed", np.float64), ("load", np.float64),
+                    ("input_torque", np.float64), ("psi_start", np.float64)], align=True)
+
+#: Contact slot of a tooth pair, SLOTS[flank, pair mod NSLOT]: the pair number, whether it
+#: is in contact, its open event (-1: none), whether it has its own law (else the
+#: default), the law and the approach and rate at the end of the last accepted step.
+SLOT = np.dtype([("pair", np.int64), ("on", np.int64), ("event", np.int64), ("has_law", np.int64),
+                 ("k", np.float64), ("n", np.float64), ("cmax", np.float64), ("d", np.float64),
+                 ("h", np.float64), ("hd", np.float64)], align=True)
 NSLOT = 8  # slots per flank, indexed by pair number mod NSLOT
-SI_K, SI_ON, SI_EV, SI_LAW = 0, 1, 2, 3
-SF_LAW, SF_H, SF_HD = 0, 4, 5  # law parameters k, n, cmax, d at 0..3
+
+#: Flank state: any pair in contact, and the flank's open event (-1: none).
+FLANK = np.dtype([("on", np.int64), ("event", np.int64)], align=True)
+
+#: Tooth pair evaluated by `rhs`, PAIRS[flank, m]: number, roll, approach, its rate,
+#: force and elastic energy.
+PAIR = np.dtype([("pair", np.int64), ("s", np.float64), ("h", np.float64), ("hd", np.float64),
+                 ("f", np.float64), ("e", np.float64)], align=True)
 MAXPAIR = 6  # pairs looked at per flank
 
-# -- per-evaluation results AUX[...] ------------------------------------------------------
+#: An impact: onset time, stage (from 1), kind, flank (+1 drive, -1 coast), closing speed,
+#: peak approach, force and energy, end time and opening speed (NaN while open), law-table
+#: clamp (-1/0/+1) and the tooth pair.
+EVENT = np.dtype([("time", np.float64), ("stage", np.int64), ("kind", np.int64),
+                  ("flank", np.int64), ("speed", np.float64), ("approach", np.float64),
+                  ("force", np.float64), ("energy", np.float64), ("end", np.float64),
+                  ("speed_out", np.float64), ("clamp", np.int64), ("pair", np.int64)],
+                 align=True)
+KIND_RATTLE, KIND_MESH_IN, KIND_SWITCH = 0, 1, 2
+
+#: Integrator state and counters of a run: time, step size, next sample time, previous
+#: error norm; steps, rejected steps, right-hand sides, clamped law look-ups (below/above
+#: the table), dropped events, pairs leaving the window in contact, samples written by the
+#: last call, events recorded.
+PROGRESS = np.dtype([("t", np.float64), ("h", np.float64), ("t_sample", np.float64),
+                     ("err_prev", np.float64), ("steps", np.int64), ("rejected", np.int64),
+                     ("rhs", np.int64), ("clamp_low", np.int64), ("clamp_high", np.int64),
+                     ("dropped", np.int64), ("guard", np.int64), ("n_samples", np.int64),
+                     ("n_events", np.int64)], align=True)
+
+# -- per-evaluation results AUX[...] (consecutive columns of the time series) -------------
 A_APPROACH, A_XDOT, A_FORCE, A_ENERGY, A_NCONTACT, A_X = 0, 1, 2, 3, 4, 5
 A_FRICTION, A_LOAD, A_INPUT, A_FDRIVE, A_FCOAST = 6, 7, 8, 9, 10
 N_AUX = 11
-# work arrays W[flank, pair, ...]
-W_K, W_S, W_H, W_HD, W_F, W_E = 0, 1, 2, 3, 4, 5
-
-# -- events EV[i, ...] -----------------------------------------------------------------------
-E_TIME, E_STAGE, E_KIND, E_FLANK, E_SPEED, E_APPROACH, E_FORCE, E_ENERGY = range(8)
-E_END, E_SPEED_OUT, E_CLAMP, E_PAIR = 8, 9, 10, 11
-N_EV = 12
-KIND_RATTLE, KIND_MESH_IN, KIND_SWITCH = 0, 1, 2
-
-# -- counters CNT[...] -------------------------------------------------------------------------
-C_STEPS, C_REJECTED, C_RHS, C_CLAMP_LOW, C_CLAMP_HIGH, C_DROPPED, C_GUARD, C_NSAMP = range(8)
-N_CNT = 8
 
 # Series statistics STATS[stage, quantity, (integral, max, min, duration)]
 N_STAT_Q = 4
@@ -100,55 +141,49 @@ _EXPO, _BETA, _SAFE = 0.2 - 0.04 * 0.75, 0.04, 0.9
 
 
 @njit(cache=True)
-def smooth_step(z):
-    """ADAMS STEP from 0 at z = 0 to 1 at z = 1 (clamped)."""
-    if z <= 0.0:
-        return 0.0
-    if z >= 1.0:
-        return 1.0
-    return z * z * (3.0 - 2.0 * z)
-
-
-@njit(cache=True)
 def reference(t, sch, ramp):
     """Scheduled pinion angle, speed, acceleration, load and input torque at ``t``.
 
-    ``sch[k] = (t_start, speed, load, input_torque, psi_start)``; speed, load
-    and input torque blend from the previous segment's value over ``ramp``
-    with the ADAMS STEP cubic.
+    ``sch`` holds `SEGMENT` records; speed, load and input torque blend from
+    the previous segment's value over ``ramp`` with the ADAMS STEP cubic.
     """
     k = 0
-    while k + 1 < sch.shape[0] and sch[k + 1, 0] <= t:
+    while k + 1 < sch.shape[0] and sch[k + 1].t_start <= t:
         k += 1
-    tau = t - sch[k, 0]
-    w1 = sch[k, 1]
-    w0 = sch[k - 1, 1] if k > 0 else w1
+    seg = sch[k]
+    tau = t - seg.t_start
+    w1 = seg.speed
+    w0 = sch[k - 1].speed if k > 0 else w1
     blend = 1.0
     if ramp > 0.0 and k > 0 and tau < ramp:
         z = tau / ramp
-        blend = z * z * (3.0 - 2.0 * z)
-        psi = sch[k, 4] + w0 * tau + (w1 - w0) * ramp * (z**3 - 0.5 * z**4)
+        blend = unit_step(z)
+        psi = seg.psi_start + w0 * tau + (w1 - w0) * ramp * (z**3 - 0.5 * z**4)
         psid = w0 + (w1 - w0) * blend
         psidd = (w1 - w0) * 6.0 * z * (1.0 - z) / ramp
     else:
         if ramp > 0.0 and k > 0:
-            psi = sch[k, 4] + w0 * ramp + 0.5 * (w1 - w0) * ramp + w1 * (tau - ramp)
+            psi = seg.psi_start + w0 * ramp + 0.5 * (w1 - w0) * ramp + w1 * (tau - ramp)
         else:
-            psi = sch[k, 4] + w1 * tau
+            psi = seg.psi_start + w1 * tau
         psid = w1
         psidd = 0.0
     if k > 0:
-        load = sch[k - 1, 2] + (sch[k, 2] - sch[k - 1, 2]) * blend
-        tin = sch[k - 1, 3] + (sch[k, 3] - sch[k - 1, 3]) * blend
+        prev = sch[k - 1]
+        load = prev.load + (seg.load - prev.load) * blend
+        tin = prev.input_torque + (seg.input_torque - prev.input_torque) * blend
     else:
-        load = sch[k, 2]
-        tin = sch[k, 3]
+        load = seg.load
+        tin = seg.input_torque
     return psi, psid, psidd, load, tin
 
 
 @njit(cache=True)
 def corner(delta, table, delta_max):
-    """Tabulated corner gap and its slope (see `geometry.CornerGap`)."""
+    """Tabulated corner gap and its slope (see `geometry.CornerGap`).
+
+    ``table[0]`` holds the nodal values, ``table[1]`` the nodal slopes.
+    """
     values = table[0]
     if delta >= delta_max:
         return values[values.shape[0] - 1], 0.0
@@ -169,13 +204,17 @@ def corner(delta, table, delta_max):
 
 
 @njit(cache=True)
-def pair_gap(s, p, gin, gout, din, dout):
-    """Gap ``g(s)`` and ``dg/ds`` of a tooth pair at roll ``s``."""
-    if s < p[SSTART]:
-        g, dg = corner(p[SSTART] - s, gin, din)
+def pair_gap(s, p, corners):
+    """Gap ``g(s)`` and ``dg/ds`` of a tooth pair at roll ``s``.
+
+    ``corners[0]`` is the approach (before ``s_start``) and ``corners[1]``
+    the recess (after ``s_end``) corner table.
+    """
+    if s < p.s_start:
+        g, dg = corner(p.s_start - s, corners[0], p.corner_in)
         return g, -dg
-    if s > p[SEND]:
-        return corner(s - p[SEND], gout, dout)
+    if s > p.s_end:
+        return corner(s - p.s_end, corners[1], p.corner_out)
     return 0.0, 0.0
 
 
@@ -188,10 +227,11 @@ def friction_coefficient(v, p):
     ``v_t``.
     """
     av = abs(v)
-    vs = p[VS]
+    vs = p.stiction_speed
     if av < vs:
-        return p[MUS] * (2.0 * smooth_step((v + vs) / (2.0 * vs)) - 1.0)
-    mu = p[MUS] + (p[MUD] - p[MUS]) * smooth_step((av - vs) / (p[VT] - vs))
+        return p.mu_static * (2.0 * unit_step((v + vs) / (2.0 * vs)) - 1.0)
+    mu = p.mu_static + (p.mu_dynamic - p.mu_static) * unit_step(
+        (av - vs) / (p.transition_speed - vs))
     return mu if v > 0.0 else -mu
 
 
@@ -217,41 +257,31 @@ def law_lookup(tab, ntab, stage, kind, speed):
 
 
 @njit(cache=True)
-def impact_law(h, hd, k, n, cmax, d):
-    """ADAMS IMPACT in penetration form: force and stored elastic energy of one pair."""
-    if h <= 0.0:
-        return 0.0, 0.0
-    hn = h**n
-    force = k * hn + cmax * smooth_step(h / d) * hd
-    return max(force, 0.0), k * hn * h / (n + 1.0)
-
-
-@njit(cache=True)
 def slot_of(k):
     return k - NSLOT * (k // NSLOT)
 
 
 @njit(cache=True)
-def rhs(t, y, dy, p, jr, kc, cc, rb, aoff, gin, gout, geo, sch, default, si, sf, w, wn, aux):
-    """Time derivative of the state; fills the tooth-pair data ``w`` and ``aux``.
+def rhs(t, y, dy, p, stages, aoff, corners, sch, slots, pairs, npairs, aux):
+    """Time derivative of the state; fills the tooth-pair records ``pairs`` and ``aux``.
 
-    ``geo = (delta_max approach, delta_max recess)``. Forces are per mesh;
-    the ``NPIN`` identical meshes act together on the rings and the pinions.
+    Forces are per mesh; the ``pinions`` identical meshes act together on
+    the rings and the pinions.
     """
-    n = jr.shape[0]
-    psi, psid, psidd, load, tin = reference(t, sch, p[RAMP])
-    c = p[RATIO]
-    eng = int(p[ENG])
-    rbp, rbe, pb = p[RBP], rb[eng], p[PB]
+    n = stages.shape[0]
+    psi, psid, psidd, load, tin = reference(t, sch, p.ramp)
+    c = p.ratio
+    eng = p.engaged
+    rbp, rbe, pb = p.base_radius, stages[eng].lever, p.base_pitch
     wp = y[1] + psid
     we = y[3 + 2 * eng] + c * psid
-    x = rbp * y[0] - rbe * y[2 + 2 * eng] + p[X0]
+    x = rbp * y[0] - rbe * y[2 + 2 * eng] + p.x0
     xd = rbp * wp - rbe * we
     u = rbp * (y[0] + psi + aoff[0])
     phase = 2.0 * math.pi / pb
-    e = p[TEA] * math.sin(phase * u)
-    de = p[TEA] * phase * math.cos(phase * u)
-    length = p[SEND] - p[SSTART]
+    e = p.te_amplitude * math.sin(phase * u)
+    de = p.te_amplitude * phase * math.cos(phase * u)
+    length = p.s_end - p.s_start
     q_pinion = 0.0
     q_ring = 0.0
     friction = 0.0
@@ -261,22 +291,21 @@ def rhs(t, y, dy, p, jr, kc, cc, rb, aoff, gin, gout, geo, sch, default, si, sf,
     ncontact = 0
     for fl in range(2):
         sg = 1.0 if fl == 0 else -1.0
-        roll = u + p[U0] if fl == 0 else length + 0.5 * pb - (u + p[U0])
+        roll = u + p.u0 if fl == 0 else length + 0.5 * pb - (u + p.u0)
         srate = sg * rbp * wp
-        lo = math.ceil((roll - length - geo[1]) / pb)
-        hi = math.floor((roll + geo[0]) / pb)
+        lo = math.ceil((roll - length - p.corner_out) / pb)
+        hi = math.floor((roll + p.corner_in) / pb)
         m = 0
         for k in range(lo, hi + 1):
-            s = p[SSTART] + roll - k * pb
-            g, dg = pair_gap(s, p, gin, gout, geo[0], geo[1])
-            h = sg * x - p[BH] - g - sg * e
+            s = p.s_start + roll - k * pb
+            g, dg = pair_gap(s, p, corners)
+            h = sg * x - p.half_backlash - g - sg * e
             hd = sg * xd - dg * srate - sg * de * rbp * wp
-            slot = slot_of(k)
-            if si[fl, slot, SI_K] == k and si[fl, slot, SI_LAW] == 1:
-                f, pe = impact_law(h, hd, sf[fl, slot, 0], sf[fl, slot, 1], sf[fl, slot, 2],
-                                   sf[fl, slot, 3])
+            slot = slots[fl, slot_of(k)]
+            if slot.pair == k and slot.has_law == 1:
+                f, pe = impact_force_energy(h, hd, slot.k, slot.n, slot.cmax, slot.d)
             else:
-                f, pe = impact_law(h, hd, default[0], default[1], default[2], default[3])
+                f, pe = impact_force_energy(h, hd, p.law_k, p.law_n, p.law_cmax, p.law_d)
             if f > 0.0 or h > 0.0:
                 if h > 0.0:
                     ncontact += 1
@@ -286,10 +315,10 @@ def rhs(t, y, dy, p, jr, kc, cc, rb, aoff, gin, gout, geo, sch, default, si, sf,
                         approach_coast = max(approach_coast, h)
                 q_pinion -= f * sg * rbp * (1.0 - dg - de)
                 q_ring += f * sg * rbe
-                if p[FRIC] > 0.0 and f > 0.0:
-                    mu = friction_coefficient(wp * s - we * p[R2SIN], p)
+                if p.friction > 0 and f > 0.0:
+                    mu = friction_coefficient(wp * s - we * p.friction_lever, p)
                     q_pinion -= mu * f * s
-                    q_ring += mu * f * p[R2SIN]
+                    q_ring += mu * f * p.friction_lever
                     friction -= mu * f * s
             if fl == 0:
                 force_drive += f
@@ -297,36 +326,38 @@ def rhs(t, y, dy, p, jr, kc, cc, rb, aoff, gin, gout, geo, sch, default, si, sf,
                 force_coast += f
             energy += pe
             if m < MAXPAIR:
-                w[fl, m, W_K] = k
-                w[fl, m, W_S] = s
-                w[fl, m, W_H] = h
-                w[fl, m, W_HD] = hd
-                w[fl, m, W_F] = f
-                w[fl, m, W_E] = pe
+                pair = pairs[fl, m]
+                pair.pair = k
+                pair.s = s
+                pair.h = h
+                pair.hd = hd
+                pair.f = f
+                pair.e = pe
                 m += 1
-        wn[fl] = m
-    npin = p[NPIN]
+        npairs[fl] = m
+    npin = p.pinions
     # pinion: prescribed motion, or driven by the input torque
     dy[0] = y[1]
-    input_torque = p[JP] * psidd - npin * q_pinion
-    if p[DRIVE] > 0.0:
-        dy[1] = (npin * q_pinion + tin) / p[JP] - psidd
+    input_torque = p.pinion_inertia * psidd - npin * q_pinion
+    if p.drive > 0:
+        dy[1] = (npin * q_pinion + tin) / p.pinion_inertia - psidd
         input_torque = tin
     else:
         dy[1] = 0.0
     out = 2 + 2 * n
     wo = y[out + 1] + c * psid
-    t_out = -load - p[DRAG]
+    t_out = -load - p.drag
     for i in range(n):
+        ring = stages[i]
         twist = y[2 + 2 * i] - y[out] + aoff[i + 1] - aoff[n + 1]
         wi = y[3 + 2 * i] + c * psid
-        coupling = kc[i] * twist + cc[i] * (wi - wo)
+        coupling = ring.coupling * twist + ring.damping * (wi - wo)
         torque = -coupling + (npin * q_ring if i == eng else 0.0)
         dy[2 + 2 * i] = y[3 + 2 * i]
-        dy[3 + 2 * i] = torque / jr[i] - c * psidd
+        dy[3 + 2 * i] = torque / ring.inertia - c * psidd
         t_out += coupling
     dy[out] = y[out + 1]
-    dy[out + 1] = t_out / p[JO] - c * psidd
+    dy[out + 1] = t_out / p.output_inertia - c * psidd
     aux[A_APPROACH] = approach_drive if approach_drive >= approach_coast else -approach_coast
     aux[A_XDOT] = xd
     aux[A_FORCE] = force_drive - force_coast
@@ -362,29 +393,30 @@ def crossing(t0, t1, h0, hd0, h1, hd1):
 
 
 @njit(cache=True)
-def new_event(ev, nev, cnt, t, stage, kind, flank, speed, clamp, pair):
-    i = nev[0]
+def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair):
+    i = run.n_events
     if i >= ev.shape[0]:
-        cnt[C_DROPPED] += 1
+        run.dropped += 1
         return -1
-    nev[0] = i + 1
-    ev[i, E_TIME] = t
-    ev[i, E_STAGE] = stage + 1
-    ev[i, E_KIND] = kind
-    ev[i, E_FLANK] = 1.0 if flank == 0 else -1.0
-    ev[i, E_SPEED] = speed
-    ev[i, E_APPROACH] = 0.0
-    ev[i, E_FORCE] = 0.0
-    ev[i, E_ENERGY] = 0.0
-    ev[i, E_END] = np.nan
-    ev[i, E_SPEED_OUT] = np.nan
-    ev[i, E_CLAMP] = clamp
-    ev[i, E_PAIR] = pair
+    run.n_events = i + 1
+    event = ev[i]
+    event.time = t
+    event.stage = stage + 1
+    event.kind = kind
+    event.flank = 1 if flank == 0 else -1
+    event.speed = speed
+    event.approach = 0.0
+    event.force = 0.0
+    event.energy = 0.0
+    event.end = np.nan
+    event.speed_out = np.nan
+    event.clamp = clamp
+    event.pair = pair
     return i
 
 
 @njit(cache=True)
-def track_contacts(t0, t1, p, tab, ntab, si, sf, fi, w, wn, ev, nev, cnt):
+def track_contacts(t0, t1, p, tab, ntab, slots, flanks, pairs, npairs, ev, run):
     """Update contact states after an accepted step ``[t0, t1]``; record impacts.
 
     An impact is a contact onset with a closing speed. A tooth pair that
@@ -394,91 +426,92 @@ def track_contacts(t0, t1, p, tab, ntab, si, sf, fi, w, wn, ev, nev, cnt):
     mesh-in impact. Each onset selects the law parameters at its closing
     speed. Returns True if any law changed (the derivative must be redone).
     """
-    eng = int(p[ENG])
+    eng = p.engaged
     changed = False
     for fl in range(2):
-        was_on = fi[fl, 0] == 1
+        was_on = flanks[fl].on == 1
         any_now = False
-        flank_event = fi[fl, 1]
+        flank_event = flanks[fl].event
         created = -1
         sep_t, sep_v = np.nan, np.nan
         h_max, f_sum, e_sum = 0.0, 0.0, 0.0
-        for m in range(wn[fl]):
-            k = int(w[fl, m, W_K])
-            slot = slot_of(k)
-            h1, hd1 = w[fl, m, W_H], w[fl, m, W_HD]
-            if si[fl, slot, SI_K] != k:
-                if si[fl, slot, SI_ON] == 1 or h1 > 0.0:
-                    cnt[C_GUARD] += 1  # a pair entered or left the window in contact
-                si[fl, slot, SI_K] = k
-                si[fl, slot, SI_ON] = 0
-                si[fl, slot, SI_EV] = -1
-                si[fl, slot, SI_LAW] = 0
-                sf[fl, slot, SF_H] = -1.0
-                sf[fl, slot, SF_HD] = 0.0
-            h0, hd0 = sf[fl, slot, SF_H], sf[fl, slot, SF_HD]
+        for m in range(npairs[fl]):
+            pair = pairs[fl, m]
+            k = pair.pair
+            slot = slots[fl, slot_of(k)]
+            h1, hd1 = pair.h, pair.hd
+            if slot.pair != k:
+                if slot.on == 1 or h1 > 0.0:
+                    run.guard += 1  # a pair entered or left the window in contact
+                slot.pair = k
+                slot.on = 0
+                slot.event = -1
+                slot.has_law = 0
+                slot.h = -1.0
+                slot.hd = 0.0
+            h0, hd0 = slot.h, slot.hd
             if h1 > 0.0:
                 any_now = True
                 h_max = max(h_max, h1)
-                if si[fl, slot, SI_ON] == 0:
+                if slot.on == 0:
                     tc, vc = crossing(t0, t1, h0, hd0, h1, hd1)
                     if was_on:
                         kind = KIND_MESH_IN
-                    elif p[PEND] > 0.0:
+                    elif p.pending > 0:
                         kind = KIND_SWITCH
                     else:
                         kind = KIND_RATTLE
                     law, clamp = law_lookup(tab, ntab, eng, 1 if kind == KIND_SWITCH else 0,
                                             max(vc, 1e-12))
                     if clamp < 0:
-                        cnt[C_CLAMP_LOW] += 1
+                        run.clamp_low += 1
                     elif clamp > 0:
-                        cnt[C_CLAMP_HIGH] += 1
-                    sf[fl, slot, 0:4] = law
-                    si[fl, slot, SI_LAW] = 1
-                    si[fl, slot, SI_ON] = 1
+                        run.clamp_high += 1
+                    slot.k, slot.n, slot.cmax, slot.d = law[0], law[1], law[2], law[3]
+                    slot.has_law = 1
+                    slot.on = 1
                     changed = True
                     if kind == KIND_MESH_IN:
-                        si[fl, slot, SI_EV] = new_event(ev, nev, cnt, tc, eng, kind, fl, vc,
-                                                        clamp, k)
+                        slot.event = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k)
                     elif created < 0:
-                        created = new_event(ev, nev, cnt, tc, eng, kind, fl, vc, clamp, k)
+                        created = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k)
                         flank_event = created
-                    elif tc < ev[created, E_TIME]:  # the earliest touch of the flank defines it
-                        ev[created, E_TIME] = tc
-                        ev[created, E_SPEED] = vc
-                        ev[created, E_PAIR] = k
-            elif si[fl, slot, SI_ON] == 1:
+                    elif tc < ev[created].time:  # the earliest touch of the flank defines it
+                        ev[created].time = tc
+                        ev[created].speed = vc
+                        ev[created].pair = k
+            elif slot.on == 1:
                 tc, vc = crossing(t0, t1, h0, hd0, h1, hd1)
-                si[fl, slot, SI_ON] = 0
-                j = si[fl, slot, SI_EV]
+                slot.on = 0
+                j = slot.event
                 if j >= 0:
-                    ev[j, E_END] = tc
-                    ev[j, E_SPEED_OUT] = -vc
-                    si[fl, slot, SI_EV] = -1
+                    ev[j].end = tc
+                    ev[j].speed_out = -vc
+                    slot.event = -1
                 if not (sep_t >= tc):
                     sep_t, sep_v = tc, -vc
-            j = si[fl, slot, SI_EV]
+            j = slot.event
             if j >= 0:
-                ev[j, E_APPROACH] = max(ev[j, E_APPROACH], h1)
-                ev[j, E_FORCE] = max(ev[j, E_FORCE], w[fl, m, W_F])
-                ev[j, E_ENERGY] = max(ev[j, E_ENERGY], w[fl, m, W_E])
-            f_sum += w[fl, m, W_F]
-            e_sum += w[fl, m, W_E]
-            sf[fl, slot, SF_H] = h1
-            sf[fl, slot, SF_HD] = hd1
+                ev[j].approach = max(ev[j].approach, h1)
+                ev[j].force = max(ev[j].force, pair.f)
+                ev[j].energy = max(ev[j].energy, pair.e)
+            f_sum += pair.f
+            e_sum += pair.e
+            slot.h = h1
+            slot.hd = hd1
         if flank_event >= 0:
-            ev[flank_event, E_APPROACH] = max(ev[flank_event, E_APPROACH], h_max)
-            ev[flank_event, E_FORCE] = max(ev[flank_event, E_FORCE], f_sum)
-            ev[flank_event, E_ENERGY] = max(ev[flank_event, E_ENERGY], e_sum)
+            event = ev[flank_event]
+            event.approach = max(event.approach, h_max)
+            event.force = max(event.force, f_sum)
+            event.energy = max(event.energy, e_sum)
             if not any_now:
-                ev[flank_event, E_END] = sep_t
-                ev[flank_event, E_SPEED_OUT] = sep_v
+                event.end = sep_t
+                event.speed_out = sep_v
                 flank_event = -1
-        if created >= 0 and ev[created, E_KIND] == KIND_SWITCH:
-            p[PEND] = 0.0
-        fi[fl, 0] = 1 if any_now else 0
-        fi[fl, 1] = flank_event
+        if created >= 0 and ev[created].kind == KIND_SWITCH:
+            p.pending = 0
+        flanks[fl].on = 1 if any_now else 0
+        flanks[fl].event = flank_event
     return changed
 
 
@@ -494,14 +527,14 @@ def accumulate(stats, stage, dt, a0, a1):
 
 
 @njit(cache=True)
-def write_sample(row, t, y, p, jr, aoff, sch, aux):
+def write_sample(row, t, y, p, stages, aoff, sch, aux):
     """One row of the time series (columns: see `model.series_columns`)."""
-    n = jr.shape[0]
-    psi, psid, psidd, load, tin = reference(t, sch, p[RAMP])
-    c = p[RATIO]
+    n = stages.shape[0]
+    psi, psid, psidd, load, tin = reference(t, sch, p.ramp)
+    c = p.ratio
     out = 2 + 2 * n
     row[0] = t
-    row[1] = p[ENG] + 1
+    row[1] = p.engaged + 1
     row[2] = y[1] + psid
     for i in range(n):
         row[3 + i] = y[3 + 2 * i] + c * psid
@@ -514,116 +547,116 @@ def write_sample(row, t, y, p, jr, aoff, sch, aux):
 
 
 @njit(cache=True)
-def integrate(t_end, state, y, f, p, jr, kc, cc, rb, aoff, atol, gin, gout, geo, sch, tab, ntab,
-              default, si, sf, fi, ev, nev, stats, cnt, samples, aux_prev):
-    """Integrate from ``state[0]`` to ``t_end``; returns 0, or 1 if the step collapsed.
+def integrate(t_end, run, y, f, p, stages, aoff, atol, corners, sch, tab, ntab, slots, flanks,
+              ev, stats, samples, aux_prev):
+    """Integrate from ``run.t`` to ``t_end``; returns 0, or 1 if the step collapsed.
 
-    ``state = [t, step size, next sample time, previous error]`` is updated in place, as are
-    ``y`` and its derivative ``f`` (FSAL), the contact slots, events,
-    statistics, counters and the samples of this call (``cnt[C_NSAMP]``
-    rows).
+    ``run`` (a `PROGRESS` record) is updated in place, as are ``y`` and its
+    derivative ``f`` (FSAL), the contact slots and flanks, the events
+    ``ev`` (`EVENT` records), the statistics and the samples of this call
+    (``run.n_samples`` rows).
     """
     nv = y.shape[0]
-    stages = np.empty((7, nv))
+    stages_k = np.empty((7, nv))
     ynew, ytmp = np.empty(nv), np.empty(nv)
-    w = np.zeros((2, MAXPAIR, 6))
-    wn = np.zeros(2, dtype=np.int64)
-    w2 = np.zeros((2, MAXPAIR, 6))
-    wn2 = np.zeros(2, dtype=np.int64)
+    pairs = np.zeros((2, MAXPAIR), dtype=PAIR)
+    npairs = np.zeros(2, dtype=np.int64)
+    pairs2 = np.zeros((2, MAXPAIR), dtype=PAIR)
+    npairs2 = np.zeros(2, dtype=np.int64)
     aux = np.zeros(N_AUX)
     aux2 = np.zeros(N_AUX)
     scratch = np.empty(nv)
-    rtol, hmax, dts = p[RTOL], p[HMAX], p[SAMPLE_DT]
-    eng = int(p[ENG])
-    t, h = state[0], state[1]
-    cnt[C_NSAMP] = 0
+    rtol, hmax, dts = p.rtol, p.max_step, p.sample_dt
+    eng = p.engaged
+    t, h = run.t, run.h
+    run.n_samples = 0
     while t < t_end:
         h = min(h, hmax, t_end - t)
         if t + h >= t_end - 1e-12 * max(1.0, abs(t_end)):
             h = t_end - t
-        stages[0, :] = f
+        stages_k[0, :] = f
         for s in range(1, 7):
             for i in range(nv):
                 acc = 0.0
                 for j in range(s):
-                    acc += _WEIGHTS[s, j] * stages[j, i]
+                    acc += _WEIGHTS[s, j] * stages_k[j, i]
                 ytmp[i] = y[i] + h * acc
-            rhs(t + _NODES[s] * h, ytmp, stages[s], p, jr, kc, cc, rb, aoff, gin, gout, geo,
-                sch, default, si, sf, w, wn, aux)
-        # the last stage was evaluated at the new solution (FSAL): w, aux hold its data
+            rhs(t + _NODES[s] * h, ytmp, stages_k[s], p, stages, aoff, corners, sch, slots,
+                pairs, npairs, aux)
+        # the last stage was evaluated at the new solution (FSAL): pairs, aux hold its data
         ynew[:] = ytmp
-        k7 = stages[6]
-        cnt[C_RHS] += 6
+        k7 = stages_k[6]
+        run.rhs += 6
         err = 0.0
         for i in range(nv):
             e = 0.0
             for j in range(7):
-                e += _ERROR[j] * stages[j, i]
+                e += _ERROR[j] * stages_k[j, i]
             scale = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
             err += (h * e / scale) ** 2
         err = math.sqrt(err / nv)
         if err > 1.0:
-            cnt[C_REJECTED] += 1
+            run.rejected += 1
             h /= min(5.0, err**_EXPO / _SAFE)
             if h < 1e-15 * max(1.0, t):
-                state[0], state[1] = t, h
+                run.t, run.h = t, h
                 return 1
             continue
         t_new = t + h
-        changed = track_contacts(t, t_new, p, tab, ntab, si, sf, fi, w, wn, ev, nev, cnt)
+        changed = track_contacts(t, t_new, p, tab, ntab, slots, flanks, pairs, npairs, ev, run)
         accumulate(stats, eng, h, aux_prev, aux)
         # samples in (t, t_new], on the cubic Hermite of the state
-        while state[2] <= t_new + 1e-12 * h and cnt[C_NSAMP] < samples.shape[0]:
-            ts = state[2]
+        while run.t_sample <= t_new + 1e-12 * h and run.n_samples < samples.shape[0]:
+            ts = run.t_sample
             z = (ts - t) / h
             for i in range(nv):
                 ytmp[i] = ((2 * z**3 - 3 * z**2 + 1) * y[i] + (z**3 - 2 * z**2 + z) * h * f[i]
                            + (-2 * z**3 + 3 * z**2) * ynew[i] + (z**3 - z**2) * h * k7[i])
-            rhs(ts, ytmp, scratch, p, jr, kc, cc, rb, aoff, gin, gout, geo, sch, default, si, sf,
-                w2, wn2, aux2)
-            write_sample(samples[cnt[C_NSAMP]], ts, ytmp, p, jr, aoff, sch, aux2)
-            cnt[C_NSAMP] += 1
-            state[2] += dts
+            rhs(ts, ytmp, scratch, p, stages, aoff, corners, sch, slots, pairs2, npairs2, aux2)
+            write_sample(samples[run.n_samples], ts, ytmp, p, stages, aoff, sch, aux2)
+            run.n_samples += 1
+            run.t_sample += dts
         for i in range(nv):
             y[i] = ynew[i]
             f[i] = k7[i]
         aux_prev[:] = aux
         if changed:
-            rhs(t_new, y, f, p, jr, kc, cc, rb, aoff, gin, gout, geo, sch,
-                default, si, sf, w, wn, aux)
+            rhs(t_new, y, f, p, stages, aoff, corners, sch, slots, pairs, npairs, aux)
             aux_prev[:] = aux
-            cnt[C_RHS] += 1
+            run.rhs += 1
         t = t_new
-        cnt[C_STEPS] += 1
+        run.steps += 1
         # PI step control (Hairer & Wanner's DOPRI5: exponents 0.17 and 0.04)
         err = max(err, 1e-10)
-        h /= min(5.0, max(0.1, err**_EXPO / state[3] ** _BETA / _SAFE))
-        state[3] = max(err, 1e-4)
-    state[0], state[1] = t, h
+        h /= min(5.0, max(0.1, err**_EXPO / run.err_prev ** _BETA / _SAFE))
+        run.err_prev = max(err, 1e-4)
+    run.t, run.h = t, h
     return 0
 
 
 @njit(cache=True)
-def prepare(t, y, f, p, jr, kc, cc, rb, aoff, gin, gout, geo, sch, default, si, sf, fi,
-            aux_prev):
+def prepare(t, y, f, p, stages, aoff, corners, sch, slots, flanks, aux_prev):
     """Derivative at ``t`` and contact states of a fresh segment (no events)."""
-    w = np.zeros((2, MAXPAIR, 6))
-    wn = np.zeros(2, dtype=np.int64)
-    si[:, :, SI_K] = -(2**62)
-    si[:, :, SI_ON] = 0
-    si[:, :, SI_EV] = -1
-    si[:, :, SI_LAW] = 0
-    fi[:, 0] = 0
-    fi[:, 1] = -1
-    rhs(t, y, f, p, jr, kc, cc, rb, aoff, gin, gout, geo, sch, default, si, sf, w, wn, aux_prev)
+    pairs = np.zeros((2, MAXPAIR), dtype=PAIR)
+    npairs = np.zeros(2, dtype=np.int64)
     for fl in range(2):
-        for m in range(wn[fl]):
-            k = int(w[fl, m, W_K])
-            slot = slot_of(k)
-            si[fl, slot, SI_K] = k
-            on = w[fl, m, W_H] > 0.0
-            si[fl, slot, SI_ON] = 1 if on else 0
-            sf[fl, slot, SF_H] = w[fl, m, W_H]
-            sf[fl, slot, SF_HD] = w[fl, m, W_HD]
+        for i in range(NSLOT):
+            slot = slots[fl, i]
+            slot.pair = -(2**62)
+            slot.on = 0
+            slot.event = -1
+            slot.has_law = 0
+        flanks[fl].on = 0
+        flanks[fl].event = -1
+    rhs(t, y, f, p, stages, aoff, corners, sch, slots, pairs, npairs, aux_prev)
+    for fl in range(2):
+        for m in range(npairs[fl]):
+            pair = pairs[fl, m]
+            slot = slots[fl, slot_of(pair.pair)]
+            slot.pair = pair.pair
+            on = pair.h > 0.0
+            slot.on = 1 if on else 0
+            slot.h = pair.h
+            slot.hd = pair.hd
             if on:
-                fi[fl, 0] = 1
+                flanks[fl].on = 1

@@ -105,11 +105,10 @@ class ImpactEvents:
 
     @classmethod
     def from_kernel(cls, ev: np.ndarray) -> ImpactEvents:
-        ints = (K.E_STAGE, K.E_KIND, K.E_FLANK, K.E_CLAMP)
-        cols = [ev[:, j].astype(int) if j in ints else ev[:, j].copy()
-                for j in (K.E_TIME, K.E_STAGE, K.E_KIND, K.E_FLANK, K.E_SPEED, K.E_APPROACH,
-                          K.E_FORCE, K.E_ENERGY, K.E_END, K.E_SPEED_OUT, K.E_CLAMP)]
-        return cls(*cols)
+        """From the kernel's `_kernel.EVENT` records."""
+        fields = ("time", "stage", "kind", "flank", "speed", "approach", "force", "energy",
+                  "end", "speed_out", "clamp")
+        return cls(*(ev[name].copy() for name in fields))
 
     def __len__(self) -> int:
         return int(self.time.size)
@@ -164,14 +163,14 @@ class SwitchingRun:
 
 # -- packing the model for the kernel -----------------------------------------------------
 def _schedule_array(schedule: StageSchedule, ramp: float) -> np.ndarray:
-    """Rows ``(t_start, speed, load, input_torque, psi_start)`` for `_kernel.reference`."""
-    rows = np.zeros((len(schedule.segments), 5))
+    """`_kernel.SEGMENT` records for `_kernel.reference`."""
+    rows = np.zeros(len(schedule.segments), dtype=K.SEGMENT)
     psi = 0.0
     for k, (t0, seg) in enumerate(zip(schedule.start_times, schedule.segments, strict=True)):
         rows[k] = (t0, seg.speed_rpm * RPM, seg.load, seg.input_torque, psi)
-        w1 = rows[k, 1]
+        w1 = rows[k]["speed"]
         if k > 0 and ramp > 0.0:
-            w0 = rows[k - 1, 1]
+            w0 = rows[k - 1]["speed"]
             psi += w0 * ramp + 0.5 * (w1 - w0) * ramp + w1 * (seg.duration - ramp)
         else:
             psi += w1 * seg.duration
@@ -180,25 +179,28 @@ def _schedule_array(schedule: StageSchedule, ramp: float) -> np.ndarray:
 
 @dataclass
 class _Packed:
-    """Arrays handed to the kernel; mutable run state lives here too."""
+    """Arrays handed to the kernel; mutable run state lives here too.
 
-    p: np.ndarray
-    jr: np.ndarray
-    kc: np.ndarray
-    cc: np.ndarray
-    rb: np.ndarray
+    ``params`` holds one `_kernel.PARAMS` record (`p` is that record, a
+    view: writing its fields writes the array); ``stages`` one
+    `_kernel.STAGE` record per ring; ``corners`` the approach and recess
+    corner-gap tables, shape (2, 2, nodes): values and slopes of each.
+    """
+
+    params: np.ndarray
+    stages: np.ndarray
     aoff: np.ndarray
     atol: np.ndarray
-    gin: np.ndarray
-    gout: np.ndarray
-    geo: np.ndarray
+    corners: np.ndarray
     sch: np.ndarray
     tab: np.ndarray
     ntab: np.ndarray
-    default: np.ndarray
-    si: np.ndarray = field(default_factory=lambda: np.zeros((2, K.NSLOT, 4), dtype=np.int64))
-    sf: np.ndarray = field(default_factory=lambda: np.zeros((2, K.NSLOT, 6)))
-    fi: np.ndarray = field(default_factory=lambda: np.zeros((2, 2), dtype=np.int64))
+    slots: np.ndarray = field(default_factory=lambda: np.zeros((2, K.NSLOT), dtype=K.SLOT))
+    flanks: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=K.FLANK))
+
+    @property
+    def p(self) -> np.void:
+        return self.params[0]
 
 
 def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) -> _Packed:
@@ -208,21 +210,23 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     if math.floor(window / geo.base_pitch) + 2 > min(K.MAXPAIR, K.NSLOT):
         raise CaseError(f"{window / geo.base_pitch:.1f} base pitches of contact path and tip "
                         f"corners: more tooth pairs than the kernel tracks ({K.MAXPAIR})")
-    p = np.zeros(K.N_P)
-    p[K.RBP], p[K.PB] = geo.base_radius, geo.base_pitch
-    p[K.SSTART], p[K.SEND] = geo.s_start, geo.s_end
-    p[K.NPIN] = model.pinions
-    p[K.TEA] = model.transmission_error
+    params = np.zeros(1, dtype=K.PARAMS)
+    p = params[0]
+    p["base_radius"], p["base_pitch"] = geo.base_radius, geo.base_pitch
+    p["s_start"], p["s_end"] = geo.s_start, geo.s_end
+    p["corner_in"], p["corner_out"] = geo.approach.delta_max, geo.recess.delta_max
+    p["pinions"] = model.pinions
+    p["te_amplitude"] = model.transmission_error
     fr = model.friction
     if fr is not None:
-        p[K.MUS], p[K.MUD], p[K.FRIC] = fr.static, fr.dynamic, 1.0
-        p[K.VS], p[K.VT] = fr.stiction_speed, fr.transition_speed
+        p["mu_static"], p["mu_dynamic"], p["friction"] = fr.static, fr.dynamic, 1
+        p["stiction_speed"], p["transition_speed"] = fr.stiction_speed, fr.transition_speed
     else:
-        p[K.VS], p[K.VT] = 1.0, 2.0
-    p[K.DRIVE] = DRIVES.index(model.drive)
-    p[K.RAMP] = model.ramp_time
-    p[K.U0] = model.mesh_phase * geo.base_pitch
-    p[K.RTOL] = model.rtol
+        p["stiction_speed"], p["transition_speed"] = 1.0, 2.0
+    p["drive"] = DRIVES.index(model.drive)
+    p["ramp"] = model.ramp_time
+    p["u0"] = model.mesh_phase * geo.base_pitch
+    p["rtol"] = model.rtol
     max_speed = max(max(s.speed_rpm for s in schedule.segments) * RPM, 1e-9)
     # a tooth pair passes every p_b / (r_bp omega): take at least 8 steps per pair
     passing = geo.base_pitch / (geo.base_radius * max_speed)
@@ -231,26 +235,26 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     # DOPRI5) instead of letting the error control find it by rejections
     web = np.sqrt(model.couplings / model.ring_inertias
                   * (1.0 + model.ring_inertias / model.output_j)).max()
-    p[K.HMAX] = min(model.max_step, passing / 8.0, _STABLE_STEP / web)
-    p[K.JP] = model.pinions * model.pinion_j
-    p[K.JO] = model.output_j
-    p[K.SAMPLE_DT] = sample_interval
-    p[K.DRAG] = model.drag_torque
+    p["max_step"] = min(model.max_step, passing / 8.0, _STABLE_STEP / web)
+    p["pinion_inertia"] = model.pinions * model.pinion_j
+    p["output_inertia"] = model.output_j
+    p["sample_dt"] = sample_interval
+    p["drag"] = model.drag_torque
+    stages = np.zeros(n, dtype=K.STAGE)
+    stages["inertia"] = model.ring_inertias
+    stages["coupling"] = model.couplings
+    stages["damping"] = model.coupling_damping
+    stages["lever"] = model.base_levers
     levers = np.concatenate([[geo.base_radius], model.base_levers, [model.base_levers.min()]])
     atol = np.empty(2 * (n + 2))
     atol[0::2] = model.length_tol / levers
     atol[1::2] = model.speed_tol / levers
     tab, ntab = model.law_set.kernel_arrays()
-    return _Packed(
-        p=p, jr=model.ring_inertias.copy(), kc=model.couplings.copy(),
-        cc=model.coupling_damping.copy(), rb=model.base_levers.copy(), aoff=np.zeros(n + 2),
-        atol=atol,
-        gin=np.stack([geo.approach.values, geo.approach.slopes]),
-        gout=np.stack([geo.recess.values, geo.recess.slopes]),
-        geo=np.array([geo.approach.delta_max, geo.recess.delta_max]),
-        sch=_schedule_array(schedule, model.ramp_time), tab=tab, ntab=ntab,
-        default=np.zeros(4),
-    )
+    corners = np.stack([np.stack([geo.approach.values, geo.approach.slopes]),
+                        np.stack([geo.recess.values, geo.recess.slopes])])
+    return _Packed(params=params, stages=stages, aoff=np.zeros(n + 2), atol=atol,
+                   corners=corners, sch=_schedule_array(schedule, model.ramp_time), tab=tab,
+                   ntab=ntab)
 
 
 def _check_schedule(model: DriveModel, schedule: StageSchedule) -> None:
@@ -302,39 +306,40 @@ def _start_segment(model: DriveModel, pk: _Packed, seg: Segment, t: float, y: np
     i = seg.stage - 1
     geo = model.geometry
     psi, psid, _, _, _ = K.reference(t, pk.sch, model.ramp_time)
-    old_c = pk.p[K.RATIO]
+    p = pk.p
+    old_c = p["ratio"]
     new_c = geo.base_radius / model.base_levers[i]
     if first:
         y[:] = 0.0
         pk.aoff[:] = 0.0
         # the engaged web carries load and drag
         pk.aoff[1 + i] = (seg.load + model.drag_torque) / model.couplings[i]
-        pk.p[K.RATIO] = new_c
+        p["ratio"] = new_c
     else:
         # re-base rings and output on the new ratio: same angles and speeds
         for j in range(1, n + 2):
             pk.aoff[j] += y[2 * j] + (old_c - new_c) * psi
             y[2 * j] = 0.0
             y[2 * j + 1] += (old_c - new_c) * psid
-        pk.p[K.RATIO] = new_c
+        p["ratio"] = new_c
     roll = geo.base_radius * (y[0] + psi + pk.aoff[0])
     if first:
-        pk.p[K.X0] = _static_offset(model, seg.stage, seg.load + model.drag_torque, roll)
+        p["x0"] = _static_offset(model, seg.stage, seg.load + model.drag_torque, roll)
     else:
-        pk.p[K.X0] = model.engage_position * 0.5 * model.backlashes[i]
-        pk.p[K.X0] -= geo.base_radius * y[0]  # x = X0 at the switch, whatever q_p is
-    pk.p[K.ENG] = i
-    pk.p[K.BH] = 0.5 * model.backlashes[i]
-    pk.p[K.R2SIN] = model.pitch_radii[i] * math.sin(geo.pressure_angle)
-    pk.p[K.PEND] = 0.0 if first else 1.0
-    table = model.law_set.table(seg.stage)
-    pk.default[:] = table.as_rows()[0, 1:5]
+        p["x0"] = model.engage_position * 0.5 * model.backlashes[i]
+        p["x0"] -= geo.base_radius * y[0]  # x = x0 at the switch, whatever q_p is
+    p["engaged"] = i
+    p["half_backlash"] = 0.5 * model.backlashes[i]
+    p["friction_lever"] = model.pitch_radii[i] * math.sin(geo.pressure_angle)
+    p["pending"] = 0 if first else 1
+    law = model.law_set.table(seg.stage).as_rows()[0]
+    p["law_k"], p["law_n"], p["law_cmax"], p["law_d"] = law[1:5]
 
 
 def _grow(ev: np.ndarray, nev: int) -> np.ndarray:
     if nev < ev.shape[0] // 2:
         return ev
-    bigger = np.zeros((2 * ev.shape[0], K.N_EV))
+    bigger = np.zeros(2 * ev.shape[0], dtype=K.EVENT)
     bigger[:nev] = ev[:nev]
     return bigger
 
@@ -392,12 +397,12 @@ def simulate(
     pk = _pack(model, schedule, sample_interval)
     y = np.zeros(2 * (n + 2))
     f = np.zeros_like(y)
-    state = np.array([0.0, 1e-7, 0.0, 1e-4])
-    ev = np.zeros((4096, K.N_EV))
-    nev = np.zeros(1, dtype=np.int64)
+    progress = np.zeros(1, dtype=K.PROGRESS)
+    run = progress[0]
+    run["h"], run["err_prev"] = 1e-7, 1e-4
+    ev = np.zeros(4096, dtype=K.EVENT)
     stats = np.zeros((n, K.N_STAT_Q, 4))
     stats[:, :, 1], stats[:, :, 2] = -np.inf, np.inf
-    cnt = np.zeros(K.N_CNT, dtype=np.int64)
     aux_prev = np.zeros(K.N_AUX)
     ncol = len(series_columns(n))
     pieces = []
@@ -409,43 +414,42 @@ def simulate(
             _start_segment(model, pk, seg, t0, y, index == 0)
             if index == 0 and initial_rates is not None:
                 y[1::2] += rates
-            K.prepare(t0, y, f, pk.p, pk.jr, pk.kc, pk.cc, pk.rb, pk.aoff, pk.gin, pk.gout,
-                      pk.geo, pk.sch, pk.default, pk.si, pk.sf, pk.fi, aux_prev)
+            K.prepare(t0, y, f, pk.p, pk.stages, pk.aoff, pk.corners, pk.sch, pk.slots,
+                      pk.flanks, aux_prev)
         t_seg_end = t0 + seg.duration
-        while state[0] < t_seg_end - 1e-12 * t_total:
-            t_next = min(state[0] + chunk, t_seg_end)
-            samples = np.empty((int((t_next - state[0]) / sample_interval) + 3, ncol))
-            ev = _grow(ev, int(nev[0]))
-            status = K.integrate(t_next, state, y, f, pk.p, pk.jr, pk.kc, pk.cc, pk.rb,
-                                 pk.aoff, pk.atol, pk.gin, pk.gout, pk.geo, pk.sch, pk.tab,
-                                 pk.ntab, pk.default, pk.si, pk.sf, pk.fi, ev, nev, stats, cnt,
-                                 samples, aux_prev)
-            pieces.append(samples[: cnt[K.C_NSAMP]].copy())
+        while run["t"] < t_seg_end - 1e-12 * t_total:
+            t_next = min(run["t"] + chunk, t_seg_end)
+            samples = np.empty((int((t_next - run["t"]) / sample_interval) + 3, ncol))
+            ev = _grow(ev, int(run["n_events"]))
+            status = K.integrate(t_next, run, y, f, pk.p, pk.stages, pk.aoff, pk.atol,
+                                 pk.corners, pk.sch, pk.tab, pk.ntab, pk.slots, pk.flanks, ev,
+                                 stats, samples, aux_prev)
+            pieces.append(samples[: run["n_samples"]].copy())
             if status != 0:
-                raise SolverError(f"step size collapsed at t = {state[0]:.6g} s "
+                raise SolverError(f"step size collapsed at t = {run['t']:.6g} s "
                                   f"(stage {seg.stage}); loosen rtol or check the laws")
             if step_hook is not None:
-                step_hook(float(state[0]), t_total)
+                step_hook(float(run["t"]), t_total)
     data = np.concatenate(pieces) if pieces else np.zeros((0, ncol))
     series = {name: data[:, j] for j, name in enumerate(series_columns(n))}
-    events = ImpactEvents.from_kernel(ev[: nev[0]])
-    info = _run_info(model, cnt, time.perf_counter() - wall, events)
+    events = ImpactEvents.from_kernel(ev[: run["n_events"]])
+    info = _run_info(model, run, time.perf_counter() - wall, events)
     return SwitchingRun(model, schedule, series, events, stats, info)
 
 
-def _run_info(model: DriveModel, cnt: np.ndarray, wall: float, events: ImpactEvents) -> dict:
+def _run_info(model: DriveModel, run: np.void, wall: float, events: ImpactEvents) -> dict:
     info = {
         "integrator": "Dormand-Prince 5(4), adaptive, numba; contact onsets located on "
                       "the step interpolant",
-        "steps": int(cnt[K.C_STEPS]),
-        "rejected_steps": int(cnt[K.C_REJECTED]),
-        "rhs_evaluations": int(cnt[K.C_RHS]),
+        "steps": int(run["steps"]),
+        "rejected_steps": int(run["rejected"]),
+        "rhs_evaluations": int(run["rhs"]),
         "wall_s": wall,
         "impacts": len(events),
-        "clamped_low": int(cnt[K.C_CLAMP_LOW]),
-        "clamped_high": int(cnt[K.C_CLAMP_HIGH]),
-        "dropped_events": int(cnt[K.C_DROPPED]),
-        "window_violations": int(cnt[K.C_GUARD]),
+        "clamped_low": int(run["clamp_low"]),
+        "clamped_high": int(run["clamp_high"]),
+        "dropped_events": int(run["dropped"]),
+        "window_violations": int(run["guard"]),
         "law_source": model.law_set.source,
     }
     if info["clamped_low"] or info["clamped_high"]:

@@ -51,6 +51,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_info, threadpool_limits
 
+from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.surfaces import GapState, nodal_pressure
 from fe_impact.contact.zone import (
     PENALTY_FACTOR_EXPLICIT,
@@ -64,7 +65,6 @@ from fe_impact.fe.case import Case, RigidBodySpec
 from fe_impact.fe.elasticity import assemble_mass, build_model, lumped_mass, von_mises
 from fe_impact.fe.linalg import SPDSolver, condensed_compliance
 from fe_impact.fe.mesh import FEMesh
-from fe_impact.solvers.static import solve_penalty_lcp
 
 logger = logging.getLogger(__name__)
 

@@ -261,11 +261,14 @@ def test_calibration_interpolates_in_log_speed_and_clamps(tmp_path, caplog):
     ("mutate", "message"),
     [
         (lambda d: d.update(schema="fe-impact/calib/0"), "schema = 'fe-impact/calib/0'"),
-        (lambda d: d["cases"][0].pop("impact"), "missing key 'impact'"),
+        (lambda d: d["cases"][0].pop("impact"), "missing key(s) ['impact'] in [cases[0]]"),
         (lambda d: d["cases"][0].update(kind="rattle"), "kind = 'rattle'"),
-        (lambda d: d["cases"][0].update(stage=4), "stage = 4 must be an integer in 1..3"),
-        (lambda d: d["cases"][0].update(face_teeth=60), "face_teeth = 60 but stage 1"),
-        (lambda d: d["cases"][0]["impact"].update(k=-1.0), "impact.k = -1.0 must be > 0"),
+        (lambda d: d["cases"][0].update(stage=4),
+         "[cases[0]] stage = 4: must be an integer in 1..3"),
+        (lambda d: d["cases"][0].update(face_teeth=60),
+         "[cases[0]] face_teeth = 60: stage 1 of gear set"),
+        (lambda d: d["cases"][0]["impact"].update(k=-1.0),
+         "[cases[0].impact] k = -1.0: must be > 0"),
         (lambda d: d["cases"].append(_case(1, 0.01, 2e10)), "two stage 1 'mesh' cases"),
     ],
 )

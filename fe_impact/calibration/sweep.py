@@ -38,11 +38,28 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from fe_impact import __version__
+from fe_impact.calibration.records import (  # noqa: F401 (KINDS, UNITS: importable here)
+    KINDS,
+    NOTES,
+    SCHEMA,
+    UNITS,
+    Calibration,
+    CalibrationRecord,
+    ClosedForm,
+    Difference,
+    FEMeasurements,
+    FitQuality,
+    HysteresisChi,
+    ImpactParameters,
+    ModelInfo,
+    RestitutionModels,
+    write_calibration,
+    write_calibration_csv,
+    write_record,
+)
 from fe_impact.errors import CalibrationError
-from fe_impact.output.files import write_csv, write_json
+from fe_impact.inputs import Reader, read_document
 
 if TYPE_CHECKING:
     from fe_impact.fe.case import Case
@@ -50,11 +67,9 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger(__name__)
 
-SCHEMA = "fe-impact/calibration/1"
 OPERATING_SPEEDS_RPM = (100.0, 300.0, 1000.0)
 LEVELS = ("coarse", "default", "fine")
 INTEGRATORS = ("newmark", "explicit")
-KINDS = ("mesh", "switch")
 #: Newmark steps per (Hertz-estimated) contact time in the tooth impacts.
 STEPS_PER_CONTACT = 60
 #: ParaView frames per (Hertz-estimated) contact time. Each frame of a
@@ -72,12 +87,7 @@ MAX_GAP = 2e-6
 STOP_AFTER_SEPARATION = 0.25
 #: Nominal mesh load (N) at which the linearised mesh stiffness is reported.
 NOMINAL_LOAD = 100.0
-UNITS = {"impact_speed": "m/s", "speed_rpm": "r/min", "effective_mass": "kg",
-         "peak_force": "N", "max_approach": "m", "contact_time": "s", "restitution": "-",
-         "energy_lost": "-", "stiffness_k": "N/m^stiffness_exponent",
-         "mesh_stiffness": "N/m", "k": "N/m^exponent", "exponent": "-", "cmax": "N s/m",
-         "d": "m", "residual_indentation": "m", "chi": "-", "seconds": "s", "v_y_eq15": "m/s",
-         "v_y_tooth": "m/s", "seed_eq14": "-", "yield_ratio_eq15": "-"}
+# SCHEMA, KINDS and UNITS of the calibration files: fe_impact.calibration.records.
 
 
 @dataclass(frozen=True)
@@ -204,7 +214,7 @@ def case_hash(case: ImpactCase, settings: Settings, gearset_text: str) -> str:
 
 
 def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
-             cache: str) -> dict:
+             cache: str) -> CalibrationRecord:
     """Mesh, solve and fit one impact; writes ``cases/<id>/result.json``; returns it."""
     import tomllib
 
@@ -259,12 +269,9 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
                              gearset.material)
     timings["fit"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
-    record.update({"id": case.id, "hash": key, "timings_s": timings,
-                   "initial_gap": pair.analysis.gap,
-                   "model": {k: result.info[k] for k in ("n_dofs", "n_elements",
-                                                         "element_order", "integrator",
-                                                         "time_step", "steps")}})
-    write_json(folder / "result.json", record)
+    record = replace(record, id=case.id, hash=key, timings_s=timings,
+                     initial_gap=pair.analysis.gap, model=ModelInfo.from_info(result.info))
+    write_record(folder / "result.json", record)
     return record
 
 
@@ -306,7 +313,7 @@ def _prepared_case(pair, settings: Settings) -> Case:
 
 
 def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, pair,
-                    material) -> dict:
+                    material) -> CalibrationRecord:
     """Measurements of one FE impact and the fitted/closed-form law parameters."""
     from fe_impact.calibration import fitting
 
@@ -343,18 +350,18 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
     k_hertz = ell.force / ell.approach ** 1.5
     closed = fitting.closed_form_parameters(tca.equivalent_radius, tca.effective_modulus,
                                             mass, speed, e, k=k_hertz)
-    return {
-        "stage": case.stage, "face_teeth": case.face_teeth, "kind": case.kind,
-        "restitution_models": restitution_models(material, mass, tca, speed),
-        "speed_rpm": case.speed_rpm, "impact_speed": case.impact_speed,
-        "effective_mass": mass, "fe": fe,
-        "impact": {"k": fit.k, "exponent": fit.exponent, "cmax": fit.cmax, "d": fit.d},
-        "fit_quality": {k: v for k, v in _plain(fit).items()
-                        if k not in ("k", "exponent", "cmax", "d")},
-        "closed_form": _plain(closed),
-        "hysteresis_chi": {k: _plain(v) for k, v in fitting.hysteresis_chis(e).items()},
-        "differences": _plain(fitting.compare(fit, closed)),
-    }
+    return CalibrationRecord(
+        stage=case.stage, face_teeth=case.face_teeth, kind=case.kind,
+        restitution_models=RestitutionModels(**restitution_models(material, mass, tca, speed)),
+        speed_rpm=case.speed_rpm, impact_speed=case.impact_speed,
+        effective_mass=mass, fe=FEMeasurements(**fe),
+        impact=ImpactParameters.from_source(fit),
+        fit_quality=FitQuality.from_source(fit),
+        closed_form=ClosedForm.from_source(closed),
+        hysteresis_chi={k: HysteresisChi.from_source(v)
+                        for k, v in fitting.hysteresis_chis(e).items()},
+        differences={k: Difference(**v) for k, v in fitting.compare(fit, closed).items()},
+    )
 
 
 def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -> dict:
@@ -379,12 +386,6 @@ def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -
             "seed_eq14_tooth": hertz.seed_restitution(speed / vyt)}
 
 
-def _plain(obj) -> dict:
-    if hasattr(obj, "__dataclass_fields__"):
-        obj = asdict(obj)
-    return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in dict(obj).items()}
-
-
 # -- the sweep -----------------------------------------------------------------------
 
 
@@ -393,7 +394,7 @@ class Sweep:
     """Cases of a run, split into finished (loaded from disk) and to do."""
 
     cases: list[ImpactCase]
-    done: dict[str, dict] = field(default_factory=dict)
+    done: dict[str, CalibrationRecord] = field(default_factory=dict)
 
     @property
     def todo(self) -> list[ImpactCase]:
@@ -406,13 +407,16 @@ def load_finished(out: Path, cases: list[ImpactCase], settings: Settings,
     sweep = Sweep(cases)
     for c in cases:
         path = out / "cases" / c.id / "result.json"
-        if path.is_file():
-            try:
-                rec = json.loads(path.read_text())
-            except json.JSONDecodeError:
-                continue
-            if rec.get("hash") == case_hash(c, settings, gearset_text):
-                sweep.done[c.id] = rec
+        if not path.is_file():
+            continue
+        try:
+            data = read_document(path, "calibration result", CalibrationError, "json")
+            if data.get("hash") != case_hash(c, settings, gearset_text):
+                continue   # another version, gear set or settings: computed again
+            sweep.done[c.id] = CalibrationRecord.from_dict(
+                data, Reader(str(path), CalibrationError, "json"))
+        except CalibrationError as exc:   # cut short or edited: computed again
+            logger.warning("%s; case %s is computed again", exc, c.id)
     return sweep
 
 
@@ -435,34 +439,11 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     records = [sweep.done[c.id] for c in cases]
     from fe_impact.calibration.report import write_calibration_report
 
-    doc = {
-        "schema": SCHEMA, "fe_impact_version": __version__, "units": UNITS,
-        "settings": asdict(settings), "wall_time_s": wall,
-        "notes": ("impact: ADAMS IMPACT parameters fitted jointly to the FE force history "
-                  "and restitution of a one-DOF model with the case's effective mass and "
-                  "impact speed; closed_form: the seed's eq. 12-17; fe: FE measurements "
-                  "(stiffness_k/stiffness_exponent fit F = K delta^xi on the loading branch)"),
-        "cases": records,
-    }
-    path = write_json(out / "calibration.json", doc)
-    header = ["id", "stage", "face_teeth", "kind", "speed_rpm", "impact_speed",
-              "effective_mass", "peak_force", "max_approach", "contact_time", "restitution",
-              "residual_indentation", "stiffness_k", "stiffness_exponent", "mesh_stiffness",
-              "k", "exponent", "cmax", "d", "closed_k", "closed_exponent", "closed_cmax",
-              "closed_d", "seconds"]
-    rows = []
-    for r in records:
-        cf = r["closed_form"]
-        rows.append([r["id"], r["stage"], r["face_teeth"], r["kind"], r["speed_rpm"],
-                     r["impact_speed"], r["effective_mass"], r["fe"]["peak_force"],
-                     r["fe"]["max_approach"], r["fe"]["contact_time"], r["fe"]["restitution"],
-                     r["fe"].get("residual_indentation"), r["fe"]["stiffness_k"],
-                     r["fe"]["stiffness_exponent"], r["fe"]["mesh_stiffness"],
-                     r["impact"]["k"], r["impact"]["exponent"],
-                     r["impact"]["cmax"], r["impact"]["d"], cf.get("k"), cf.get("exponent"),
-                     cf.get("cmax"), cf.get("d"), r["timings_s"]["total"]])
-    write_csv(out / "calibration.csv", header, rows)
-    write_calibration_report(out, doc)
+    calibration = Calibration(cases=records, settings=asdict(settings), wall_time_s=wall,
+                              fe_impact_version=__version__, notes=NOTES)
+    path = write_calibration(out / "calibration.json", calibration)
+    write_calibration_csv(out / "calibration.csv", records)
+    write_calibration_report(out, calibration)
     return path
 
 

@@ -33,19 +33,18 @@ Sources, in order of preference (`laws_for`):
 
 from __future__ import annotations
 
-import json
 import logging
 import math
-import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from fe_impact.calibration.records import KINDS, SCHEMA, CalibrationRecord, read_calibration
 from fe_impact.errors import CalibrationError
 from fe_impact.gears.gearset import GearSet
+from fe_impact.inputs import Reader
 from fe_impact.physics import hertz, laws
 
 logger = logging.getLogger(__name__)
@@ -63,11 +62,8 @@ __all__ = [
     "seed_restitution",
 ]
 
-SCHEMA = "fe-impact/calibration/1"
 #: File name looked for in the working directory when no file is given.
 CALIBRATION_FILE = "calibration.json"
-#: Impact kinds, in the order of the kernel's tables.
-KINDS = ("mesh", "switch")
 _PARAMETERS = ("k", "exponent", "cmax", "d")
 #: Impact speeds of the closed-form tables [m/s]: rattle at 1e-5 m/s up to
 #: switching impacts at several m/s, 4 points per decade.
@@ -267,65 +263,33 @@ def closed_form_laws(gearset: GearSet, effective_masses: Sequence[float]) -> Law
 
 
 # -- calibration file ---------------------------------------------------------------------
-def _number(where: str, key: str, value: Any, *, positive: bool = True) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise CalibrationError(f"{where}: {key} = {value!r} must be a finite number")
-    if (positive and value <= 0.0) or value < 0.0:
-        bound = "> 0" if positive else ">= 0"
-        raise CalibrationError(f"{where}: {key} = {value!r} must be {bound}")
-    return float(value)
+def _parse_case(record: CalibrationRecord, index: int, gearset: GearSet, r: Reader) -> None:
+    """Check a case against the gear set: its stage exists and has its ``face_teeth``."""
+    where, n = f"cases[{index}]", len(gearset.stages)
+    if record.stage > n:
+        raise r.fail(where, "stage", record.stage, f"must be an integer in 1..{n}")
+    expected = gearset.stages[record.stage - 1].teeth
+    if record.face_teeth is not None and record.face_teeth != expected:
+        raise r.fail(where, "face_teeth", record.face_teeth, f"stage {record.stage} of gear "
+                     f"set {gearset.name!r} has {expected} teeth")
 
 
-def _parse_case(case: Any, index: int, gearset: GearSet) -> tuple[int, str, float, tuple]:
-    where = f"cases[{index}]"
-    if not isinstance(case, Mapping):
-        raise CalibrationError(f"{where} must be an object, got {type(case).__name__}")
-    for key in ("stage", "kind", "impact_speed", "impact"):
-        if key not in case:
-            raise CalibrationError(f"{where}: missing key {key!r}")
-    stage = case["stage"]
-    n = len(gearset.stages)
-    if isinstance(stage, bool) or not isinstance(stage, numbers.Integral) or not 1 <= stage <= n:
-        raise CalibrationError(f"{where}: stage = {stage!r} must be an integer in 1..{n}")
-    teeth = case.get("face_teeth")
-    expected = gearset.stages[stage - 1].teeth
-    if teeth is not None and teeth != expected:
-        raise CalibrationError(
-            f"{where}: face_teeth = {teeth!r} but stage {stage} of gear set "
-            f"{gearset.name!r} has {expected} teeth"
-        )
-    kind = case["kind"]
-    if kind not in KINDS:
-        raise CalibrationError(f"{where}: kind = {kind!r}; pick one of {list(KINDS)}")
-    speed = _number(where, "impact_speed", case["impact_speed"])
-    impact = case["impact"]
-    if not isinstance(impact, Mapping):
-        raise CalibrationError(f"{where}: impact must be an object with keys {_PARAMETERS}")
-    missing = [p for p in _PARAMETERS if p not in impact]
-    if missing:
-        raise CalibrationError(f"{where}: impact is missing {missing[0]!r}; "
-                               f"needs {list(_PARAMETERS)}")
-    values = tuple(_number(where, f"impact.{p}", impact[p], positive=p != "cmax")
-                   for p in _PARAMETERS)
-    return stage, kind, speed, values
-
-
-def _tables_from_cases(parsed: list[tuple[int, str, float, tuple]], source: str
+def _tables_from_cases(records: Sequence[CalibrationRecord], source: str
                        ) -> dict[tuple[int, str], LawTable]:
-    grouped: dict[tuple[int, str], list[tuple[float, tuple]]] = {}
-    for stage, kind, speed, values in parsed:
-        grouped.setdefault((stage, kind), []).append((speed, values))
+    grouped: dict[tuple[int, str], list[CalibrationRecord]] = {}
+    for rec in records:
+        grouped.setdefault((rec.stage, rec.kind), []).append(rec)
     tables = {}
     for (stage, kind), rows in grouped.items():
-        rows.sort(key=lambda r: r[0])
-        speeds = np.array([r[0] for r in rows])
+        rows.sort(key=lambda rec: rec.impact_speed)
+        speeds = np.array([rec.impact_speed for rec in rows])
         repeated = speeds[1:][np.diff(speeds) <= 0.0]
         if repeated.size:
             raise CalibrationError(
                 f"{source}: two stage {stage} {kind!r} cases at impact_speed = "
                 f"{repeated[0]!r} m/s; keep one per speed"
             )
-        columns = np.array([r[1] for r in rows]).T
+        columns = np.array([[getattr(rec.impact, p) for p in _PARAMETERS] for rec in rows]).T
         tables[(stage, kind)] = LawTable(stage, kind, speeds, *columns, source=source)
     return tables
 
@@ -345,24 +309,10 @@ def load_calibration(path: str | Path, gearset: GearSet,
         message names the file, the case and the key.
     """
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError as exc:
-        raise CalibrationError(f"{path}: calibration file not found") from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise CalibrationError(f"{path}: not valid JSON: {exc}") from exc
-    if not isinstance(data, Mapping):
-        raise CalibrationError(f"{path}: top level must be an object")
-    schema = data.get("schema")
-    if schema != SCHEMA:
-        raise CalibrationError(f"{path}: schema = {schema!r}; expected {SCHEMA!r}")
-    cases = data.get("cases")
-    if not isinstance(cases, list) or not cases:
-        raise CalibrationError(f"{path}: 'cases' must be a non-empty list")
-    try:
-        parsed = [_parse_case(c, i, gearset) for i, c in enumerate(cases)]
-    except CalibrationError as exc:
-        raise CalibrationError(f"{path}: {exc}") from exc
+    parsed = read_calibration(path, law_only=True).cases
+    r = Reader(str(path), CalibrationError, "json")
+    for i, record in enumerate(parsed):
+        _parse_case(record, i, gearset, r)
     tables = _tables_from_cases(parsed, path.name)
     notes = []
     fallback = None

@@ -2,8 +2,15 @@
 
 Reference point (issue target): a mature open-source FE code needs about
 230 s on this kind of machine for this size; target <= 20 s wall including
-assembly. Run ``python validation/bench_static.py``; prints DOF, time per
-phase and peak memory, and writes ``out/bench_static/bench_static.json``.
+assembly, on a machine where assembly and factorisation of the stiffness
+take about 2.5 s. The machine is shared, so the target is asserted as a
+ratio to a baseline of the same run: the whole solve (set-up, contact
+condensation and the five increments) at most 8 times the assembly plus
+factorisation of the stiffness, i.e. 8 linear elastic solves from scratch
+(both in process CPU time).
+Run ``python validation/bench_static.py`` (``--quick``: h = 0.15 mm, about
+15k DOF); prints DOF, time per phase and peak memory, writes
+``out/bench_static/bench_static.json`` and exits 1 when the ratio is missed.
 """
 
 from __future__ import annotations
@@ -17,42 +24,69 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fe_impact.fe.case import load_case
+from fe_impact.fe.elasticity import build_model
+from fe_impact.fe.linalg import SPDSolver
 from fe_impact.fe.mesh import load_mesh
 from fe_impact.output.files import write_json
 from fe_impact.solvers.static import StaticSolver
-from validation.hertz_static import write_case
+from validation import checks as ck
+from validation.hertz_static import DISPLACEMENTS, specimen_mesh
+from validation.impact_cases import sphere_block_case
 
 H_CONTACT = 0.092e-3  # gives ~31.6k DOF with the hertz_static specimen
+QUICK_H_CONTACT = 0.15e-3
 REFERENCE_S = 230.0
+#: 20 s target / 2.5 s assembly + factorisation (see the module docstring).
+OVER_LINEAR_SOLVE = 8.0
 
 
-def run(out: Path, h_contact: float = H_CONTACT) -> dict:
-    case = load_case(write_case(out, h_contact))
-    t0 = time.perf_counter()
-    solver = StaticSolver(case, load_mesh(case.mesh_file, case.unit))
+def run(quick: bool = False, out: str | Path = "out/bench_static",
+        h_contact: float | None = None) -> dict:
+    """Time the static solve; ``h_contact`` overrides the mesh size."""
+    out = Path(out)
+    h = h_contact or (QUICK_H_CONTACT if quick else H_CONTACT)
+    mesh_file = specimen_mesh(out, h)
+    case = sphere_block_case(mesh_file, DISPLACEMENTS)
+    mesh = load_mesh(mesh_file)
+    t0, c0 = time.perf_counter(), time.process_time()
+    solver = StaticSolver(case, mesh)
     result = solver.run()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB -> MiB
+    # The baseline again, alone: assembly and factorisation of the same stiffness.
+    # CPU time on both sides: waiting for a core of the shared machine is no cost.
+    c0 = time.process_time()
+    build_model(mesh, case.materials)
+    SPDSolver(solver.K_ff.copy())
+    linear = time.process_time() - c0
     record = {"n_dofs": result.info["n_dofs"], "n_contact_dofs": result.info["n_contact_dofs"],
               "increments": len(result.steps), "wall_s": wall, "phases_s": result.timings,
               "peak_rss_MiB": peak, "reference_s": REFERENCE_S,
               "speedup_vs_reference": REFERENCE_S / wall,
+              "cpu_s": cpu, "linear_solve_cpu_s": linear, "over_linear_solve": cpu / linear,
+              "target_ratio": OVER_LINEAR_SOLVE,
               "force_full_load_N": 4 * result.steps[-1].contact_force[0]}
     write_json(out / "bench_static.json", record)
     return record
 
 
+def check(r: dict) -> list[ck.Check]:
+    return [ck.at_most("solve / (assembly + factorisation)", r["over_linear_solve"],
+                       OVER_LINEAR_SOLVE)]
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("out/bench_static"))
+    p.add_argument("--quick", action="store_true", help="h = 0.15 mm (about 15k DOF)")
     args = p.parse_args(argv)
-    r = run(args.out)
+    r = run(args.quick, args.out)
     phases = ", ".join(f"{k} {v:.2f} s" for k, v in r["phases_s"].items())
     print(f"{r['n_dofs']} DOF ({r['n_contact_dofs']} condensed), {r['increments']} increments: "
           f"{r['wall_s']:.1f} s wall ({phases}); peak RSS {r['peak_rss_MiB']:.0f} MiB; "
-          f"{r['speedup_vs_reference']:.0f}x faster than the {REFERENCE_S:.0f} s reference")
-    return 0
+          f"{r['speedup_vs_reference']:.0f}x faster than the {REFERENCE_S:.0f} s reference; "
+          f"{r['over_linear_solve']:.1f} x assembly + factorisation")
+    return ck.finish("bench_static", check(r), args.out)
 
 
 if __name__ == "__main__":

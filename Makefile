@@ -23,12 +23,10 @@ test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q
 
+# Every study and benchmark, each asserting its figures; ends with one
+# pass/fail line per study (VALIDATE_FLAGS=--quick for the coarse settings).
 validate: $(STAMP)
-	$(BIN)/python validation/hertz_static.py --out out/hertz_static
-	$(BIN)/python validation/hertz_impact.py --out out/hertz_impact
-	$(BIN)/python validation/plastic_impact.py --out out/plastic_impact
-	$(BIN)/python validation/bench_static.py
-	$(BIN)/python validation/bench_dynamic.py
+	$(BIN)/python validation/run_all.py --out out $(VALIDATE_FLAGS)
 
 clean:
 	rm -rf out .pytest_cache

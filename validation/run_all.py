@@ -1,0 +1,63 @@
+"""Run every validation study and benchmark; one pass/fail line per study at the end.
+
+``python validation/run_all.py`` (``make validate``) runs each study's
+``main`` in its own process (the static Hertz study needs 9 GB at its
+finest level), writes their output under ``out/<study>`` and exits 1 if any
+study fails a check or stops with an error. ``--quick`` passes ``--quick``
+to every study (about ten minutes in all); ``--only a,b`` runs a subset.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+STUDIES = ("hertz_static", "hertz_impact", "plastic_impact", "bench_static", "bench_dynamic",
+           "bench_switching")
+
+
+def run_study(name: str, out: Path, quick: bool) -> tuple[int, str, float]:
+    """Run one study; its exit status, its summary line and the wall time."""
+    argv = [sys.executable, str(ROOT / "validation" / f"{name}.py"), "--out", str(out / name)]
+    if quick:
+        argv.append("--quick")
+    t = time.perf_counter()
+    proc = subprocess.run(argv, cwd=ROOT, text=True, capture_output=True)
+    (out / name).mkdir(parents=True, exist_ok=True)
+    (out / name / "log.txt").write_text(proc.stdout + proc.stderr)
+    lines = [s for s in proc.stdout.splitlines() if s.startswith(f"{name}: ")]
+    line = lines[-1] if lines else (f"{name}: FAIL (exit status {proc.returncode}; see "
+                                    f"{out / name / 'log.txt'})")
+    return proc.returncode, line, time.perf_counter() - t
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, default=Path("out"))
+    p.add_argument("--quick", action="store_true", help="every study on its coarse setting")
+    p.add_argument("--only", default=None, help=f"comma-separated subset of {list(STUDIES)}")
+    args = p.parse_args(argv)
+    names = args.only.split(",") if args.only else list(STUDIES)
+    unknown = [n for n in names if n not in STUDIES]
+    if unknown:
+        p.error(f"--only: unknown studies {unknown}; pick from {list(STUDIES)}")
+    results = []
+    for name in names:
+        print(f"running {name} ...", flush=True)
+        code, line, secs = run_study(name, args.out, args.quick)
+        print(f"  {line} [{secs:.0f} s]", flush=True)
+        results.append((code, line, secs))
+    print("\nValidation summary:")
+    for _, line, secs in results:
+        print(f"  {line} [{secs:.0f} s]")
+    failed = sum(code != 0 for code, _, _ in results)
+    print(f"{len(results) - failed} passed, {failed} failed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,55 @@
+"""Every validation study on its quick setting passes its own checks.
+
+Each study's ``run(quick=True)`` computes on the coarse setting and its
+``check`` compares the headline figures with the tolerances written (with
+their reasons) in the study; the same checks make ``make validate`` fail.
+The benchmarks' checks are ratios to baselines timed in the same run (CPU
+time), so a loaded machine moves them less than absolute times, but they
+are still timings: they run with the slow ones.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import pytest
+
+STUDIES = [
+    "hertz_impact",
+    "bench_switching",
+    pytest.param("hertz_static", marks=pytest.mark.slow),
+    pytest.param("plastic_impact", marks=pytest.mark.slow),
+    pytest.param("bench_static", marks=pytest.mark.slow),
+    pytest.param("bench_dynamic", marks=pytest.mark.slow),
+]
+
+
+@pytest.mark.parametrize("name", STUDIES)
+def test_study_passes_its_checks_on_the_quick_setting(name, tmp_path):
+    study = importlib.import_module(f"validation.{name}")
+    checks = study.check(study.run(quick=True, out=tmp_path))
+    assert checks, "a study must assert something"
+    failed = [c.line() for c in checks if not c.passed]
+    assert not failed, failed
+
+
+def test_plastic_impact_states_its_reference(tmp_path):
+    # the report names the reference and explains the other curves, without a run
+    from validation import plastic_impact as study
+
+    assert "Jackson" in study.__doc__ and "Thornton" in study.WHY
+    # JGM's values quoted in the study for this steel (S_y/E* = 0.0072)
+    assert [round(study.jgm(j), 3) for j in (2, 5, 10, 30)] == [0.956, 0.888, 0.830, 0.729]
+
+
+def test_a_failed_check_fails_the_study(tmp_path, capsys):
+    from validation import checks as ck
+
+    good = ck.within("force", 1.004, 1.0, 0.01)
+    bad = ck.within("force", 1.03, 1.0, 0.01)
+    assert good.passed and not bad.passed
+    assert ck.finish("demo", [good], tmp_path) == 0
+    assert ck.finish("demo", [good, bad], tmp_path) == 1
+    assert ck.finish("demo", [], tmp_path) == 1          # asserting nothing is no pass
+    assert capsys.readouterr().out.rstrip().endswith("demo: FAIL (0/0 checks)")
+    assert (tmp_path / "checks.json").exists()

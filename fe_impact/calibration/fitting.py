@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike
 from scipy.optimize import brentq, least_squares
 
 from fe_impact.errors import CalibrationError, FeImpactError
-from fe_impact.physics import hertz, laws
+from fe_impact.physics import hertz, laws, seed
 from fe_impact.physics.impact_law import impact_force_scalar
 
 logger = logging.getLogger(__name__)
@@ -1074,14 +1074,15 @@ def closed_form_parameters(
 ) -> ClosedFormParameters:
     """The seed's closed-form IMPACT parameters for one impact.
 
-    - ``k = (4/3) E* sqrt(R)`` (eq. 12; `fe_impact.physics.hertz.sphere_stiffness`),
+    - ``k = (4/3) E* sqrt(R)`` (eq. 12, `fe_impact.physics.seed.stiffness`),
       unless ``k`` is given (e.g. from an elliptical Hertz contact);
     - ``exponent = 1.5``;
-    - ``delta_max = (5 m v^2 / (4 k))^(2/5)`` (eq. 16), ``F_max = k delta_max^1.5``;
+    - ``delta_max = (5 m v^2 / (4 k))^(2/5)`` (eq. 16), ``F_max = k delta_max^1.5``
+      and the Hertz contact time (`fe_impact.physics.hertz.impact_from_stiffness`);
     - ``cmax = 3 k (1 - e^2) exp(2 (1 - e)) delta_max^1.5 / (4 v)`` (eq. 13,
-      `fe_impact.physics.laws.closed_form_cmax`);
+      `fe_impact.physics.seed.damping`);
     - ``d = (9 F_max^2 / (16 R E*^2))^(1/3)`` (eq. 17,
-      `fe_impact.physics.laws.closed_form_penetration_depth`).
+      `fe_impact.physics.seed.penetration_depth`).
 
     Parameters
     ----------
@@ -1113,17 +1114,16 @@ def closed_form_parameters(
     mass = _positive("mass", mass)
     speed = _positive("speed", speed)
     restitution = _restitution(restitution)
-    k = hertz.sphere_stiffness(R, E_star) if k is None else _positive("k", k)
-    delta_max = (5.0 * mass * speed**2 / (4.0 * k)) ** 0.4
-    force_max = k * delta_max**1.5
+    k = seed.stiffness(R, E_star) if k is None else _positive("k", k)
+    hit = hertz.impact_from_stiffness(mass, speed, k)
     return ClosedFormParameters(
         k=k,
         exponent=1.5,
-        cmax=laws.closed_form_cmax(k, restitution, speed, delta_max, 1.5),
-        d=laws.closed_form_penetration_depth(force_max, R, E_star),
-        delta_max=delta_max,
-        force_max=force_max,
-        contact_time=hertz.HERTZ_CONTACT_TIME_FACTOR * delta_max / speed,
+        cmax=seed.damping(k, restitution, speed, hit.delta_max, 1.5),
+        d=seed.penetration_depth(hit.force_max, R, E_star),
+        delta_max=hit.delta_max,
+        force_max=hit.force_max,
+        contact_time=hit.contact_time,
         restitution=restitution,
     )
 

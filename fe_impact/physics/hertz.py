@@ -137,7 +137,28 @@ def sphere_contact(force: float, R: float, E_star: float) -> HertzContact:
     E_star = _require_positive("E_star", E_star)
     a = (3.0 * force * R / (4.0 * E_star)) ** (1.0 / 3.0)
     p0 = 3.0 * force / (2.0 * np.pi * a**2)
-    return HertzContact(a=a, b=a, p0=p0, delta=a**2 / R, force=force)
+    return HertzContact(a=a, b=a, p0=p0, delta=sphere_approach(force, R, E_star), force=force)
+
+
+def sphere_approach(force: float, R: float, E_star: float) -> float:
+    """Hertz approach of two spheres, ``delta = a^2 / R = (9 P^2 / (16 R E*^2))^(1/3)`` [m].
+
+    Johnson 1985, section 4.2(a); the seed's eq. 17 (its penetration depth
+    ``d`` at the force ``F_n``).
+
+    Parameters
+    ----------
+    force : float
+        Normal load P [N].
+    R : float
+        Effective radius [m].
+    E_star : float
+        Effective modulus [Pa].
+    """
+    force = _require_positive("force", force)
+    R = _require_positive("R", R)
+    E_star = _require_positive("E_star", E_star)
+    return (9.0 * force**2 / (16.0 * R * E_star**2)) ** (1.0 / 3.0)
 
 
 def sphere_stiffness(R: float, E_star: float) -> float:
@@ -384,15 +405,44 @@ def impact(mass: float, speed: float, R: float, E_star: float) -> HertzImpact:
     >>> round(hit.delta_max * 1e6, 2), round(hit.force_max), round(hit.contact_time * 1e6)
     (11.04, 566, 325)
     """
+    return impact_from_stiffness(mass, speed, sphere_stiffness(R, E_star))
+
+
+def impact_from_stiffness(mass: float, speed: ArrayLike, k: float) -> HertzImpact:
+    """Hertz impact on a contact ``F = k delta^1.5`` of any shape (see `impact`).
+
+    ``delta_max = (5 m v^2 / (4 k))^(2/5)`` from the energy balance
+    ``m v^2 / 2 = (2/5) k delta_max^(5/2)``, ``F_max = k delta_max^1.5`` and
+    ``t_c = 2.94328 delta_max / v`` (Johnson 1985, section 11.4; seed eq. 16).
+    For an elliptical contact ``k`` is ``P / delta^1.5`` of `ellipse_contact`,
+    which does not depend on P.
+
+    Parameters
+    ----------
+    mass : float
+        Effective mass [kg].
+    speed : float or array_like
+        Normal approach speed at first contact [m/s], > 0; any shape.
+    k : float
+        Hertz stiffness [N/m^1.5].
+
+    Returns
+    -------
+    HertzImpact
+        Fields are floats for a scalar speed, arrays shaped like ``speed``
+        otherwise (one impact per speed).
+    """
     mass = _require_positive("mass", mass)
-    speed = _require_positive("speed", speed)
-    k = sphere_stiffness(R, E_star)
-    delta_max = float((5.0 * mass * speed**2 / (4.0 * k)) ** 0.4)
-    return HertzImpact(
-        delta_max=delta_max,
-        force_max=k * delta_max**1.5,
-        contact_time=HERTZ_CONTACT_TIME_FACTOR * delta_max / speed,
-    )
+    k = _require_positive("k", k)
+    speed = np.asarray(speed, dtype=float)
+    if not np.all(np.isfinite(speed)) or np.any(speed <= 0.0):
+        raise ValueError(f"speed must be a positive finite number, got {speed!r}")
+    delta_max = (5.0 * mass * speed**2 / (4.0 * k)) ** 0.4
+    force_max = k * delta_max**1.5
+    contact_time = HERTZ_CONTACT_TIME_FACTOR * delta_max / speed
+    if speed.ndim == 0:
+        return HertzImpact(float(delta_max), float(force_max), float(contact_time))
+    return HertzImpact(delta_max, force_max, contact_time)
 
 
 def hunter_wave_loss(speed: ArrayLike, E: float, rho: float) -> np.ndarray | float:
@@ -454,19 +504,15 @@ def yield_onset_speed(Y: float, rho: float, E_star: float) -> float:
 
 
 def seed_restitution(yield_ratio: ArrayLike) -> np.ndarray | float:
-    """The seed's restitution law (its eq. 14, after Johnson's model).
+    """The seed's restitution law, eq. 14: `fe_impact.physics.seed.restitution`.
 
     ``e = 1`` for ``j <= 1`` and ``e = 1 - 0.035 ln(j) j^0.1645`` above, with
-    ``j = v / v_y`` the impact speed over the yield-onset speed (eq. 15). It
-    gives 0.97, 0.93, 0.88, 0.79, 0.66 at j = 2, 5, 10, 30, 100; the seed
-    states it up to the shallow-indentation limit v_l ~ 100 m/s.
+    ``j = v / v_y`` the impact speed over the yield-onset speed (eq. 15),
+    never below `fe_impact.physics.seed.RESTITUTION_FLOOR`.
     """
-    j = np.asarray(yield_ratio, dtype=float)
-    if np.any(~np.isfinite(j)) or np.any(j < 0.0):
-        raise ValueError(f"yield_ratio must be finite and >= 0, got {yield_ratio!r}")
-    jj = np.maximum(j, 1.0)
-    e = np.where(j <= 1.0, 1.0, 1.0 - 0.035 * np.log(jj) * jj ** 0.1645)
-    return float(e) if e.ndim == 0 else e
+    from fe_impact.physics.seed import restitution  # seed imports this module
+
+    return restitution(yield_ratio)
 
 
 def thornton_restitution(yield_ratio: ArrayLike) -> np.ndarray | float:

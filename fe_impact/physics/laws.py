@@ -12,6 +12,11 @@ positive in contact) and its rate ``hdot`` (positive while closing):
 Every force is clamped at zero: contact can only push. `simulate_impact`
 runs the one-degree-of-freedom impact that defines restitution, peak force,
 maximum approach and contact time of a law. SI units throughout.
+
+``STEP`` and ``IMPACT`` are written once, as compiled scalar functions, in
+`fe_impact.physics.impact_law`; `step`, `impact_force` and `ImpactLaw.force`
+apply them to arrays. The seed's closed-form parameters (eqs. 12-17) are in
+`fe_impact.physics.seed`.
 """
 
 from __future__ import annotations
@@ -493,59 +498,3 @@ def restitution_of(model: str, target_e: float, exponent: float = 1.5) -> float:
     law = HysteresisLaw.from_model(model, target_e, k=1.0, impact_speed=1.0, exponent=exponent)
     return simulate_impact(law, 1.0, 1.0).restitution
 
-
-def closed_form_cmax(
-    k: float, e: float, impact_speed: float, delta: float, exponent: float = 1.5
-) -> float:
-    """Seed eq. 13: ``C_max = 3 K (1 - e^2) exp(2 (1 - e)) delta^a / (4 v_k)``.
-
-    The Zhiying-Qishao hysteresis damping ``chi K delta^a / v_k`` evaluated at
-    the relative deformation ``delta`` (seed eq. 16, the Hertz maximum
-    approach). The seed leaves the power ``a`` undefined; it is taken equal to
-    the force exponent so that ``C_max hdot`` has the units of a force. The
-    seed's ``e ~ 1`` branch (without the exponential) is the limit of this one.
-
-    Parameters
-    ----------
-    k : float
-        Contact stiffness [N/m^exponent].
-    e : float
-        Target restitution, ``0 < e <= 1``.
-    impact_speed : float
-        Meshing impact speed v_k [m/s].
-    delta : float
-        Relative deformation [m].
-    exponent : float, optional
-        Power ``a`` of ``delta``.
-
-    Returns
-    -------
-    float
-        C_max [N s/m].
-    """
-    k = _require_positive("k", k)
-    impact_speed = _require_positive("impact_speed", impact_speed)
-    delta = _require_positive("delta", delta)
-    chi = hysteresis_factor("zhiying-qishao", e)
-    return chi * k * delta**exponent / impact_speed
-
-
-def closed_form_penetration_depth(force: float, R: float, E_star: float) -> float:
-    """Seed eq. 17: ``d = (9 F^2 / (16 R E*^2))^(1/3)`` [m].
-
-    This is the Hertz approach of two spheres under the force F (Johnson
-    1985, section 4.2(a)), i.e. ``hertz.sphere_contact(F, R, E*).delta``.
-
-    Parameters
-    ----------
-    force : float
-        Normal force [N].
-    R : float
-        Effective radius [m].
-    E_star : float
-        Effective modulus [Pa].
-    """
-    force = _require_positive("force", force)
-    R = _require_positive("R", R)
-    E_star = _require_positive("E_star", E_star)
-    return (9.0 * force**2 / (16.0 * R * E_star**2)) ** (1.0 / 3.0)

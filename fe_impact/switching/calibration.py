@@ -26,9 +26,10 @@ Sources, in order of preference (`laws_for`):
    ``face_teeth``, when given, must match the gear set.
 2. closed forms (`closed_form_laws`): Hertz stiffness of the contact ellipse
    (`fe_impact.physics.hertz.ellipse_contact`), exponent 1.5, ``cmax`` from seed eq.
-   13 (`fe_impact.physics.laws.closed_form_cmax`) with the restitution of seed eq. 14
-   and the approach of eq. 16, ``d`` from eq. 17
-   (`fe_impact.physics.laws.closed_form_penetration_depth`).
+   13 (`fe_impact.physics.seed.damping`) with the restitution of seed eq. 14
+   (`fe_impact.physics.seed.restitution`) and the approach of eq. 16
+   (`fe_impact.physics.hertz.impact_from_stiffness`), ``d`` from eq. 17
+   (`fe_impact.physics.seed.penetration_depth`).
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from fe_impact.calibration.records import KINDS, SCHEMA, CalibrationRecord, read
 from fe_impact.errors import CalibrationError
 from fe_impact.gears.gearset import GearSet
 from fe_impact.inputs import Reader
-from fe_impact.physics import hertz, laws
+from fe_impact.physics import hertz, laws, seed
 
 logger = logging.getLogger(__name__)
 
@@ -59,7 +60,6 @@ __all__ = [
     "contact_radii",
     "load_calibration",
     "laws_for",
-    "seed_restitution",
 ]
 
 #: File name looked for in the working directory when no file is given.
@@ -215,14 +215,6 @@ def contact_radii(gearset: GearSet, stage_index: int) -> tuple[float, float]:
     return r_p * math.sin(alpha), 1.0 / curvature
 
 
-def seed_restitution(impact_speed: float, yield_speed: float) -> float:
-    """Seed eq. 14: ``e = 1 - 0.035 ln(j) j^0.1645`` for ``j = v / v_y > 1``, else 1."""
-    j = impact_speed / yield_speed
-    if j <= 1.0:
-        return 1.0
-    return max(1.0 - 0.035 * math.log(j) * j**0.1645, 1e-3)
-
-
 def _closed_form_table(gearset: GearSet, stage_index: int, effective_mass: float,
                        kind: str) -> LawTable:
     material = gearset.material
@@ -230,13 +222,12 @@ def _closed_form_table(gearset: GearSet, stage_index: int, effective_mass: float
     Rx, Ry = contact_radii(gearset, stage_index)
     contact = hertz.ellipse_contact(_REFERENCE_LOAD, Rx, Ry, E_star)
     k = _REFERENCE_LOAD / contact.delta**1.5
-    v_y = hertz.yield_onset_speed(material.yield_strength, material.density, E_star)
+    v_y = seed.yield_speed(material.yield_strength, material.density, E_star)
     speeds = CLOSED_FORM_SPEEDS
-    delta = (5.0 * effective_mass * speeds**2 / (4.0 * k)) ** 0.4  # eq. 16
-    force = k * delta**1.5
-    cmax = [laws.closed_form_cmax(k, seed_restitution(v, v_y), v, dm)
-            for v, dm in zip(speeds, delta, strict=True)]
-    d = [laws.closed_form_penetration_depth(f, math.sqrt(Rx * Ry), E_star) for f in force]
+    hits = hertz.impact_from_stiffness(effective_mass, speeds, k)  # eq. 16, per speed
+    cmax = [seed.damping(k, seed.restitution(v / v_y), v, dm)
+            for v, dm in zip(speeds, hits.delta_max, strict=True)]
+    d = [seed.penetration_depth(f, math.sqrt(Rx * Ry), E_star) for f in hits.force_max]
     n = speeds.size
     return LawTable(stage_index + 1, kind, speeds, np.full(n, k), np.full(n, 1.5),
                     np.asarray(cmax), np.asarray(d), "closed form")

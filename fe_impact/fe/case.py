@@ -179,7 +179,14 @@ class AnalysisSpec:
 
 @dataclass(frozen=True)
 class Case:
-    """A validated case file."""
+    """A contact problem on a mesh: what a case file holds.
+
+    Read by :func:`load_case`, written by :func:`fe_impact.fe.casefile.write_case`,
+    or built in memory (variants with :func:`dataclasses.replace`). ``path``
+    is the case file (read, or to be written; messages name it) and
+    ``mesh_file`` the absolute path of the mesh in ``unit``; the solvers take
+    the mesh itself, loaded by the caller.
+    """
 
     path: Path
     mesh_file: Path

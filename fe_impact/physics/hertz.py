@@ -362,6 +362,9 @@ def axial_displacement(
 class HertzImpact:
     """Quasi-static Hertz impact of two elastic bodies.
 
+    Fields are floats, or arrays when `impact_from_stiffness` is given an
+    array of speeds.
+
     Attributes
     ----------
     delta_max : float

@@ -1,0 +1,68 @@
+"""The tooth-pair builder meshes again with less stretch when an element comes out inverted.
+
+``build_pair`` maps the contact zone into a stretched space, meshes there and
+maps back; a mesh with a nearly inverted element (quality below MIN_SICN) is
+made again with the stretch capped at 5, 2.5 and finally 1 (isotropic). Here
+the first attempts are made to fail by wrapping the builder's meshing step.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from fe_impact.errors import MeshError
+from fe_impact.gears import default_gearset
+from fe_impact.meshing import toothpair
+
+GAP, SPEED = 2e-6, 0.1
+
+
+def _failing_mesh(monkeypatch, failures: int) -> list[float]:
+    """Make the first ``failures`` meshing attempts report an inverted element; return
+    the stretch factor of every attempt as it is made."""
+    real = toothpair._mesh
+    factors: list[float] = []
+
+    def mesh(model, design, *args, **kwargs):
+        factors.append(design.sizes["factor"])
+        if len(factors) <= failures:
+            raise toothpair._InvertedMesh(
+                f"the mesh has an element of quality -0.1 at stretch factor "
+                f"{design.sizes['factor']:.3g}")
+        return real(model, design, *args, **kwargs)
+
+    monkeypatch.setattr(toothpair, "_mesh", mesh)
+    return factors
+
+
+def test_every_attempt_inverted_ends_in_a_mesh_error(tmp_path, monkeypatch, caplog):
+    # The coarse level's design stretch, (a/3) / (b/2) = 11-22 for b/a = 0.03-0.06, is
+    # capped at the level's 8, then at 5, 2.5 and 1; after the isotropic attempt the
+    # error reaches the caller.
+    factors = _failing_mesh(monkeypatch, failures=10)
+    with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"), \
+            pytest.raises(MeshError, match="quality"):
+        toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path)
+    assert factors == [toothpair.LEVELS["coarse"].max_stretch, 5.0, 2.5, 1.0]
+    retries = [r.getMessage() for r in caplog.records if "meshing again" in r.getMessage()]
+    assert len(retries) == 3
+    assert "at most 5.0" in retries[0] and "at most 1.0" in retries[-1]
+    assert not (tmp_path / "pair.msh").exists()
+
+
+@pytest.mark.slow
+def test_one_inverted_attempt_is_meshed_again_with_less_stretch(tmp_path, monkeypatch,
+                                                                 caplog):
+    factors = _failing_mesh(monkeypatch, failures=1)
+    with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"):
+        pair = toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED,
+                                    tmp_path)
+    assert factors == [toothpair.LEVELS["coarse"].max_stretch, 5.0]
+    (warning,) = [r for r in caplog.records if "meshing again" in r.getMessage()]
+    assert warning.levelno == logging.WARNING and "at most 5.0" in warning.getMessage()
+    # the written mesh is the second attempt's: element sizes 5 : 1 along and across
+    sizes = pair.stats.element_sizes
+    assert sizes["major"] / sizes["minor"] == pytest.approx(5.0, rel=1e-12)
+    assert pair.mesh_path.is_file()

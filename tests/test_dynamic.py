@@ -179,25 +179,35 @@ def test_cli_dynamic_outputs(tmp_path):
 def test_coarse_hemisphere_impact_against_hertz(tmp_path):
     """Hemisphere R = 10 mm tied to a 0.5 kg rigid mass hits a block at 1 m/s (Newmark).
 
-    Hertz with m = 0.5 kg + the hemisphere's 16.5 g. The finite specimen is
-    stiffer than two half-spaces (the static validation measures its
-    far-field share), which raises the peak force by about 3% at this speed;
-    with the coarse mesh's own error the tolerance is 5%.
+    Against the quasi-static impact on the same mesh (the static solver's
+    force-displacement curve of this specimen, integrated for the same mass:
+    ``validation/hertz_impact.py``'s specimen reference), which takes the
+    finite specimen's stiffness and the coarse mesh's error out of the
+    comparison. The contact lasts about 100 times a wave's transit through
+    the hemisphere and Newmark's period error at t_c/50 is ~0.1%, so the
+    transient must match within 1% (measured 0.5% / 0.3% / 0.3%). Hertz
+    (m = 0.5 kg + the hemisphere's 16.5 g) is within 5%: the specimen is
+    about 3% stiffer than two half-spaces.
     """
+    from fe_impact.fe.mesh import load_mesh
+    from validation.hertz_impact import specimen_impact
+    from validation.impact_cases import sphere_impact_case
+
     mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
     m = 0.5 + 2.0 / 3.0 * math.pi * R ** 3 * RHO
     ref = hertz.impact(m, 1.0, R, hertz.effective_modulus(212e9, 0.289))
-    case = write_sphere_impact(tmp_path, mesh, 1.0, 1.4 * ref.contact_time, rigid_mass=0.5,
-                               frames=10)
-    result = DynamicSolver(load_case(case), load_mesh(mesh)).run()
-    meas = result.measurements
+    case = sphere_impact_case(mesh, 1.0, 1.4 * ref.contact_time, rigid_mass=0.5, frames=10)
+    solver = DynamicSolver(case, load_mesh(mesh))
+    meas = solver.run().measurements
+    spec = specimen_impact(mesh, m, 1.0, solver.initial_gap, ref.delta_max)
+    assert 4.0 * meas["peak_force"] == pytest.approx(spec["peak_force"], rel=0.01)
+    assert meas["max_approach"] == pytest.approx(spec["max_approach"], rel=0.01)
+    assert meas["contact_duration"] == pytest.approx(spec["contact_time"], rel=0.01)
     assert 4.0 * meas["peak_force"] == pytest.approx(ref.force_max, rel=0.05)
-    assert meas["max_approach"] == pytest.approx(ref.delta_max, rel=0.05)
-    assert meas["contact_duration"] == pytest.approx(ref.contact_time, rel=0.05)
     # Elastic impact: only wave loss (Hunter: 0.6% of the energy at 1 m/s for a
     # free sphere; far less with a rigid mass behind it) and integrator error.
     assert 0.99 < meas["restitution"] <= 1.0 + 1e-3
-    assert meas["energy_error"] < 0.01
+    assert meas["energy_error"] < 1e-3
 
 
 def test_contact_zone_grows_before_faces_outside_touch(tmp_path):

@@ -58,13 +58,14 @@ from fe_impact.contact.zone import (
     ContactZone,
     contact_pairs,
     face_size,
-    reference_states,
 )
 from fe_impact.errors import CaseError, ContactError, SolverError
-from fe_impact.fe.case import Case, RigidBodySpec
+from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import assemble_mass, build_model, lumped_mass, von_mises
+from fe_impact.fe.kinematics import Kinematics, rigid_mode
 from fe_impact.fe.linalg import SPDSolver, condensed_compliance
 from fe_impact.fe.mesh import FEMesh
+from fe_impact.solvers.model import ContactSetup, gap_reach
 
 logger = logging.getLogger(__name__)
 
@@ -74,80 +75,6 @@ NEWMARK_STEPS = 200
 #: Re-project the slave nodes when the zone has moved by this fraction of the
 #: smallest contact-face size since the last projection.
 REPROJECT_FRACTION = 0.05
-
-
-# -- kinematics ---------------------------------------------------------------
-
-
-def rigid_mode(spec: RigidBodySpec, x: np.ndarray) -> np.ndarray:
-    """Displacement of points ``x`` (n, 3) per unit rigid-body coordinate."""
-    d = np.asarray(spec.direction)
-    if spec.motion == "translation":
-        return np.broadcast_to(d, x.shape).copy()
-    return np.cross(d, x - np.asarray(spec.point))
-
-
-@dataclass(frozen=True, eq=False)
-class Kinematics:
-    """Map ``u = T z`` between reduced coordinates and all DOFs.
-
-    Attributes
-    ----------
-    T : csr_matrix, shape (n_dofs, n_free + n_rigid)
-    free : DOFs that are unknowns of their own (columns ``0..n_free-1``)
-    fixed : DOFs held at zero by supports
-    rigid : the rigid-body specs; body ``k`` is column ``n_free + k``
-    """
-
-    T: sp.csr_matrix
-    free: np.ndarray
-    fixed: np.ndarray
-    rigid: tuple[RigidBodySpec, ...]
-
-    @property
-    def n(self) -> int:
-        return self.T.shape[1]
-
-    @property
-    def n_free(self) -> int:
-        return len(self.free)
-
-    @classmethod
-    def build(cls, case: Case, mesh: FEMesh, n_dofs: int) -> Kinematics:
-        fixed = np.zeros(n_dofs, dtype=bool)
-        for s in case.supports:
-            pts = mesh.surface_points(s.surface)
-            for c in s.fix:
-                fixed[3 * mesh.point_dof[pts] + c] = True
-        tied = -np.ones(n_dofs, dtype=np.int64)
-        coef = np.zeros(n_dofs)
-        for k, body in enumerate(case.rigid_bodies):
-            pts = mesh.surface_points(body.surface)
-            dofs = (3 * mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
-            clash = tied[dofs] >= 0
-            if clash.any():
-                other = case.rigid_bodies[int(tied[dofs][clash][0])].surface
-                raise CaseError(f"{case.path.name}: rigid_bodies[{k}] surface '{body.surface}' "
-                                f"shares {int(clash.sum() // 3) or 1} nodes with '{other}'; "
-                                "a node can follow one rigid body only")
-            c = rigid_mode(body, mesh.points[pts]).ravel()
-            scale = np.abs(c).max(initial=0.0)
-            moved = fixed[dofs] & (np.abs(c) > 1e-9 * max(scale, 1e-300))
-            if moved.any():
-                raise CaseError(f"{case.path.name}: rigid_bodies[{k}] ({body.motion} of "
-                                f"'{body.surface}') moves {int(moved.sum())} DOFs that "
-                                "[[supports]] fix; remove the support or change the motion")
-            tied[dofs] = k
-            coef[dofs] = c
-        is_tied = tied >= 0
-        fixed &= ~is_tied
-        free = np.flatnonzero(~fixed & ~is_tied)
-        n_free = len(free)
-        rows = np.concatenate([free, np.flatnonzero(is_tied)])
-        cols = np.concatenate([np.arange(n_free), n_free + tied[is_tied]])
-        vals = np.concatenate([np.ones(n_free), coef[is_tied]])
-        T = sp.csr_matrix((vals, (rows, cols)), shape=(n_dofs, n_free + len(case.rigid_bodies)))
-        return cls(T, free, np.flatnonzero(fixed), case.rigid_bodies)
 
 
 # -- measurement probes ------------------------------------------------------------
@@ -509,13 +436,11 @@ class DynamicSolver:
                                    if self.explicit else None)
         h_min = min(face_size(self.mesh, p.slave) for p in self.pairs)
         t = time.perf_counter()
-        states = reference_states(self.mesh, self.pairs)
-        self._reach = [self._search_distance(*x) for x in
-                       zip(case.contacts, self.pairs, states, strict=True)]
-        self.zone = ContactZone.initial(self.mesh, self.pairs, self._reach, states)
+        setup = ContactSetup.build(case, self.mesh, self.pairs, gap_reach(self.mesh))
+        self.zone = setup.zone
         self.contact = ContactModel(self.mesh, self.model, self.kin, self.zone,
                                     REPROJECT_FRACTION * h_min)
-        self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone, self._reach, states)
+        self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone, setup.reach, setup.states)
         self.timings["contact_setup"] = time.perf_counter() - t
         self._probe()
         self.plastic = self._plastic_zone()
@@ -530,16 +455,6 @@ class DynamicSolver:
             self.timings["factorisation"] = time.perf_counter() - t
 
     # -- set-up --------------------------------------------------------------------
-    def _search_distance(self, spec, pair, st) -> float:
-        if spec.search_distance is not None:
-            return spec.search_distance
-        g0 = float(np.min(st.gap))
-        if not np.isfinite(g0):
-            raise ContactError(f"contact {pair.slave.name} -> {pair.master.name}: no slave "
-                               "node lies opposite the master surface")
-        # The zone grows by itself when faces outside it come close.
-        return max(g0, 0.0) + face_size(self.mesh, pair.slave)
-
     def _probe(self) -> None:
         """Initial contact point and normal of the first pair, and the two sides.
 

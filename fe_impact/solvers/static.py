@@ -29,12 +29,14 @@ import scipy.sparse as sp
 
 from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
-from fe_impact.contact.zone import ContactZone, contact_pairs
-from fe_impact.errors import CaseError, ContactError
+from fe_impact.contact.zone import contact_pairs
+from fe_impact.errors import ContactError
 from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
+from fe_impact.fe.kinematics import point_dofs
 from fe_impact.fe.linalg import SPDSolver, condensed_compliance
 from fe_impact.fe.mesh import FEMesh
+from fe_impact.solvers.model import ContactSetup, Prescribed, displacement_reach
 
 logger = logging.getLogger(__name__)
 
@@ -78,67 +80,28 @@ class StaticSolver:
         t = time.perf_counter()
         self.model = build_model(self.mesh, case.materials)
         self.timings["assembly"] = time.perf_counter() - t
-        self._setup_dofs()
+        self.dofs = Prescribed.build(case, self.mesh, self.model.n_dofs)
+        free, fixed = self.dofs.free, self.dofs.fixed
         t = time.perf_counter()
         K = self.model.K
-        self.K_ff = K[self.free][:, self.free].tocsr()
-        self.K_fd = K[self.free][:, self.fixed].tocsr()
+        self.K_ff = K[free][:, free].tocsr()
+        self.K_fd = K[free][:, fixed].tocsr()
         self.solver = SPDSolver(self.K_ff)
         self.timings["factorisation"] = time.perf_counter() - t
         self.pairs = contact_pairs(case, self.mesh, self.model)
         self.node_areas = [nodal_areas(self.mesh, p.slave) for p in self.pairs]
         t = time.perf_counter()
-        self.zone = ContactZone.initial(self.mesh, self.pairs,
-                                        [self._search_distance(s) for s in case.contacts])
-        self._condense()
+        self.zone = ContactSetup.build(case, self.mesh, self.pairs,
+                                       displacement_reach(case)).zone
+        self.zone_dofs, self.G = self._condense()
         self.timings["condensation"] = time.perf_counter() - t
 
-    # -- set-up -------------------------------------------------------------
-    def _setup_dofs(self) -> None:
-        mesh, n = self.mesh, self.model.n_dofs
-        values = np.full((n, self.case.n_steps), np.nan)
-        owner: dict[int, str] = {}
-        for s in self.case.supports:
-            for c in s.fix:
-                self._prescribe(values, owner, s.surface, c, np.zeros(self.case.n_steps))
-        for d in self.case.displacements:
-            self._prescribe(values, owner, d.surface, d.component, np.array(d.values))
-        fixed = ~np.isnan(values[:, 0])
-        self.fixed = np.flatnonzero(fixed)
-        self.free = np.flatnonzero(~fixed)
-        self.fixed_values = values[self.fixed]
-        self.free_index = -np.ones(n, dtype=np.int64)
-        self.free_index[self.free] = np.arange(len(self.free))
-        self.loaded = [3 * mesh.point_dof[mesh.surface_points(d.surface)] + d.component
-                       for d in self.case.displacements]
-
-    def _prescribe(self, values, owner, surface: str, comp: int, vals: np.ndarray) -> None:
-        dofs = 3 * self.mesh.point_dof[self.mesh.surface_points(surface)] + comp
-        known = ~np.isnan(values[dofs, 0])
-        clash = known & np.any(values[dofs] != vals[None, :], axis=1)
-        if clash.any():
-            other = owner[int(dofs[np.flatnonzero(clash)[0]])]
-            raise CaseError(f"{self.case.path.name}: surface '{surface}' and '{other}' "
-                            f"prescribe different values to component {'xyz'[comp]} of "
-                            f"{int(clash.sum())} shared nodes")
-        values[dofs] = vals[None, :]
-        owner.update(dict.fromkeys(dofs.tolist(), surface))
-
-    def _search_distance(self, spec) -> float:
-        if spec.search_distance is not None:
-            return spec.search_distance
-        reach = max((abs(v) for d in self.case.displacements for v in d.values), default=0.0)
-        # The approach cannot exceed the largest prescribed displacement; the
-        # zone grows by itself if a face outside it touches.
-        return 1.25 * reach
-
-    def _condense(self) -> None:
-        pts = self.zone.points()
-        dofs = (3 * self.mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
-        free = self.free_index[dofs]
-        self.zone_dofs = np.unique(free[free >= 0])
-        self.G = condensed_compliance(self.K_ff, self.zone_dofs)
-        logger.info("contact zone: %d DOFs condensed", len(self.zone_dofs))
+    def _condense(self) -> tuple[np.ndarray, np.ndarray]:
+        """The free DOFs of the contact zone and their compliance (Schur complement)."""
+        free = self.dofs.free_index[point_dofs(self.mesh, self.zone.points())]
+        zone_dofs = np.unique(free[free >= 0])
+        logger.info("contact zone: %d DOFs condensed", len(zone_dofs))
+        return zone_dofs, condensed_compliance(self.K_ff, zone_dofs)
 
     # -- load steps -----------------------------------------------------------
     def run(self, step_hook: Callable[[int, StepResult], None] | None = None) -> StaticResult:
@@ -153,7 +116,7 @@ class StaticSolver:
             if step_hook is not None:
                 step_hook(i, step)
         self.timings["steps"] = t_contact
-        info = {"n_dofs": int(self.model.n_dofs), "n_free_dofs": int(len(self.free)),
+        info = {"n_dofs": int(self.model.n_dofs), "n_free_dofs": int(len(self.dofs.free)),
                 "n_contact_dofs": int(len(self.zone_dofs)), "element_order": self.mesh.order,
                 "n_elements": int(len(self.mesh.cells)), "n_points": int(self.mesh.n_points),
                 "factor_nonzeros": self.solver.factor_nnz}
@@ -161,14 +124,14 @@ class StaticSolver:
                             dict(self.timings), info)
 
     def _dirichlet(self, i: int) -> np.ndarray:
-        return self.fixed_values[:, i]
+        return self.dofs.values[:, i]
 
     def solve_step(self, i: int) -> StepResult:
         u_d = self._dirichlet(i)
         rhs0 = -(self.K_fd @ u_d)
         u = np.zeros(self.model.n_dofs)
-        u[self.fixed] = u_d
-        u[self.free] = self.solver.solve(rhs0)
+        u[self.dofs.fixed] = u_d
+        u[self.dofs.free] = self.solver.solve(rhs0)
         for _ in range(5):  # enlargements of the contact zone
             u_c, lam, states, its, ai = self._contact_iterations(u)
             u_full = self._recover(u_d, rhs0, states, lam)
@@ -179,7 +142,7 @@ class StaticSolver:
 
     def _contact_iterations(self, u0: np.ndarray):
         tol = self.case.analysis.tolerance
-        cdofs = self.free[self.zone_dofs]
+        cdofs = self.dofs.free[self.zone_dofs]
         u = u0.copy()
         lam, active, total = None, None, 0
         for it in range(1, self.case.analysis.max_iterations + 1):
@@ -214,16 +177,16 @@ class StaticSolver:
         B = sp.vstack([s.B for s in states]).tocsr() if states else None
         rhs = rhs0.copy()
         if B is not None and B.shape[0]:
-            rhs += (B.T @ lam)[self.free]
+            rhs += (B.T @ lam)[self.dofs.free]
         u = np.zeros(self.model.n_dofs)
-        u[self.fixed] = u_d
-        u[self.free] = self.solver.solve(rhs)
+        u[self.dofs.fixed] = u_d
+        u[self.dofs.free] = self.solver.solve(rhs)
         return u
 
     def _grow_zone(self, u: np.ndarray) -> bool:
         """Enlarge the zone if faces outside it penetrate; True if it grew."""
         if self.zone.grow(self.mesh, self.model.point_values(u)):
-            self._condense()
+            self.zone_dofs, self.G = self._condense()
             return True
         return False
 
@@ -245,7 +208,7 @@ class StaticSolver:
             pen = max(pen, float((p / pair.penalty).max(initial=0.0)))
             pressure = np.maximum(pressure, p_nodes)
         Ku = self.model.K @ u
-        reactions = [float(Ku[d].sum()) for d in self.loaded]
+        reactions = [float(Ku[d].sum()) for d in self.dofs.loaded]
         value = self.case.displacements[0].values[i] if self.case.displacements else 0.0
         return StepResult(value, forces, areas, pmax, pen, its, ai, reactions,
                           self.model.point_values(u), pressure, von_mises(self.model, u))

@@ -28,13 +28,15 @@ def test_calibration_outputs(calibrated):
     (case,) = doc["cases"]
     fe, law, tca_mass = case["fe"], case["impact"], case["effective_mass"]
     # Elastic tooth impact below the yield speed: the FE restitution is close to 1
-    # (wave loss only) and the approach is the Hertz one within the mesh's few
-    # percent (the coarse contact mesh has 2-3 elements across the ellipse).
+    # (wave loss only); the approach and force are checked against a static
+    # solve of the same mesh in test_tooth_impact_against_its_quasi_static_solve.
     assert 0.98 < fe["restitution"] <= 1.0 + 1e-3
-    assert fe["max_approach"] == pytest.approx(case["closed_form"]["delta_max"], rel=0.15)
+    # Newmark's average acceleration conserves kinetic + strain + penalty energy
+    # up to the contact switches (the sphere impacts close to 1e-4).
+    assert fe["energy_error"] < 1e-3
     # The fitted law reproduces the FE history it was fitted to (relative RMS of force).
     assert case["fit_quality"]["residual_force_rms"] < 0.05
-    assert 1.0 < law["exponent"] < 2.0 and law["k"] > 0 and tca_mass > 0
+    assert law["k"] > 0 and tca_mass > 0
     # eq. 15 for 20CrMnTi is 0.0866 m/s (DESIGN.md section 4: "about 0.09 m/s");
     # at 0.05 m/s the seed's eq. 14 says elastic, like the FE.
     models = case["restitution_models"]
@@ -54,6 +56,104 @@ def test_calibration_outputs(calibrated):
     for name in ("calibration.csv", "report.md", "force_time.png", "parameters.png"):
         assert (out / "run" / name).stat().st_size > 100, name
     assert (out / "run" / "cases" / case["id"] / "fe" / "impact.pvd").exists()
+
+
+def _quasi_static_tooth_pair(case_file, max_approach):
+    """Static solve of the impact's own tooth-pair mesh, hubs held instead of rotating.
+
+    The face-gear hub is fixed and the pinion hub is pushed along the contact
+    normal (the master normal at the node of the smallest weighted gap, where
+    the impact measures its approach) to the initial gap plus 0.25 ... 1.1 of
+    the impact's largest approach. The hubs' rigid motions differ from the
+    impact's rotations only by a rigid motion, which leaves the contact force
+    at a given normal approach unchanged up to the tangential slide (microns
+    on flanks curved over millimetres).
+    """
+    from dataclasses import replace
+
+    import numpy as np
+
+    from fe_impact.contact.zone import contact_pairs, reference_states
+    from fe_impact.fe.case import AnalysisSpec, DisplacementSpec, SupportSpec, load_case
+    from fe_impact.fe.elasticity import build_model
+    from fe_impact.fe.mesh import load_mesh
+    from fe_impact.solvers.static import StaticSolver
+
+    impact = load_case(case_file)
+    mesh = load_mesh(impact.mesh_file, impact.unit)
+    held = replace(impact, rigid_bodies=(), initial_velocities=(),
+                   supports=(SupportSpec("face_hub", (0, 1, 2)),), analysis=AnalysisSpec())
+    pairs = contact_pairs(held, mesh, build_model(mesh, held.materials))
+    st = reference_states(mesh, pairs)[0]
+    k = int(np.argmin(np.where(np.isfinite(st.gap), st.gap, np.inf)))
+    gap, normal = float(st.gap[k]), st.normal[k]
+    approach = max_approach * np.array([0.25, 0.5, 0.75, 1.0, 1.1])
+    push = tuple(DisplacementSpec("pinion_hub", i, tuple(-(gap + a) * normal[i] for a in approach))
+                 for i in range(3))
+    solver = StaticSolver(replace(held, displacements=push), mesh)
+    return impact, solver, solver.run(), approach, st.point[k], normal
+
+
+@pytest.mark.slow
+def test_tooth_impact_against_its_quasi_static_solve(calibrated):
+    """The tooth impact against the static solve of its own mesh; the hub reactions.
+
+    Quasi-static impact: the effective mass at the impact speed spends its
+    kinetic energy on the static force-approach curve, which gives the
+    largest approach. The impact lasts many periods of the teeth's lowest
+    modes, so the FE must reach it within 1% (a 1% error of the force over
+    the loading branch moves it by 0.7%; measured 0.02%). The force
+    oscillates about the static curve with the teeth's vibration that the
+    impact starts (measured -1% to +3% over the loading branch, +2.0% at the
+    peak), so the peak force is held to 3%.
+
+    Action and reaction, in the static solve at the impact's largest approach:
+    the reactions of the two hubs are equal and opposite to round-off (the
+    contact forces on slave and master balance, and K u sums to zero), each
+    equals the contact force, and each hub's torque about its gear's axis over
+    its lever arm at the contact point equals the contact force within 1%
+    (the normals vary over the contact patch by a / R, a few per mille;
+    measured 0.06%).
+    """
+    import numpy as np
+    from scipy.interpolate import PchipInterpolator
+    from scipy.optimize import brentq
+
+    out, _ = calibrated
+    doc = json.loads((out / "run" / "calibration.json").read_text())
+    (case,) = doc["cases"]
+    fe = case["fe"]
+    impact, solver, result, approach, x_c, normal = _quasi_static_tooth_pair(
+        out / "cache" / "meshes" / case["hash"] / "case_newmark_calibration.toml",
+        fe["max_approach"])
+    force = np.array([s.contact_force[0] for s in result.steps])
+    curve = PchipInterpolator(np.concatenate([[0.0], approach]), np.concatenate([[0.0], force]))
+    work = curve.antiderivative()
+    energy = 0.5 * case["effective_mass"] * fe["impact_velocity"] ** 2
+    reach = brentq(lambda d: float(work(d)) - energy, 1e-3 * approach[0], approach[-1])
+    assert fe["max_approach"] == pytest.approx(reach, rel=0.01)
+    assert fe["peak_force"] == pytest.approx(float(curve(reach)), rel=0.03)
+
+    step = result.steps[3]                       # at the impact's largest approach
+    mesh, K = solver.mesh, solver.model.K
+    ok = mesh.point_dof >= 0
+    u = np.zeros(K.shape[0])
+    for c in range(3):
+        u[3 * mesh.point_dof[ok] + c] = step.u[ok, c]
+    r = K @ u
+    bodies = {b.surface: b for b in impact.rigid_bodies}
+    resultants = []
+    for hub in ("pinion_hub", "face_hub"):
+        pts = mesh.surface_points(hub)
+        reaction = np.stack([r[3 * mesh.point_dof[pts] + c] for c in range(3)], axis=1)
+        axis, point = np.array(bodies[hub].direction), np.array(bodies[hub].point)
+        torque = float(np.sum(np.cross(mesh.points[pts] - point, reaction) @ axis))
+        lever = abs(float(np.cross(x_c - point, normal) @ axis))
+        assert abs(torque) / lever == pytest.approx(step.contact_force[0], rel=0.01), hub
+        resultants.append(reaction.sum(axis=0))
+    pinion, face = resultants
+    assert np.linalg.norm(pinion + face) < 1e-9 * np.linalg.norm(pinion)
+    assert np.linalg.norm(pinion) == pytest.approx(step.contact_force[0], rel=1e-3)
 
 
 def test_rerun_resumes_without_recomputing(calibrated):

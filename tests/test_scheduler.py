@@ -1,0 +1,70 @@
+"""``fe-impact calibrate --scheduler ADDRESS`` runs its cases on a separately started cluster."""
+
+from __future__ import annotations
+
+import json
+import logging
+
+import pytest
+
+from fe_impact.cli.main import main
+
+ARGV = ["calibrate", "--stages", "1", "--speeds", "100", "--level", "coarse"]
+
+
+def _cases(folder) -> dict:
+    doc = json.loads((folder / "calibration.json").read_text())
+    return {c["id"]: c for c in doc["cases"]}
+
+
+@pytest.mark.slow
+def test_calibrate_on_an_external_scheduler_matches_a_local_run(tmp_path):
+    """One coarse case on a scheduler and worker started here (as a user would start
+    them on another machine), then the same case on the command's own local cluster
+    with the mesh from the shared cache. Both run the same deterministic FE impact
+    (one thread per worker, same mesh, same time steps) and the same fit: the
+    results must agree to rounding (1e-12)."""
+    from dask.distributed import LocalCluster
+
+    cache = str(tmp_path / "cache")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+        remote = tmp_path / "remote"
+        argv = [*ARGV, "--scheduler", cluster.scheduler_address, "--out", str(remote),
+                "--cache", cache]
+        assert main(argv) == 0
+        # the case was a task of this scheduler (keys "fe-impact-<case>-<hash>")
+        assert any(name.startswith("fe-impact") for name in cluster.scheduler.task_prefixes)
+    local = tmp_path / "local"
+    assert main([*ARGV, "--workers", "1", "--out", str(local), "--cache", cache]) == 0
+    remote_cases, local_cases = _cases(remote), _cases(local)
+    assert list(remote_cases) == list(local_cases) and len(remote_cases) == 1
+    for case_id, theirs in remote_cases.items():
+        ours, theirs = _leaves(local_cases[case_id]), _leaves(theirs)
+        assert ours.keys() == theirs.keys()
+        assert "fe.peak_force" in ours and "fe.restitution" in ours
+        for key, value in ours.items():
+            if isinstance(value, float):
+                assert theirs[key] == pytest.approx(value, rel=1e-12, abs=1e-300), key
+            else:
+                assert theirs[key] == value, key
+
+
+#: Keys of wall-clock times in a case record: they differ from run to run.
+WALL_TIMES = ("timings_s", "wall_time", "wall_time_s", "seconds")
+
+
+def _leaves(record, prefix: str = "") -> dict:
+    """Every value of a JSON record by its dotted path, without the wall times."""
+    if isinstance(record, dict):
+        out = {}
+        for key, value in record.items():
+            if key not in WALL_TIMES:
+                out.update(_leaves(value, f"{prefix}{key}."))
+        return out
+    if isinstance(record, list):
+        out = {}
+        for i, value in enumerate(record):
+            out.update(_leaves(value, f"{prefix}{i}."))
+        return out
+    return {prefix[:-1]: record}

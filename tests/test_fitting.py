@@ -16,7 +16,7 @@ def _impact_law(k, exponent, mass, speed, c, d_over_l):
     """IMPACT law from dimensionless damping ``c = cmax L/(m v)`` and ``d/L``.
 
     ``L = (m v^2 / k)^(1/(n+1))`` is the length scale of the impact (see the
-    module docstring of `fe_impact.calibration.fitting`); the restitution depends on
+    module docstring of `fe_impact.calibration.impact_model`); the restitution depends on
     ``(exponent, c, d/L)`` only.
     """
     length = (mass * speed**2 / k) ** (1.0 / (exponent + 1.0))
@@ -232,11 +232,11 @@ def test_bad_histories_raise_calibration_error():
         fitting.fit_impact_law(time, np.zeros_like(force), delta, 0.1, 0.1, 0.9)
     with pytest.raises(CalibrationError, match="no contact"):
         fitting.fit_power_law(delta, np.zeros_like(force))
-    with pytest.raises(CalibrationError, match="mass must be a positive"):
+    with pytest.raises(CalibrationError, match=r"mass = -0\.1: must be > 0"):
         fitting.fit_impact_law(time, force, delta, -0.1, 0.1, 0.9)
-    with pytest.raises(CalibrationError, match="speed must be a positive"):
+    with pytest.raises(CalibrationError, match=r"speed = 0\.0: must be > 0"):
         fitting.fit_impact_law(time, force, delta, 0.1, 0.0, 0.9)
-    with pytest.raises(CalibrationError, match="restitution"):
+    with pytest.raises(CalibrationError, match=r"restitution = 1\.2: must be in \(0, 1\]"):
         fitting.fit_impact_law(time, force, delta, 0.1, 0.1, 1.2)
     with pytest.raises(CalibrationError, match="samples, expected"):
         fitting.fit_impact_law(time, force[:-1], delta, 0.1, 0.1, 0.9)

@@ -8,7 +8,7 @@ import pytest
 
 from fe_impact.cli.main import main
 from fe_impact.gears import default_gearset
-from fe_impact.meshing.toothpair import PairSpec, analyse_pair
+from fe_impact.gears.pairanalysis import PairSpec, analyse_pair
 from fe_impact.physics import hertz
 
 

@@ -20,7 +20,8 @@ from fe_impact.errors import FeImpactError, GeometryError, MeshError
 from fe_impact.fe.case import ContactSpec, load_case
 from fe_impact.fe.mesh import load_mesh
 from fe_impact.gears import GearPair, default_gearset
-from fe_impact.meshing.toothpair import MIN_SICN, PairSpec, build_pair, pair_key
+from fe_impact.gears.pairanalysis import PairSpec
+from fe_impact.meshing.toothpair import MIN_SICN, build_pair, pair_key
 from fe_impact.physics import hertz
 
 GAP = 5e-6

@@ -63,7 +63,7 @@ from fe_impact.inputs import Reader, read_document
 
 if TYPE_CHECKING:
     from fe_impact.fe.case import Case
-    from fe_impact.meshing.toothpair import PairAnalysis
+    from fe_impact.gears.pairanalysis import PairAnalysis
 
 logger = logging.getLogger(__name__)
 
@@ -174,7 +174,7 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
 
 def _check_impact_speeds(cases: list[ImpactCase], given: bool) -> None:
     """Refuse, before any work starts, speeds the tooth-pair builder would refuse."""
-    from fe_impact.meshing.toothpair import MAX_IMPACT_SPEED
+    from fe_impact.gears.pairanalysis import MAX_IMPACT_SPEED
 
     bad = [c for c in cases if not c.impact_speed <= MAX_IMPACT_SPEED]
     if not bad:
@@ -221,7 +221,8 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     from fe_impact.fe.linalg import limit_threads
     from fe_impact.fe.mesh import load_mesh
     from fe_impact.gears import gearset_from_dict
-    from fe_impact.meshing.toothpair import build_pair, hertz_impact_estimate
+    from fe_impact.gears.pairanalysis import hertz_impact_estimate
+    from fe_impact.meshing.toothpair import build_pair
     from fe_impact.output.results import DynamicWriter
     from fe_impact.runtime import keep_freed_memory
     from fe_impact.solvers.dynamic import DynamicSolver

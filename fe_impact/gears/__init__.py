@@ -10,6 +10,9 @@ First stage of the data flow (gear set -> tooth surfaces -> mesh ...):
   shaper and the usable face width (``FaceGearTooth``, ``face_gear_limits``);
 - :mod:`~fe_impact.gears.tca`: tooth contact analysis, curvatures and the
   Hertz ellipse (``GearPair``, ``ContactPoint``, ``contact_ellipse``);
+- :mod:`~fe_impact.gears.pairanalysis`: one tooth pair set up for an impact,
+  before meshing: TCA contact, reduced masses, Hertz impact, initial
+  velocities (``PairSpec``, ``PairAnalysis``, ``analyse_pair``);
 
 The geometry modules work on plain numbers and do not import the gear-set
 module; :class:`GearSet` builds their objects (``pinion_tooth()``,
@@ -25,6 +28,13 @@ from fe_impact.gears.gearset import (
     default_gearset,
     gearset_from_dict,
     load_gearset,
+)
+from fe_impact.gears.pairanalysis import (
+    PairAnalysis,
+    PairSpec,
+    ReducedMasses,
+    analyse_pair,
+    hertz_impact_estimate,
 )
 from fe_impact.gears.pinion import PinionTooth, SurfaceSample, ToothProfile, involute_function
 from fe_impact.gears.tca import (
@@ -45,14 +55,19 @@ __all__ = [
     "GearPair",
     "GearSet",
     "Material",
+    "PairAnalysis",
+    "PairSpec",
     "Pinion",
     "PinionTooth",
+    "ReducedMasses",
     "SurfaceSample",
     "ToothProfile",
+    "analyse_pair",
     "contact_ellipse",
     "default_gearset",
     "face_gear_limits",
     "gearset_from_dict",
+    "hertz_impact_estimate",
     "involute_function",
     "load_gearset",
     "relative_curvature",

@@ -16,9 +16,17 @@
 - ``tca.json``: the tooth contact analysis and Hertz estimates.
 
 and returns them as a :class:`PairMesh`, which carries the case as a
-:class:`~fe_impact.fe.case.Case` and the analysis as a :class:`PairAnalysis`
-(the files are written from these; the calibration adapts the case with
-:func:`dataclasses.replace`).
+:class:`~fe_impact.fe.case.Case` and the analysis as a
+:class:`~fe_impact.gears.pairanalysis.PairAnalysis` (the files are written
+from these; the calibration adapts the case with :func:`dataclasses.replace`).
+
+The stages, in data-flow order: the tooth contact analysis and Hertz
+estimates (:mod:`fe_impact.gears.pairanalysis`, no mesher); the gmsh solids
+and the exact flanks (:mod:`~fe_impact.meshing.pairgeometry`); the element
+sizes, the stretched space and the size fields
+(:mod:`~fe_impact.meshing.sizing`, :mod:`~fe_impact.meshing.contactstretch`);
+the impact case (:mod:`~fe_impact.meshing.paircase`). This module meshes,
+retries, writes the files and reuses them (:func:`pair_key`).
 
 Geometry (the mesh frame of :mod:`fe_impact.gears.tca`): one pinion tooth from
 space centre to space centre with a rim ``rim_modules`` modules deep, over
@@ -42,7 +50,8 @@ Gmsh's fast 3-D mesher (HXT) is isotropic, so the pair is meshed in a
 
 1. both sectors are built in physical space (OCC lofts through exact
    sections) and covered by a fine reference surface mesh;
-2. its nodes are mapped by :class:`ContactStretch`, a smooth one-to-one map
+2. its nodes are mapped by
+   :class:`~fe_impact.meshing.contactstretch.ContactStretch`, a smooth one-to-one map
    that shortens the major-axis coordinate by ``factor`` around the contact
    and is the identity far from it, and the model is reloaded as discrete
    geometry (``gmsh.model.mesh.createGeometry``);
@@ -65,7 +74,6 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import math
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -73,511 +81,42 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from fe_impact.errors import GeometryError, MeshError
-from fe_impact.fe.case import AnalysisSpec, Case, ContactSpec, MaterialSpec, RigidBodySpec
-from fe_impact.gears.facegear import FaceGearTooth
-from fe_impact.gears.tca import (
-    ContactEllipse,
-    ContactPoint,
-    GearPair,
-    contact_ellipse,
-    equivalent_radius,
+from fe_impact.errors import MeshError
+from fe_impact.fe.case import Case
+from fe_impact.gears.pairanalysis import PairAnalysis, PairSpec
+from fe_impact.gears.tca import ContactEllipse, ContactPoint
+from fe_impact.meshing.paircase import case_header, impact_case
+from fe_impact.meshing.pairgeometry import MM, add_sectors, snap_flanks
+from fe_impact.meshing.sizing import (
+    LEVELS,
+    PairDesign,
+    design_pair,
+    reference_size_field,
+    size_field,
 )
-from fe_impact.physics import hertz
 
 logger = logging.getLogger(__name__)
 
 __all__ = [
-    "hertz_impact_estimate",
     "LEVELS",
-    "ContactStretch",
-    "MeshLevel",
+    "MIN_SICN",
     "MeshStats",
-    "PairAnalysis",
     "PairMesh",
-    "PairSpec",
-    "ReducedMasses",
-    "analyse_pair",
     "build_pair",
+    "pair_key",
 ]
 
-MM = 1e3  # the mesh file is in millimetres
-#: Loads [N] at which tca.json lists the Hertz ellipse (DESIGN.md section 3: 37-1000 N).
-REPORT_FORCES = (37.0, 100.0, 1000.0)
-#: Contact time multiple simulated (DESIGN: about 2.5 Hertz contact times).
-DURATION_FACTOR = 2.5
-#: Output frames per Hertz contact time.
-FRAMES_PER_CONTACT = 20
-VELOCITY_SPLITS = ("momentum", "pinion", "face_gear")
 #: Smallest element quality accepted (gmsh's minimum signed inverse condition
 #: number; 0 is a degenerate element). Below it the mesh is made again with
 #: less anisotropy.
 MIN_SICN = 0.01
-#: Largest impact speed a tooth pair is built for, m/s (the seed's fastest
-#: ratio-switch impact, at 1000 r/min, is about 4.2 m/s).
-MAX_IMPACT_SPEED = 20.0
 
 
 class _InvertedMesh(MeshError):
     """A mesh with a (nearly) inverted element; :func:`build_pair` retries."""
 
 
-# -- levels ----------------------------------------------------------------------------
-@dataclass(frozen=True)
-class MeshLevel:
-    """Element sizes of a refinement level, relative to the design Hertz ellipse.
-
-    Attributes
-    ----------
-    minor_fraction : float
-        Size across the ellipse (minor axis) and along the normal, over ``b``.
-    major_fraction : float
-        Size along the major axis, over ``a``; the stretch factor is
-        ``major_fraction a / (minor_fraction b)``, capped at ``max_stretch``.
-    far_modules : float
-        Largest element size, in modules.
-    gradation : float
-        Growth of the element size per unit distance from the contact zone
-        (in the stretched space).
-    max_stretch : float
-        Upper bound of the element aspect ratio in the contact zone.
-    """
-
-    minor_fraction: float
-    major_fraction: float
-    far_modules: float
-    gradation: float
-    max_stretch: float = 8.0
-
-
-LEVELS: dict[str, MeshLevel] = {
-    "coarse": MeshLevel(1 / 2, 1 / 3, 1.25, 0.7),
-    "default": MeshLevel(1 / 3, 1 / 4, 0.8, 0.5),
-    "fine": MeshLevel(1 / 4, 1 / 6, 0.5, 0.35),
-}
-
-
-# -- smooth steps ------------------------------------------------------------------------
-def _step(t: NDArray) -> NDArray:
-    """C2 step: 0 for t <= 0, 1 for t >= 1, ``6t^5 - 15t^4 + 10t^3`` between."""
-    t = np.clip(t, 0.0, 1.0)
-    return t**3 * (10.0 + t * (-15.0 + 6.0 * t))
-
-
-def _step_integral(t: NDArray) -> NDArray:
-    """``int_-inf^t _step``: 0, then ``t^6 - 3t^5 + 2.5t^4``, then ``t - 1/2``."""
-    c = np.clip(t, 0.0, 1.0)
-    inside = c**4 * (2.5 + c * (-3.0 + c))
-    return np.where(t >= 1.0, t - 0.5, inside)
-
-
-def _plateau(x: NDArray, p: NDArray, q: NDArray, r: float) -> NDArray:
-    """Smooth plateau: rises over ``[p, p + r]``, 1 up to ``q - r``, falls to 0 at ``q``."""
-    return _step((x - p) / r) - _step((x - q + r) / r)
-
-
-def _plateau_integral(x: NDArray, p: NDArray, q: NDArray, r: float) -> NDArray:
-    """``int_-inf^x _plateau``; its total is ``q - p - r``."""
-    return r * (_step_integral((x - p) / r) - _step_integral((x - q + r) / r))
-
-
-# -- the anisotropic map -------------------------------------------------------------------
-@dataclass(frozen=True)
-class ContactStretch:
-    """Smooth map shortening the major-axis coordinate near the contact.
-
-    With contact-frame coordinates ``(xi, eta, zeta)`` along ``axes`` (major,
-    minor, normal) about ``origin``, the map changes only ``xi``:
-    ``xi' = xi - V(rho) D(xi)`` with ``rho = sqrt(eta^2 + zeta^2)``.
-    ``D' = k = 1 - 1/factor`` on ``|xi| <= half_length - ramp`` (the fully
-    compressed part of the zone) and ``D' = -c`` on ``half_length < |xi| <
-    reach - ramp``, with ``c`` such that ``D`` returns to 0 at
-    ``|xi| = reach`` (the map is the identity beyond); C2 steps of length
-    ``ramp`` join the pieces (inside the zone, and before ``reach``). ``V`` is
-    1 within ``core_radius`` of the major axis and falls smoothly to 0 at
-    ``outer_radius``. Since
-    ``1 - V D' >= 1/factor > 0`` the map is one-to-one; isotropic elements of
-    size ``h`` in the mapped space are ``factor h`` long along the major axis
-    in the zone. The largest shift is about ``k half_length``; the transverse
-    fall-off spreads it as a shear of about ``1.9 k half_length /
-    (outer_radius - core_radius)``.
-
-    All lengths in metres, mesh frame.
-    """
-
-    origin: NDArray[np.float64]
-    axes: NDArray[np.float64]
-    factor: float
-    half_length: float
-    reach: float
-    ramp: float
-    core_radius: float
-    outer_radius: float
-
-    def __post_init__(self) -> None:
-        # the zone's plateau must fit in [-a, a] and inside the full plateau
-        if not (self.factor >= 1.0 and 0.0 < self.ramp <= self.half_length
-                and self.half_length + self.ramp <= self.reach
-                and 0.0 <= self.core_radius < self.outer_radius):
-            raise MeshError(f"inconsistent contact stretch {self!r}")
-
-    @property
-    def _k(self) -> float:
-        return 1.0 - 1.0 / self.factor
-
-    @property
-    def _c(self) -> float:
-        """Compensation slope: the zone's shift is taken back over the rest of ``reach``."""
-        a, big, r = self.half_length, self.reach, self.ramp
-        return self._k * (2 * a - r) / (2 * (big - a))
-
-    def _profile(self, xi: NDArray) -> tuple[NDArray, NDArray]:
-        """``D(xi)`` and ``D'(xi)`` on the major axis."""
-        a, big, r = self.half_length, self.reach, self.ramp
-        j_zone = _plateau_integral(xi, -a, a, r) - 0.5 * (2 * a - r)
-        j_all = _plateau_integral(xi, -big, big, r) - 0.5 * (2 * big - r)
-        p_zone, p_all = _plateau(xi, -a, a, r), _plateau(xi, -big, big, r)
-        k, c = self._k, self._c
-        return k * j_zone - c * (j_all - j_zone), k * p_zone - c * (p_all - p_zone)
-
-    def _weight(self, c: NDArray) -> NDArray:
-        rho = np.hypot(c[:, 1], c[:, 2])
-        return 1.0 - _step((rho - self.core_radius) / (self.outer_radius - self.core_radius))
-
-    def _coords(self, x: NDArray) -> NDArray:
-        return (np.asarray(x, float).reshape(-1, 3) - self.origin) @ self.axes.T
-
-    def _points(self, c: NDArray) -> NDArray:
-        return self.origin + c @ self.axes
-
-    def to_mesh(self, x: NDArray) -> NDArray:
-        """Physical points [m], shape (..., 3), to the stretched space."""
-        shape = np.shape(x)
-        c = self._coords(x)
-        c[:, 0] -= self._weight(c) * self._profile(c[:, 0])[0]
-        return self._points(c).reshape(shape)
-
-    def to_physical(self, x: NDArray) -> NDArray:
-        """Inverse of :meth:`to_mesh` (bisection, then Newton to rounding level)."""
-        shape = np.shape(x)
-        c = self._coords(x)
-        v, target = self._weight(c), c[:, 0]
-        bound = self._k * self.half_length + self.ramp
-        lo, hi = target - bound, target + bound
-        for _ in range(60):  # the bracket shrinks to rounding level
-            mid = 0.5 * (lo + hi)
-            too_far = mid - v * self._profile(mid)[0] > target
-            hi = np.where(too_far, mid, hi)
-            lo = np.where(too_far, lo, mid)
-        xi = 0.5 * (lo + hi)
-        for _ in range(2):
-            d, slope = self._profile(xi)
-            xi = xi - (xi - v * d - target) / (1.0 - v * slope)
-        c[:, 0] = xi
-        return self._points(c).reshape(shape)
-
-    def mapped_interval(self, half: float) -> tuple[float, float]:
-        """Stretched-space image of ``-half <= xi <= half`` on the major axis itself."""
-        ends = np.array([-half, half])
-        lo, hi = ends - self._profile(ends)[0]
-        return float(lo), float(hi)
-
-    def compressed_zone(self) -> tuple[float, float]:
-        """Stretched-space range of the fully compressed part of the zone
-        (``|xi| <= half_length - ramp``) on the major axis itself."""
-        return self.mapped_interval(self.half_length - self.ramp)
-
-
-# -- exact flank models ------------------------------------------------------------------
-class _FaceFlank:
-    """The face-gear flank ``side=+1`` as meshed (face-gear frame, metres).
-
-    Exact (:meth:`FaceGearTooth.flank`) from the tip down to ``h_ext``, the
-    lowest height the shaper involute generates over the whole face (plus a
-    micrometre); below it the flank's angular position is continued along its
-    tangent at constant radius down to the root plane.
-    """
-
-    def __init__(self, face: FaceGearTooth) -> None:
-        self.face = face
-        self.h_ext = max(face.height_range(face.face_inner)[0],
-                         face.height_range(face.face_outer)[0]) + 1e-6
-
-    def _angle(self, radius: NDArray, height: NDArray) -> NDArray:
-        p = self.face.flank(radius, height).points
-        return np.arctan2(p[..., 0], p[..., 2])
-
-    def angle(self, radius: NDArray, height: NDArray) -> NDArray:
-        """Polar angle ``atan2(x, z)`` [rad] of the flank at radius ``L`` and height ``h``."""
-        radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
-        radius = np.clip(radius, self.face.face_inner, self.face.face_outer)
-        h = np.maximum(height, self.h_ext)
-        angle = self._angle(radius, h)
-        below = height < self.h_ext
-        if np.any(below):
-            step = 1e-6
-            base = self._angle(radius[below], np.full(below.sum(), self.h_ext))
-            up = self._angle(radius[below], np.full(below.sum(), self.h_ext + step))
-            angle[below] = base + (height[below] - self.h_ext) * (up - base) / step
-        return angle
-
-    def point(self, radius: NDArray, height: NDArray) -> NDArray:
-        """Flank points (..., 3): exact (crowning included) above ``h_ext``."""
-        radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
-        out = np.empty(radius.shape + (3,))
-        above = height >= self.h_ext
-        if np.any(above):
-            out[above] = self.face.flank(radius[above], height[above]).points
-        if np.any(~above):
-            a = self.angle(radius[~above], height[~above])
-            r = radius[~above]
-            out[~above] = np.stack([r * np.sin(a), height[~above], r * np.cos(a)], axis=-1)
-        return out
-
-
-def _pinion_flank_point(pinion, u: NDArray, radius: NDArray) -> NDArray:
-    """Crowned right flank of the pinion at axial position ``u`` and radius (pinion frame).
-
-    Newton on the roll angle: ``|P - delta N|^2 = r_b^2 (1 + t^2) - 2 delta r_b t +
-    delta^2`` (``P . N = r_b t``) must equal ``radius^2``.
-    """
-    r_b = pinion.base_radius
-    span = pinion.theta_tip - pinion.theta_pitch
-    theta = np.sqrt(np.maximum((radius / r_b) ** 2 - 1.0, 1e-12))
-    for _ in range(20):
-        d = pinion.lengthwise_relief(u) + pinion.profile_relief(theta)
-        d_theta = 2.0 * pinion.profile_crowning * (theta - pinion.theta_pitch) / span**2
-        f = r_b**2 * (1 + theta**2) - 2 * d * r_b * theta + d**2 - radius**2
-        df = 2 * r_b**2 * theta - 2 * d_theta * r_b * theta - 2 * d * r_b + 2 * d * d_theta
-        step = f / df
-        theta = theta - step
-        if np.all(np.abs(step) < 1e-15):
-            break
-    return pinion.flank_surface(u, theta, side=1).points
-
-
-# -- sections (physical mesh frame, metres) -----------------------------------------------
-Piece = tuple[str, NDArray]  # name, points (n, 3); consecutive pieces share end points
-
-
-#: Largest point spacing along section pieces [m]: the splines through the mapped
-#: points must follow the map's transverse variation (C2 steps over ~1 mm).
-_POINT_SPACING = 0.2e-3
-
-
-def _line(a: NDArray, b: NDArray) -> NDArray:
-    """Points from ``a`` to ``b`` at most ``_POINT_SPACING`` apart."""
-    n = max(2, int(math.ceil(np.linalg.norm(b - a) / _POINT_SPACING)) + 1)
-    return a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
-
-
-def _pinion_section(pair: GearPair, roll: float, u: float, rim: float) -> list[Piece]:
-    """Closed transverse section of the pinion sector at axial position ``u``."""
-    p = pair.pinion
-    prof = p.transverse_profile(u=u, n_flank=60, n_fillet=30, n_tip=12, n_root=8)
-    a = np.pi / p.teeth
-    rim_l, rim_r = rim * np.array([-np.sin(a), np.cos(a)]), rim * np.array([np.sin(a), np.cos(a)])
-    seg = {s.name: s.points for s in prof.segments}
-    arc = np.linspace(a, -a, 9)
-    pieces2d = [
-        ("hub_left", _line(rim_l, seg["root_left"][0])),
-        *[(name, seg[name]) for name in (s.name for s in prof.segments)],
-        ("hub_right", _line(seg["root_right"][-1], rim_r)),
-        ("hub_rim", rim * np.stack([np.sin(arc), np.cos(arc)], axis=-1)),
-    ]
-    out = []
-    for name, xy in pieces2d:
-        pts = np.concatenate([xy, np.full((len(xy), 1), u)], axis=1)
-        out.append((name, pair.pinion_to_mesh(pts, roll)))
-    return out
-
-
-def _face_flank_at_plane(flank: _FaceFlank, c: float, heights: NDArray, centre: float,
-                         sign: int, face_angle: float) -> NDArray:
-    """Points (n, 3) of a face-gear flank in the plane ``z = c`` of the mesh frame.
-
-    The flank of the tooth centred at ``centre`` (face frame), side ``sign``;
-    fixed-point iteration on the radius ``L = c / cos(angle)``.
-    """
-    radius = np.full_like(heights, c)
-    for _ in range(30):
-        angle = centre + sign * flank.angle(radius, heights) + face_angle
-        new = c / np.cos(angle)
-        done = np.abs(new - radius).max() < 1e-13
-        radius = new
-        if done:
-            break
-    return np.stack([radius * np.sin(angle), heights, radius * np.cos(angle)], axis=-1)
-
-
-def _face_section(pair: GearPair, flank: _FaceFlank, face_angle: float, c: float,
-                  n_teeth: int, bottom: float) -> list[Piece]:
-    """Closed section of the face-gear sector in the plane ``z = c`` (mesh frame)."""
-    f = pair.face
-    pitch = 2 * np.pi / f.teeth
-    heights = np.concatenate([np.linspace(f.root_height, flank.h_ext, 20)[:-1],
-                              np.linspace(flank.h_ext, f.tip_height, 60)])
-    left_cut = -0.5 * pitch - (n_teeth - 1) * pitch + face_angle
-    right_cut = 0.5 * pitch + face_angle
-
-    def at(angle: float, y: float) -> NDArray:
-        return np.array([c * np.tan(angle), y, c])
-
-    pieces: list[Piece] = [("hub_left", _line(at(left_cut, bottom), at(left_cut, f.root_height)))]
-    corner = pieces[0][1][-1]
-    for j in range(-(n_teeth - 1), 1):
-        minus = _face_flank_at_plane(flank, c, heights, j * pitch, -1, face_angle)
-        plus = _face_flank_at_plane(flank, c, heights, j * pitch, 1, face_angle)
-        pieces.append(("root", _line(corner, minus[0])))
-        pieces.append((f"flank_minus_{-j}", minus))
-        pieces.append((f"tip_{-j}", _line(minus[-1], plus[-1])))
-        pieces.append((f"flank_plus_{-j}", plus[::-1]))
-        corner = plus[0]
-    right = at(right_cut, f.root_height)
-    pieces.append(("root", _line(corner, right)))
-    pieces.append(("hub_right", _line(right, at(right_cut, bottom))))
-    pieces.append(("hub_bottom", _line(at(right_cut, bottom), at(left_cut, bottom))))
-    return pieces
-
-
-# -- gmsh geometry ------------------------------------------------------------------------------
-@dataclass
-class _Solid:
-    """A lofted solid in the gmsh model and where its named faces are."""
-
-    volume: int
-    representatives: dict[str, list[NDArray]] = field(default_factory=dict)
-
-
-def _loft(model, sections: list[list[Piece]], probe: int) -> _Solid:
-    """Loft closed sections (mesh frame, metres) into a solid (millimetres).
-
-    ``probe`` is the index of the section whose piece mid-points are kept to
-    recognise the lofted faces later (choose one inside the final solid).
-    """
-    occ = model.occ
-    wires, solid = [], _Solid(volume=-1)
-    for i, sec in enumerate(sections):
-        first = occ.addPoint(*(sec[0][1][0] * MM))
-        prev, curves = first, []
-        for j, (name, pts) in enumerate(sec):
-            pts = pts * MM
-            last = first if j == len(sec) - 1 else occ.addPoint(*pts[-1])
-            tags = [prev] + [occ.addPoint(*q) for q in pts[1:-1]] + [last]
-            curves.append(occ.addSpline(tags) if len(pts) > 2 else occ.addLine(prev, last))
-            prev = last
-            if i == probe:
-                solid.representatives.setdefault(name, []).append(pts[len(pts) // 2])
-        wires.append(occ.addWire(curves))
-    out = occ.addThruSections(wires, makeSolid=True, makeRuled=False)
-    solid.volume = out[0][1]
-    return solid
-
-
-def _classify(model, solid: _Solid, groups: dict[str, tuple[str, ...]]) -> dict[str, list[int]]:
-    """Faces of ``solid`` carrying each group, by the pieces' representative points."""
-    faces = [tag for _, tag in model.getBoundary([(3, solid.volume)], oriented=False)]
-    found: dict[str, list[int]] = {g: [] for g in groups}
-    for group, pieces in groups.items():
-        for piece in pieces:
-            for rep in solid.representatives.get(piece, []):
-                dist = [np.linalg.norm(np.array(model.getClosestPoint(2, f, rep)[0]) - rep)
-                        for f in faces]
-                best = int(np.argmin(dist))
-                if dist[best] > 1e-3:  # mm: the loft passes through its section points
-                    raise MeshError(f"face of piece {piece!r} not found ({dist[best]:.3g} mm)")
-                if faces[best] not in found[group]:
-                    found[group].append(faces[best])
-    return found
-
-
-def _annulus(model, inner: float, outer: float, y0: float, y1: float) -> list[tuple[int, int]]:
-    """Ring between radii ``inner`` and ``outer`` [mm] about ``y``, seam turned to ``-z``."""
-    occ = model.occ
-    big = occ.addCylinder(0, y0, 0, 0, y1 - y0, 0, outer)
-    small = occ.addCylinder(0, y0, 0, 0, y1 - y0, 0, inner)
-    ring, _ = occ.cut([(3, big)], [(3, small)])
-    occ.rotate(ring, 0, 0, 0, 0, 1, 0, np.pi)  # OCC cylinders have their seam on +z here
-    return ring
-
-
-# -- parameters and results -----------------------------------------------------------------
-@dataclass(frozen=True)
-class PairSpec:
-    """What to mesh: stage, position, refinement and the impact to set up.
-
-    Parameters
-    ----------
-    stage : int
-        Face-gear stage, 1-based.
-    roll_angle_deg : float
-        Pinion roll angle from the pitch-point position [deg]
-        (:class:`~fe_impact.gears.tca.GearPair`).
-    level : {"coarse", "default", "fine"}
-        Refinement (:data:`LEVELS`).
-    order : {1, 2}
-        Element order.
-    gap : float
-        Initial normal gap ``h0`` at the contact point [m], >= 0.
-    impact_speed : float
-        Closing normal speed ``v_k`` at the contact point [m/s], > 0.
-    n_face_teeth : int
-        Face-gear teeth in the sector, 1..3.
-    rim_modules : float
-        Rim depth below the root of both sectors, in modules.
-    design_force : float or None
-        Load [N] whose Hertz ellipse sets the element sizes; None takes the
-        Hertz peak force of the impact (:func:`fe_impact.physics.hertz.impact` with
-        the effective mass and the ellipse's equivalent radius).
-    velocity_split : {"momentum", "pinion", "face_gear"}
-        How ``v_k`` is shared by the rotors: ``"momentum"`` gives each the
-        share that makes the normal momentum ``m_1 v_1 + m_2 v_2`` zero (the
-        pair's centre of mass at rest: symmetric rebound, smallest rotations);
-        otherwise all of it on one rotor.
-    pinion_axial_position : float or None
-        See :class:`~fe_impact.gears.tca.GearPair` (m; None: at ``L = r_2``).
-    """
-
-    stage: int = 1
-    roll_angle_deg: float = 0.0
-    level: str = "default"
-    order: int = 2
-    gap: float = 5e-6
-    impact_speed: float = 0.1
-    n_face_teeth: int = 1
-    rim_modules: float = 2.0
-    design_force: float | None = None
-    velocity_split: str = "momentum"
-    pinion_axial_position: float | None = None
-
-    def __post_init__(self) -> None:
-        if self.level not in LEVELS:
-            raise MeshError(f"level = {self.level!r}; pick one of {list(LEVELS)}")
-        if self.order not in (1, 2) or isinstance(self.order, bool):
-            raise MeshError(f"order = {self.order!r}; pick 1 (linear) or 2 (quadratic)")
-        if not (math.isfinite(self.gap) and 0.0 <= self.gap <= 1e-3):
-            raise MeshError(f"gap = {self.gap * 1e6:g} um; allowed 0 .. 1000 um")
-        if not (math.isfinite(self.impact_speed) and 0.0 < self.impact_speed <= MAX_IMPACT_SPEED):
-            raise MeshError(f"impact speed = {self.impact_speed!r} m/s; allowed "
-                            f"(0, {MAX_IMPACT_SPEED:g}] m/s")
-        if self.n_face_teeth not in (1, 2, 3):
-            raise MeshError(f"n_face_teeth = {self.n_face_teeth!r}; allowed 1, 2 or 3")
-        if not (math.isfinite(self.rim_modules) and 0.5 <= self.rim_modules <= 10.0):
-            raise MeshError(f"rim_modules = {self.rim_modules!r}; allowed 0.5 .. 10 modules")
-        if self.design_force is not None and not (
-            math.isfinite(self.design_force) and self.design_force > 0.0
-        ):
-            raise MeshError(f"design force = {self.design_force!r} N; must be > 0")
-        if self.velocity_split not in VELOCITY_SPLITS:
-            raise MeshError(
-                f"velocity_split = {self.velocity_split!r}; pick one of {list(VELOCITY_SPLITS)}"
-            )
-        if not (math.isfinite(self.roll_angle_deg) and abs(self.roll_angle_deg) <= 60.0):
-            raise GeometryError(
-                f"roll angle = {self.roll_angle_deg!r} deg; allowed -60 .. 60 deg"
-            )
-
-
+# -- results -------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class MeshStats:
     """Size and quality of the written mesh.
@@ -611,105 +150,6 @@ class MeshStats:
     mean_gamma: float
     seconds: float
     element_sizes: dict[str, float]
-
-
-@dataclass(frozen=True)
-class ReducedMasses:
-    """Rotor inertias reduced to the contact normal (:func:`~fe_impact.gears.tca.effective_mass`).
-
-    Attributes
-    ----------
-    pinion_mass, face_mass : float
-        ``I_i / l_i^2`` [kg].
-    pinion_lever, face_lever : float
-        Signed lever arms ``l_i = (e_i x (x_c - p_i)) . n`` [m].
-    effective_mass : float
-        ``1 / (1/m_1 + 1/m_2)`` [kg].
-    """
-
-    pinion_mass: float
-    pinion_lever: float
-    face_mass: float
-    face_lever: float
-    effective_mass: float
-
-
-@dataclass(frozen=True)
-class PairAnalysis:
-    """Tooth contact analysis and Hertz estimates of one tooth pair (SI units, mesh frame).
-
-    Attributes
-    ----------
-    spec : PairSpec
-        What the pair is built for (gap, impact speed, velocity split, ...).
-    contact : ContactPoint
-        The TCA contact at the requested roll angle (before opening the gap).
-    pinion_roll_placed : float
-        Pinion roll angle of the mesh [rad]: the contact's, turned back by
-        ``gap / l_1`` to open the gap.
-    effective_modulus : float
-        ``E*`` of the gear material [Pa].
-    equivalent_radius : float
-        Radius of the sphere contact with the ellipse's load-approach law [m]
-        (:func:`~fe_impact.gears.tca.equivalent_radius`).
-    masses : ReducedMasses
-    impact : HertzImpact
-        Hertz impact of ``masses.effective_mass`` on ``equivalent_radius`` at
-        ``spec.impact_speed`` (Johnson 1985, section 11.4).
-    velocities : tuple of float
-        Initial angular velocities [rad/s] of the pinion (about +z) and the
-        face gear (about +y) closing at the impact speed (:func:`_velocities`).
-    design_ellipse : ContactEllipse
-        Hertz ellipse at the design force (it sets the element sizes).
-    ellipses : tuple of ContactEllipse
-        Hertz ellipses at :data:`REPORT_FORCES`.
-    """
-
-    spec: PairSpec
-    contact: ContactPoint
-    pinion_roll_placed: float
-    effective_modulus: float
-    equivalent_radius: float
-    masses: ReducedMasses
-    impact: hertz.HertzImpact
-    velocities: tuple[float, float]
-    design_ellipse: ContactEllipse
-    ellipses: tuple[ContactEllipse, ...]
-
-    @property
-    def gap(self) -> float:
-        """Initial normal gap at the contact point [m]."""
-        return self.spec.gap
-
-    @property
-    def impact_speed(self) -> float:
-        """Closing normal speed at the contact point [m/s]."""
-        return self.spec.impact_speed
-
-    def to_dict(self) -> dict:
-        """JSON-friendly record (SI units): the TCA part of ``tca.json``."""
-        hit = self.impact
-        return {
-            "spec": asdict(self.spec),
-            "frame": "mesh frame: y = face-gear axis, origin on it in the pitch plane; pinion "
-                     "axis x = 0, y = r_p along z; normal points out of the face gear",
-            "contact": self.contact.to_dict(),
-            "pinion_roll_angle_placed_rad": self.pinion_roll_placed,
-            "effective_modulus_Pa": self.effective_modulus,
-            "equivalent_radius_m": self.equivalent_radius,
-            "ellipses": [e.to_dict() for e in self.ellipses],
-            "design_ellipse": self.design_ellipse.to_dict(),
-            "masses": asdict(self.masses),
-            "impact": {
-                "speed_m_s": self.spec.impact_speed,
-                "delta_max_m": hit.delta_max,
-                "force_max_N": hit.force_max,
-                "contact_time_s": hit.contact_time,
-                "velocity_split": self.spec.velocity_split,
-                "omega_pinion_rad_s": self.velocities[0],
-                "omega_face_rad_s": self.velocities[1],
-            },
-        }
 
 
 @dataclass(frozen=True)
@@ -756,251 +196,7 @@ def pair_key(gearset, spec: PairSpec) -> str:
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
-# -- design: TCA, Hertz, rotors, sizes -----------------------------------------------------------
-@dataclass(frozen=True)
-class _Design:
-    """Everything computed before meshing (SI units, mesh frame)."""
-
-    pair: GearPair
-    analysis: PairAnalysis
-    sizes: dict[str, float]
-    stretch: ContactStretch
-
-    @property
-    def contact(self) -> ContactPoint:
-        return self.analysis.contact
-
-    @property
-    def ellipse(self) -> ContactEllipse:
-        return self.analysis.design_ellipse
-
-    @property
-    def pinion_roll(self) -> float:
-        return self.analysis.pinion_roll_placed
-
-
-def _velocities(spec: PairSpec, masses: ReducedMasses) -> tuple[float, float]:
-    """Angular velocities (pinion, face gear) [rad/s] about +z and +y closing at ``v_k``.
-
-    The normal velocity of rotor i at the contact is ``omega_i l_i`` (signed
-    lever arm); the normal points into the pinion, so closing means
-    ``omega_1 l_1 - omega_2 l_2 = -v_k``.
-    """
-    v, m1, m2 = spec.impact_speed, masses.pinion_mass, masses.face_mass
-    l1, l2 = masses.pinion_lever, masses.face_lever
-    share = {"momentum": m2 / (m1 + m2), "pinion": 1.0, "face_gear": 0.0}[spec.velocity_split]
-    return -share * v / l1, (1.0 - share) * v / l2
-
-
-def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllipse,
-             sizes: dict[str, float]) -> ContactStretch:
-    """The anisotropic map for this contact (see :class:`ContactStretch`).
-
-    The zone covers the ellipse with 30 % to spare; its outer half is the
-    ramp back from full compression (the size field keeps the elements there
-    short, so they follow the map closely); the compensation takes 1.5 zone
-    lengths; the core radius reaches where the graded size has grown to the
-    major-axis size, and the fall-off is twice the largest shift wide (shear
-    below about 1).
-    """
-    level = LEVELS[spec.level]
-    e1 = ellipse.major if ellipse.major[2] > 0 else -ellipse.major  # towards larger radius
-    n = design_contact.normal
-    half = 1.3 * ellipse.a
-    ramp = 0.5 * half
-    core = 1.5 * ellipse.b + (sizes["major"] - sizes["minor"]) / level.gradation
-    shift = (1.0 - 1.0 / sizes["factor"]) * half
-    return ContactStretch(
-        origin=design_contact.point + 0.5 * spec.gap * n,
-        axes=np.stack([e1, np.cross(n, e1), n]),
-        factor=sizes["factor"],
-        half_length=half,
-        reach=2.5 * half,
-        ramp=ramp,
-        core_radius=core,
-        outer_radius=core + max(2.0 * shift, core),
-    )
-
-
-def _analyse(gearset, spec: PairSpec) -> tuple[GearPair, PairAnalysis]:
-    """The stage's gear pair and the TCA and Hertz estimates at ``spec``'s contact."""
-    if not 1 <= spec.stage <= len(gearset.stages):
-        raise GeometryError(
-            f"stage = {spec.stage}; this gear set has stages 1..{len(gearset.stages)}"
-        )
-    pair = GearPair.from_gearset(gearset, spec.stage, spec.pinion_axial_position)
-    contact = pair.contact(np.radians(spec.roll_angle_deg))
-    if not contact.on_flank:
-        raise GeometryError(
-            f"roll angle = {spec.roll_angle_deg:g} deg puts the contact off the working flanks "
-            f"(face radius {contact.face_parameters[0] * 1e3:.3f} mm, height "
-            f"{contact.face_parameters[1] * 1e3:.3f} mm); pick an angle nearer 0"
-        )
-    mat = gearset.material
-    e_star = hertz.effective_modulus(mat.youngs_modulus, mat.poisson_ratio)
-    masses = ReducedMasses(**pair.effective_masses(contact, gearset.pinion.inertia,
-                                                   gearset.stages[spec.stage - 1].inertia))
-    radius = equivalent_radius(contact.relative, e_star)
-    impact = hertz.impact(masses.effective_mass, spec.impact_speed, radius, e_star)
-    force = spec.design_force if spec.design_force is not None else impact.force_max
-    return pair, PairAnalysis(
-        spec=spec, contact=contact,
-        pinion_roll_placed=contact.roll_angle + spec.gap / masses.pinion_lever,
-        effective_modulus=e_star, equivalent_radius=radius, masses=masses, impact=impact,
-        velocities=_velocities(spec, masses),
-        design_ellipse=contact_ellipse(contact.relative, force, e_star),
-        ellipses=tuple(contact_ellipse(contact.relative, f, e_star) for f in REPORT_FORCES),
-    )
-
-
-def analyse_pair(gearset, spec: PairSpec) -> PairAnalysis:
-    """Tooth contact analysis and Hertz estimates of a tooth pair, without meshing."""
-    return _analyse(gearset, spec)[1]
-
-
-def _design(gearset, spec: PairSpec, max_stretch: float | None = None) -> _Design:
-    pair, analysis = _analyse(gearset, spec)
-    ellipse = analysis.design_ellipse
-    level = LEVELS[spec.level]
-    minor = level.minor_fraction * ellipse.b
-    cap = level.max_stretch if max_stretch is None else min(max_stretch, level.max_stretch)
-    factor = float(np.clip(level.major_fraction * ellipse.a / minor, 1.0, cap))
-    sizes = {"minor": minor, "major": factor * minor, "factor": factor,
-             "far": level.far_modules * pair.pinion.module}
-    return _Design(pair=pair, analysis=analysis, sizes=sizes,
-                   stretch=_stretch(analysis.contact, spec, ellipse, sizes))
-
-
-def hertz_impact_estimate(gearset, stage: int, roll_angle_deg: float, impact_speed: float):
-    """Hertz impact of a stage's tooth pair at the TCA contact, without meshing.
-
-    Returns the :func:`fe_impact.physics.hertz.impact` result (``delta_max``,
-    ``force_max``, ``contact_time``) for the effective mass and the equivalent
-    radius of the contact at ``roll_angle_deg``.
-    """
-    spec = PairSpec(stage=stage, roll_angle_deg=roll_angle_deg, impact_speed=impact_speed)
-    return analyse_pair(gearset, spec).impact
-
-
-# -- building the model ---------------------------------------------------------------------------
-_PINION_GROUPS = {"pinion_flank": ("flank_right",),
-                  "pinion_hub": ("hub_left", "hub_right", "hub_rim")}
-_FACE_GROUPS = {"face_flank": ("flank_plus_0",),
-                "face_hub": ("hub_left", "hub_right", "hub_bottom")}
-#: Loft section spacing [modules]. The flanks vary slowly along the face (the
-#: crowning is a parabola), and the lofts are exact at the sections: measured
-#: flank deviation below 0.01 um between sections at this spacing.
-_SECTION_MODULES = 0.5
-
-
-def _stations_through(lo: float, hi: float, at: float, step: float) -> NDArray:
-    """About ``step``-spaced positions over ``[lo, hi]``, one of them at ``at``."""
-    left = np.linspace(lo, at, max(2, int(math.ceil((at - lo) / step)) + 1))
-    right = np.linspace(at, hi, max(2, int(math.ceil((hi - at) / step)) + 1))
-    return np.concatenate([left, right[1:]])
-
-
-def _add_pinion(model, design: _Design, spec: PairSpec) -> tuple[int, dict[str, list[int]]]:
-    """The pinion sector over its face width (one loft of transverse sections)."""
-    pair, p = design.pair, design.pair.pinion
-    rim = p.root_radius - spec.rim_modules * p.module
-    u_c = float(np.clip(design.contact.point[2] - pair.z0, -0.4 * p.face_width,
-                        0.4 * p.face_width))
-    us = _stations_through(-0.5 * p.face_width, 0.5 * p.face_width, u_c,
-                           _SECTION_MODULES * p.module)
-    sections = [_pinion_section(pair, design.pinion_roll, u, rim) for u in us]
-    solid = _loft(model, sections, int(np.argmin(np.abs(us - u_c))))
-    model.occ.synchronize()
-    return solid.volume, _classify(model, solid, _PINION_GROUPS)
-
-
-def _add_face_gear(model, design: _Design, spec: PairSpec) -> tuple[int, dict[str, list[int]]]:
-    """The face-gear sector: a loft of sections ``z = const``, cut by the ring."""
-    f = design.pair.face
-    flank = _FaceFlank(f)
-    bottom = f.root_height - spec.rim_modules * f.module
-    pitch = 2 * np.pi / f.teeth
-    widest = (spec.n_face_teeth - 0.5) * pitch + abs(design.contact.face_angle)
-    margin = 0.5 * f.module
-    z_c = design.contact.point[2]
-    cs = _stations_through(f.face_inner * np.cos(widest) - margin, f.face_outer + margin, z_c,
-                           _SECTION_MODULES * f.module)
-    angle = design.contact.face_angle
-    sections = [_face_section(design.pair, flank, angle, c, spec.n_face_teeth, bottom)
-                for c in cs]
-    solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
-    ring = _annulus(model, f.face_inner * MM, f.face_outer * MM, (bottom - margin) * MM,
-                    (f.tip_height + margin) * MM)
-    out, _ = model.occ.intersect([(3, solid.volume)], ring)
-    model.occ.synchronize()
-    if len(out) != 1:
-        raise MeshError(f"face-gear sector: the cut by the ring gave {len(out)} volumes")
-    solid.volume = out[0][1]
-    return solid.volume, _classify(model, solid, _FACE_GROUPS)
-
-
-def _box_distance(axes: NDArray, centre: NDArray, half: tuple[float, ...]) -> str:
-    """MathEval expression: distance [mm] from the box ``|(x - centre) . axes_i| <= half_i``."""
-    terms = []
-    for axis, width in zip(axes, half, strict=True):
-        dot = "+".join(f"({a:.17g})*({v}-({c:.17g}))" for a, v, c in zip(axis, "xyz", centre,
-                                                                        strict=True))
-        terms.append(f"Max(Fabs({dot})-({width:.17g}),0)^2")
-    return "Sqrt(" + "+".join(terms) + ")"
-
-
-def _set_size_field(model, terms: list[tuple[float, str]], gradation: float, far: float) -> None:
-    """Background size ``min(far, min_i(size_i + gradation d_i))`` [mm], all else off.
-
-    ``terms`` pairs a size [mm] with a distance expression (see :func:`_box_distance`).
-    """
-    import gmsh
-
-    expr = f"{far:.17g}"
-    for size, distance in terms:
-        expr = f"Min({expr},{size:.17g}+{gradation}*{distance})"
-    field_id = model.mesh.field.add("MathEval")
-    model.mesh.field.setString(field_id, "F", expr)
-    model.mesh.field.setAsBackgroundMesh(field_id)
-    for name, value in (("MeshSizeExtendFromBoundary", 0), ("MeshSizeFromPoints", 0),
-                        ("MeshSizeFromCurvature", 0), ("MeshSizeMax", far),
-                        ("Algorithm3D", 10), ("SecondOrderLinear", 1)):
-        gmsh.option.setNumber(f"Mesh.{name}", value)
-
-
-def _zone_half_widths(design: _Design) -> tuple[float, float]:
-    """Half-widths [m] of the refined zone across the ellipse and along the normal."""
-    return 1.25 * design.ellipse.b, 1.0 * design.ellipse.b
-
-
-def _reference_size_field(model, design: _Design, spec: PairSpec) -> None:
-    """Physical-space sizes of the reference surface mesh.
-
-    It only carries the geometry into the stretched space, where the final
-    mesh is placed on it; it is finer than the final mesh across the ellipse
-    (and isotropic, so much finer along it).
-    """
-    st, level = design.stretch, LEVELS[spec.level]
-    width, depth = _zone_half_widths(design)
-    half = (st.half_length * MM, width * MM, depth * MM)
-    distance = _box_distance(st.axes, st.origin * MM, half)
-    _set_size_field(model, [(0.7 * design.sizes["minor"] * MM, distance)],
-                    0.5 * level.gradation, 0.5 * design.sizes["far"] * MM)
-
-
-def _size_field(model, design: _Design, spec: PairSpec) -> None:
-    """Isotropic size field of the stretched space: ``minor`` in the image of the
-    zone (ramps included, so elements stay short where the compression
-    changes), graded out to ``far``."""
-    st, level, sizes = design.stretch, LEVELS[spec.level], design.sizes
-    width, depth = _zone_half_widths(design)
-    lo, hi = st.mapped_interval(st.half_length)
-    centre = (st.origin + 0.5 * (lo + hi) * st.axes[0]) * MM
-    half = (0.5 * (hi - lo) * MM, width * MM, depth * MM)
-    _set_size_field(model, [(sizes["minor"] * MM, _box_distance(st.axes, centre, half))],
-                    level.gradation, sizes["far"] * MM)
-
-
+# -- meshing --------------------------------------------------------------------------------
 def _map_nodes(model, mapping) -> tuple[NDArray, NDArray]:
     """Apply ``mapping`` (metres -> metres) to every node; returns tags and new mm coordinates."""
     tags, coords, _ = model.mesh.getNodes()
@@ -1008,38 +204,6 @@ def _map_nodes(model, mapping) -> tuple[NDArray, NDArray]:
     for tag, coord in zip(tags, x, strict=True):
         model.mesh.setNode(int(tag), coord.tolist(), [])
     return tags, x
-
-
-def _snap_flanks(model, design: _Design, groups: dict[str, list[int]]) -> NDArray:
-    """Move the nodes of both flanks onto the exact flanks; largest move per flank [m]."""
-    moves = []
-    for group, snap in (("pinion_flank", _snap_pinion), ("face_flank", _snap_face)):
-        nodes, coords = [], []
-        for surface in groups[group]:
-            t, c, _ = model.mesh.getNodes(2, surface, includeBoundary=True)
-            nodes.append(t)
-            coords.append(c.reshape(-1, 3))
-        nodes, first = np.unique(np.concatenate(nodes), return_index=True)
-        x = np.concatenate(coords)[first] / MM
-        exact = snap(design.pair, design, x)
-        moves.append(float(np.linalg.norm(exact - x, axis=1).max()))
-        for tag, coord in zip(nodes, exact * MM, strict=True):
-            model.mesh.setNode(int(tag), coord.tolist(), [])
-    return np.array(moves)
-
-
-def _snap_pinion(pair: GearPair, design: _Design, x: NDArray) -> NDArray:
-    rot = pair.pinion_rotation(design.pinion_roll)
-    local = (x - np.array([0.0, pair.pinion.pitch_radius, pair.z0])) @ rot
-    exact = _pinion_flank_point(pair.pinion, local[:, 2], np.hypot(local[:, 0], local[:, 1]))
-    return pair.pinion_to_mesh(exact, design.pinion_roll)
-
-
-def _snap_face(pair: GearPair, design: _Design, x: NDArray) -> NDArray:
-    angle = design.contact.face_angle
-    local = x @ pair.face_rotation(angle)
-    exact = _FaceFlank(pair.face).point(np.hypot(local[:, 0], local[:, 2]), local[:, 1])
-    return pair.face_to_mesh(exact, angle)
 
 
 def _statistics(model, volumes: dict[str, int], seconds: float, sizes: dict) -> MeshStats:
@@ -1062,51 +226,33 @@ def _statistics(model, volumes: dict[str, int], seconds: float, sizes: dict) -> 
     )
 
 
-def _mesh(model, design: _Design, spec: PairSpec, path: Path, started: float) -> MeshStats:
+def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float) -> MeshStats:
     """Build, mesh in the stretched space, map back, snap, check and write the mesh.
 
     1. the two sectors are built in physical space (OCC lofts of exact
        sections) and covered by a fine reference surface mesh;
-    2. its nodes are mapped into the stretched space (:class:`ContactStretch`)
+    2. its nodes are mapped into the stretched space
+       (:class:`~fe_impact.meshing.contactstretch.ContactStretch`)
        and the model is reloaded as discrete geometry (``createGeometry``);
     3. surfaces and volumes are remeshed there with an isotropic size field;
     4. every node is mapped back and the flank nodes are moved onto the exact
        flanks.
     """
-    import gmsh
-
     from fe_impact.meshing.session import write_msh
 
-    pinion, pinion_groups = _add_pinion(model, design, spec)
-    face, face_groups = _add_face_gear(model, design, spec)
-    groups = {**pinion_groups, **face_groups}
-    extra = [(3, t) for _, t in model.getEntities(3) if t not in (pinion, face)]
-    if extra:  # construction leftovers of the boolean
-        model.occ.remove(extra, recursive=True)
-        model.occ.synchronize()
-    _reference_size_field(model, design, spec)
+    volumes, groups = add_sectors(model, design.pair, design.analysis)
+    reference_size_field(model, design)
     model.mesh.generate(2)
     _map_nodes(model, design.stretch.to_mesh)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    reference = path.with_name(f".{path.stem}-reference.msh")
-    gmsh.option.setNumber("Mesh.SaveAll", 1)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    try:
-        gmsh.write(str(reference))
-        gmsh.clear()
-        gmsh.merge(str(reference))
-    finally:
-        reference.unlink(missing_ok=True)
-    model.mesh.createGeometry()
-    _size_field(model, design, spec)
+    _reload_as_discrete(model, path)
+    size_field(model, design)
     model.mesh.generate(3)
     _map_nodes(model, design.stretch.to_physical)
     if spec.order == 2:  # mid-edge nodes straight in physical space, then snapped
         model.mesh.setOrder(2)
-    moves = _snap_flanks(model, design, groups)
+    moves = snap_flanks(model, design.pair, design.analysis, groups)
     logger.info("flank nodes moved onto the exact flanks by at most %.3g um (pinion), "
                 "%.3g um (face gear)", moves[0] * 1e6, moves[1] * 1e6)
-    volumes = {"pinion": pinion, "face_gear": face}
     for name, tag in volumes.items():
         model.addPhysicalGroup(3, [tag], name=name)
     for name, faces in groups.items():
@@ -1121,80 +267,29 @@ def _mesh(model, design: _Design, spec: PairSpec, path: Path, started: float) ->
     return stats
 
 
-# -- impact case and summary ----------------------------------------------------------------------
-def _impact_case(gearset, design: _Design, case_path: Path, mesh_path: Path) -> Case:
-    """The dynamic impact case on the pair's mesh (``case.toml``).
+def _reload_as_discrete(model, path: Path) -> None:
+    """Replace the model by its surface mesh, as discrete geometry (step 2 of :func:`_mesh`).
 
-    The gear set's material on both sectors; the pinion flank (slave) on the
-    face flank (master) with the automatic penalty; each hub tied to a rigid
-    rotor with the gear's inertia about its axis, turning at the
-    :attr:`PairAnalysis.velocities` that close the gap at the impact speed;
-    Newmark with the automatic step over :data:`DURATION_FACTOR` Hertz
-    contact times, :data:`FRAMES_PER_CONTACT` output frames per contact time.
+    The mesh goes through a scratch file next to ``path``: gmsh reloads a
+    mesh as discrete entities only from a file.
     """
-    a, pair, mat = design.analysis, design.pair, gearset.material
-    t_c = a.impact.contact_time
-    rotors = (("pinion_hub", pair.pinion_axis, gearset.pinion.inertia, a.velocities[0]),
-              ("face_hub", pair.face_axis, gearset.stages[a.spec.stage - 1].inertia,
-               a.velocities[1]))
-    return Case(
-        path=case_path, mesh_file=mesh_path.resolve(), unit="mm",
-        materials=(MaterialSpec(
-            ("pinion", "face_gear"), float(mat.youngs_modulus), float(mat.poisson_ratio),
-            float(mat.density),
-            None if mat.yield_strength is None else float(mat.yield_strength)),),
-        contacts=(ContactSpec("pinion_flank", "face_flank"),),
-        rigid_bodies=tuple(
-            RigidBodySpec(surface, "rotation", direction=_floats(direction),
-                          point=_floats(point), inertia=float(inertia),
-                          initial_velocity=float(omega))
-            for surface, (point, direction), inertia, omega in rotors),
-        analysis=AnalysisSpec(type="dynamic", integrator="newmark",
-                              duration=DURATION_FACTOR * t_c,
-                              output_interval=t_c / FRAMES_PER_CONTACT),
-    )
+    import gmsh
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    reference = path.with_name(f".{path.stem}-reference.msh")
+    gmsh.option.setNumber("Mesh.SaveAll", 1)
+    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+    try:
+        gmsh.write(str(reference))
+        gmsh.clear()
+        gmsh.merge(str(reference))
+    finally:
+        reference.unlink(missing_ok=True)
+    model.mesh.createGeometry()
 
 
-def _floats(v: NDArray) -> tuple[float, ...]:
-    return tuple(float(c) for c in v)
-
-
-def _vec(v: NDArray) -> str:
-    return "[" + ", ".join(f"{float(c):.10g}" for c in v) + "]"
-
-
-def _case_header(gearset, design: _Design, key: str) -> str:
-    """Comment lines of ``case.toml``: where the case comes from, and the TCA."""
-    a, pair = design.analysis, design.pair
-    spec, c, m, hit, ell = a.spec, a.contact, a.masses, a.impact, a.design_ellipse
-    rx, ry = c.relative.radii
-    w1, w2 = a.velocities
-    return "\n".join([
-        "Dynamic single-tooth impact written by fe_impact.meshing.toothpair.build_pair",
-        f"gear set {gearset.name!r}, stage {spec.stage} ({pair.face.teeth} teeth), "
-        f"roll angle {spec.roll_angle_deg:g} deg, level {spec.level}, P{spec.order}, key {key}",
-        "Mesh frame: y = face-gear axis (origin on it, in the pitch plane); pinion axis",
-        f"x = 0, y = {pair.pinion.pitch_radius:.6g} m along z. pair.msh is in millimetres;",
-        "every other length here is in metres (SI).",
-        f"Contact point (TCA) {_vec(c.point)} m, normal (out of the face gear) {_vec(c.normal)}",
-        f"Initial gap {spec.gap * 1e6:g} um: the pinion is turned by gap / l1 out of contact.",
-        f"Relative radii Rx = {rx:.6g} m, Ry = {ry:.6g} m; equivalent (sphere) radius"
-        f" {a.equivalent_radius:.6g} m; E* = {a.effective_modulus:.6g} Pa",
-        f"Lever arms |(e x (x_c - p)) . n|: pinion {abs(m.pinion_lever):.6g} m, face gear"
-        f" {abs(m.face_lever):.6g} m",
-        f"Masses I/l^2: pinion {m.pinion_mass:.6g} kg, face gear {m.face_mass:.6g} kg;"
-        f" m_eff = {m.effective_mass:.6g} kg",
-        f"Hertz impact at v_k = {spec.impact_speed:g} m/s: delta_max {hit.delta_max:.4g} m,"
-        f" F_max {hit.force_max:.4g} N, t_c {hit.contact_time:.4g} s",
-        f"Hertz ellipse at {ell.force:.4g} N (sets the mesh):"
-        f" a {ell.a:.4g} m, b {ell.b:.4g} m, p0 {ell.p0:.4g} Pa",
-        f"Initial velocities ({spec.velocity_split!r} split): normal speeds omega_i l_i"
-        f" {w1 * m.pinion_lever:.6g} and {w2 * m.face_lever:.6g} m/s, closing at"
-        f" {spec.impact_speed:g} m/s",
-    ])
-
-
-def _summary(gearset, design: _Design, key: str, stats: MeshStats) -> dict:
+# -- building, retries and the cache -------------------------------------------------------
+def _summary(gearset, design: PairDesign, key: str, stats: MeshStats) -> dict:
     """Content of tca.json (SI units)."""
     return {"key": key, "gearset": gearset.name, **design.analysis.to_dict(),
             "mesh": asdict(stats), "stretch_factor": design.sizes["factor"]}
@@ -1220,7 +315,8 @@ def build_pair(
     ----------
     gearset : GearSet
     stage, roll_angle_deg, level, order, gap, impact_speed
-        See :class:`PairSpec` (``gap`` in m, ``impact_speed`` in m/s).
+        See :class:`~fe_impact.gears.pairanalysis.PairSpec` (``gap`` in m,
+        ``impact_speed`` in m/s).
     out_dir : str or Path
         Folder for ``pair.msh``, ``case.toml`` and ``tca.json`` (created).
     reuse : bool
@@ -1230,15 +326,16 @@ def build_pair(
     verbose : bool
         Let gmsh print its log.
     **options
-        Further :class:`PairSpec` fields (``n_face_teeth``, ``rim_modules``,
-        ``design_force``, ``velocity_split``, ``pinion_axial_position``).
+        Further :class:`~fe_impact.gears.pairanalysis.PairSpec` fields (``n_face_teeth``,
+        ``rim_modules``, ``design_force``, ``velocity_split``,
+        ``pinion_axial_position``).
 
     Returns
     -------
     PairMesh
         With the impact :class:`~fe_impact.fe.case.Case` (also written to
         ``case.toml`` by :func:`~fe_impact.fe.casefile.write_case`) and the
-        :class:`PairAnalysis` (also written to ``tca.json``).
+        :class:`~fe_impact.gears.pairanalysis.PairAnalysis` (also written to ``tca.json``).
 
     Raises
     ------
@@ -1260,13 +357,14 @@ def build_pair(
     paths = (out / "pair.msh", out / "case.toml", out / "tca.json")
     cached = _cached(paths, key) if reuse else None
     if cached is not None:
-        design = _design(gearset, spec, cached["stretch_factor"])
+        design = design_pair(gearset, spec, cached["stretch_factor"])
         stats = MeshStats(**cached["mesh"])
     else:
         design, stats = _mesh_with_retries(gearset, spec, paths[0], key, verbose, started)
-    case = _impact_case(gearset, design, paths[1], paths[0])
+    case = impact_case(gearset, design.pair, design.analysis, paths[1], paths[0])
     if cached is None:
-        write_case(case, paths[1], header=_case_header(gearset, design, key))
+        header = case_header(gearset, design.pair, design.analysis, key)
+        write_case(case, paths[1], header=header)
         write_json(paths[2], _summary(gearset, design, key, stats))
         logger.info("wrote %s (%d elements, %d DOFs, %.1f s)", paths[0],
                     stats.n_elements["total"], stats.n_dofs, stats.seconds)
@@ -1279,12 +377,12 @@ _RETRY_STRETCH = (None, 5.0, 2.5, 1.0)
 
 
 def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
-                       started: float) -> tuple[_Design, MeshStats]:
+                       started: float) -> tuple[PairDesign, MeshStats]:
     """Mesh, lowering the anisotropy if an element comes out inverted."""
     from fe_impact.meshing.session import gmsh_session
 
     for cap in _RETRY_STRETCH:
-        design = _design(gearset, spec, cap)
+        design = design_pair(gearset, spec, cap)
         try:
             with gmsh_session(f"pair_{key}", verbose=verbose) as model:
                 stats = _mesh(model, design, spec, path, started)

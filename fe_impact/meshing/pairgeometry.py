@@ -1,0 +1,354 @@
+"""Gmsh geometry of the tooth pair: the two sectors as OCC solids, and the exact flanks.
+
+:func:`add_sectors` builds, in the mesh frame of :mod:`fe_impact.gears.tca`
+(the model in millimetres, :data:`MM`), one pinion tooth over the pinion's
+face width and ``n_face_teeth`` face-gear teeth cut by the ring of the face
+width, as lofts through exact sections, and finds the faces of each surface
+group (``pinion_flank``, ``pinion_hub``, ``face_flank``, ``face_hub``).
+:func:`snap_flanks` moves the mesh nodes of both flanks onto the exact
+analytic flanks. The teeth are placed as a
+:class:`~fe_impact.gears.pairanalysis.PairAnalysis` says (the pinion turned
+back from the TCA position to open the gap). The gmsh model is passed in;
+this module does not import gmsh.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fe_impact.errors import MeshError
+from fe_impact.gears.facegear import FaceGearTooth
+from fe_impact.gears.pairanalysis import PairAnalysis
+from fe_impact.gears.tca import GearPair
+
+__all__ = ["MM", "add_sectors", "snap_flanks"]
+
+MM = 1e3  # the gmsh model and the mesh file are in millimetres
+
+
+# -- exact flank models ------------------------------------------------------------------
+class _FaceFlank:
+    """The face-gear flank ``side=+1`` as meshed (face-gear frame, metres).
+
+    Exact (:meth:`FaceGearTooth.flank`) from the tip down to ``h_ext``, the
+    lowest height the shaper involute generates over the whole face (plus a
+    micrometre); below it the flank's angular position is continued along its
+    tangent at constant radius down to the root plane.
+    """
+
+    def __init__(self, face: FaceGearTooth) -> None:
+        self.face = face
+        self.h_ext = max(face.height_range(face.face_inner)[0],
+                         face.height_range(face.face_outer)[0]) + 1e-6
+
+    def _angle(self, radius: NDArray, height: NDArray) -> NDArray:
+        p = self.face.flank(radius, height).points
+        return np.arctan2(p[..., 0], p[..., 2])
+
+    def angle(self, radius: NDArray, height: NDArray) -> NDArray:
+        """Polar angle ``atan2(x, z)`` [rad] of the flank at radius ``L`` and height ``h``."""
+        radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
+        radius = np.clip(radius, self.face.face_inner, self.face.face_outer)
+        h = np.maximum(height, self.h_ext)
+        angle = self._angle(radius, h)
+        below = height < self.h_ext
+        if np.any(below):
+            step = 1e-6
+            base = self._angle(radius[below], np.full(below.sum(), self.h_ext))
+            up = self._angle(radius[below], np.full(below.sum(), self.h_ext + step))
+            angle[below] = base + (height[below] - self.h_ext) * (up - base) / step
+        return angle
+
+    def point(self, radius: NDArray, height: NDArray) -> NDArray:
+        """Flank points (..., 3): exact (crowning included) above ``h_ext``."""
+        radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
+        out = np.empty(radius.shape + (3,))
+        above = height >= self.h_ext
+        if np.any(above):
+            out[above] = self.face.flank(radius[above], height[above]).points
+        if np.any(~above):
+            a = self.angle(radius[~above], height[~above])
+            r = radius[~above]
+            out[~above] = np.stack([r * np.sin(a), height[~above], r * np.cos(a)], axis=-1)
+        return out
+
+
+def _pinion_flank_point(pinion, u: NDArray, radius: NDArray) -> NDArray:
+    """Crowned right flank of the pinion at axial position ``u`` and radius (pinion frame).
+
+    Newton on the roll angle: ``|P - delta N|^2 = r_b^2 (1 + t^2) - 2 delta r_b t +
+    delta^2`` (``P . N = r_b t``) must equal ``radius^2``.
+    """
+    r_b = pinion.base_radius
+    span = pinion.theta_tip - pinion.theta_pitch
+    theta = np.sqrt(np.maximum((radius / r_b) ** 2 - 1.0, 1e-12))
+    for _ in range(20):
+        d = pinion.lengthwise_relief(u) + pinion.profile_relief(theta)
+        d_theta = 2.0 * pinion.profile_crowning * (theta - pinion.theta_pitch) / span**2
+        f = r_b**2 * (1 + theta**2) - 2 * d * r_b * theta + d**2 - radius**2
+        df = 2 * r_b**2 * theta - 2 * d_theta * r_b * theta - 2 * d * r_b + 2 * d * d_theta
+        step = f / df
+        theta = theta - step
+        if np.all(np.abs(step) < 1e-15):
+            break
+    return pinion.flank_surface(u, theta, side=1).points
+
+
+# -- sections (physical mesh frame, metres) -----------------------------------------------
+Piece = tuple[str, NDArray]  # name, points (n, 3); consecutive pieces share end points
+
+
+#: Largest point spacing along section pieces [m]: the splines through the mapped
+#: points must follow the map's transverse variation (C2 steps over ~1 mm).
+_POINT_SPACING = 0.2e-3
+
+
+def _line(a: NDArray, b: NDArray) -> NDArray:
+    """Points from ``a`` to ``b`` at most ``_POINT_SPACING`` apart."""
+    n = max(2, int(math.ceil(np.linalg.norm(b - a) / _POINT_SPACING)) + 1)
+    return a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+
+
+def _pinion_section(pair: GearPair, roll: float, u: float, rim: float) -> list[Piece]:
+    """Closed transverse section of the pinion sector at axial position ``u``."""
+    p = pair.pinion
+    prof = p.transverse_profile(u=u, n_flank=60, n_fillet=30, n_tip=12, n_root=8)
+    a = np.pi / p.teeth
+    rim_l, rim_r = rim * np.array([-np.sin(a), np.cos(a)]), rim * np.array([np.sin(a), np.cos(a)])
+    seg = {s.name: s.points for s in prof.segments}
+    arc = np.linspace(a, -a, 9)
+    pieces2d = [
+        ("hub_left", _line(rim_l, seg["root_left"][0])),
+        *[(name, seg[name]) for name in (s.name for s in prof.segments)],
+        ("hub_right", _line(seg["root_right"][-1], rim_r)),
+        ("hub_rim", rim * np.stack([np.sin(arc), np.cos(arc)], axis=-1)),
+    ]
+    out = []
+    for name, xy in pieces2d:
+        pts = np.concatenate([xy, np.full((len(xy), 1), u)], axis=1)
+        out.append((name, pair.pinion_to_mesh(pts, roll)))
+    return out
+
+
+def _face_flank_at_plane(flank: _FaceFlank, c: float, heights: NDArray, centre: float,
+                         sign: int, face_angle: float) -> NDArray:
+    """Points (n, 3) of a face-gear flank in the plane ``z = c`` of the mesh frame.
+
+    The flank of the tooth centred at ``centre`` (face frame), side ``sign``;
+    fixed-point iteration on the radius ``L = c / cos(angle)``.
+    """
+    radius = np.full_like(heights, c)
+    for _ in range(30):
+        angle = centre + sign * flank.angle(radius, heights) + face_angle
+        new = c / np.cos(angle)
+        done = np.abs(new - radius).max() < 1e-13
+        radius = new
+        if done:
+            break
+    return np.stack([radius * np.sin(angle), heights, radius * np.cos(angle)], axis=-1)
+
+
+def _face_section(pair: GearPair, flank: _FaceFlank, face_angle: float, c: float,
+                  n_teeth: int, bottom: float) -> list[Piece]:
+    """Closed section of the face-gear sector in the plane ``z = c`` (mesh frame)."""
+    f = pair.face
+    pitch = 2 * np.pi / f.teeth
+    heights = np.concatenate([np.linspace(f.root_height, flank.h_ext, 20)[:-1],
+                              np.linspace(flank.h_ext, f.tip_height, 60)])
+    left_cut = -0.5 * pitch - (n_teeth - 1) * pitch + face_angle
+    right_cut = 0.5 * pitch + face_angle
+
+    def at(angle: float, y: float) -> NDArray:
+        return np.array([c * np.tan(angle), y, c])
+
+    pieces: list[Piece] = [("hub_left", _line(at(left_cut, bottom), at(left_cut, f.root_height)))]
+    corner = pieces[0][1][-1]
+    for j in range(-(n_teeth - 1), 1):
+        minus = _face_flank_at_plane(flank, c, heights, j * pitch, -1, face_angle)
+        plus = _face_flank_at_plane(flank, c, heights, j * pitch, 1, face_angle)
+        pieces.append(("root", _line(corner, minus[0])))
+        pieces.append((f"flank_minus_{-j}", minus))
+        pieces.append((f"tip_{-j}", _line(minus[-1], plus[-1])))
+        pieces.append((f"flank_plus_{-j}", plus[::-1]))
+        corner = plus[0]
+    right = at(right_cut, f.root_height)
+    pieces.append(("root", _line(corner, right)))
+    pieces.append(("hub_right", _line(right, at(right_cut, bottom))))
+    pieces.append(("hub_bottom", _line(at(right_cut, bottom), at(left_cut, bottom))))
+    return pieces
+
+
+# -- gmsh geometry ------------------------------------------------------------------------------
+@dataclass
+class _Solid:
+    """A lofted solid in the gmsh model and where its named faces are."""
+
+    volume: int
+    representatives: dict[str, list[NDArray]] = field(default_factory=dict)
+
+
+def _loft(model, sections: list[list[Piece]], probe: int) -> _Solid:
+    """Loft closed sections (mesh frame, metres) into a solid (millimetres).
+
+    ``probe`` is the index of the section whose piece mid-points are kept to
+    recognise the lofted faces later (choose one inside the final solid).
+    """
+    occ = model.occ
+    wires, solid = [], _Solid(volume=-1)
+    for i, sec in enumerate(sections):
+        first = occ.addPoint(*(sec[0][1][0] * MM))
+        prev, curves = first, []
+        for j, (name, pts) in enumerate(sec):
+            pts = pts * MM
+            last = first if j == len(sec) - 1 else occ.addPoint(*pts[-1])
+            tags = [prev] + [occ.addPoint(*q) for q in pts[1:-1]] + [last]
+            curves.append(occ.addSpline(tags) if len(pts) > 2 else occ.addLine(prev, last))
+            prev = last
+            if i == probe:
+                solid.representatives.setdefault(name, []).append(pts[len(pts) // 2])
+        wires.append(occ.addWire(curves))
+    out = occ.addThruSections(wires, makeSolid=True, makeRuled=False)
+    solid.volume = out[0][1]
+    return solid
+
+
+def _classify(model, solid: _Solid, groups: dict[str, tuple[str, ...]]) -> dict[str, list[int]]:
+    """Faces of ``solid`` carrying each group, by the pieces' representative points."""
+    faces = [tag for _, tag in model.getBoundary([(3, solid.volume)], oriented=False)]
+    found: dict[str, list[int]] = {g: [] for g in groups}
+    for group, pieces in groups.items():
+        for piece in pieces:
+            for rep in solid.representatives.get(piece, []):
+                dist = [np.linalg.norm(np.array(model.getClosestPoint(2, f, rep)[0]) - rep)
+                        for f in faces]
+                best = int(np.argmin(dist))
+                if dist[best] > 1e-3:  # mm: the loft passes through its section points
+                    raise MeshError(f"face of piece {piece!r} not found ({dist[best]:.3g} mm)")
+                if faces[best] not in found[group]:
+                    found[group].append(faces[best])
+    return found
+
+
+def _annulus(model, inner: float, outer: float, y0: float, y1: float) -> list[tuple[int, int]]:
+    """Ring between radii ``inner`` and ``outer`` [mm] about ``y``, seam turned to ``-z``."""
+    occ = model.occ
+    big = occ.addCylinder(0, y0, 0, 0, y1 - y0, 0, outer)
+    small = occ.addCylinder(0, y0, 0, 0, y1 - y0, 0, inner)
+    ring, _ = occ.cut([(3, big)], [(3, small)])
+    occ.rotate(ring, 0, 0, 0, 0, 1, 0, np.pi)  # OCC cylinders have their seam on +z here
+    return ring
+
+
+# -- the sectors ---------------------------------------------------------------------------
+_PINION_GROUPS = {"pinion_flank": ("flank_right",),
+                  "pinion_hub": ("hub_left", "hub_right", "hub_rim")}
+_FACE_GROUPS = {"face_flank": ("flank_plus_0",),
+                "face_hub": ("hub_left", "hub_right", "hub_bottom")}
+#: Loft section spacing [modules]. The flanks vary slowly along the face (the
+#: crowning is a parabola), and the lofts are exact at the sections: measured
+#: flank deviation below 0.01 um between sections at this spacing.
+_SECTION_MODULES = 0.5
+
+
+def _stations_through(lo: float, hi: float, at: float, step: float) -> NDArray:
+    """About ``step``-spaced positions over ``[lo, hi]``, one of them at ``at``."""
+    left = np.linspace(lo, at, max(2, int(math.ceil((at - lo) / step)) + 1))
+    right = np.linspace(at, hi, max(2, int(math.ceil((hi - at) / step)) + 1))
+    return np.concatenate([left, right[1:]])
+
+
+def _add_pinion(model, pair: GearPair,
+                analysis: PairAnalysis) -> tuple[int, dict[str, list[int]]]:
+    """The pinion sector over its face width (one loft of transverse sections)."""
+    p, spec = pair.pinion, analysis.spec
+    rim = p.root_radius - spec.rim_modules * p.module
+    u_c = float(np.clip(analysis.contact.point[2] - pair.z0, -0.4 * p.face_width,
+                        0.4 * p.face_width))
+    us = _stations_through(-0.5 * p.face_width, 0.5 * p.face_width, u_c,
+                           _SECTION_MODULES * p.module)
+    sections = [_pinion_section(pair, analysis.pinion_roll_placed, u, rim) for u in us]
+    solid = _loft(model, sections, int(np.argmin(np.abs(us - u_c))))
+    model.occ.synchronize()
+    return solid.volume, _classify(model, solid, _PINION_GROUPS)
+
+
+def _add_face_gear(model, pair: GearPair,
+                   analysis: PairAnalysis) -> tuple[int, dict[str, list[int]]]:
+    """The face-gear sector: a loft of sections ``z = const``, cut by the ring."""
+    f, spec, contact = pair.face, analysis.spec, analysis.contact
+    flank = _FaceFlank(f)
+    bottom = f.root_height - spec.rim_modules * f.module
+    pitch = 2 * np.pi / f.teeth
+    widest = (spec.n_face_teeth - 0.5) * pitch + abs(contact.face_angle)
+    margin = 0.5 * f.module
+    z_c = contact.point[2]
+    cs = _stations_through(f.face_inner * np.cos(widest) - margin, f.face_outer + margin, z_c,
+                           _SECTION_MODULES * f.module)
+    angle = contact.face_angle
+    sections = [_face_section(pair, flank, angle, c, spec.n_face_teeth, bottom) for c in cs]
+    solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
+    ring = _annulus(model, f.face_inner * MM, f.face_outer * MM, (bottom - margin) * MM,
+                    (f.tip_height + margin) * MM)
+    out, _ = model.occ.intersect([(3, solid.volume)], ring)
+    model.occ.synchronize()
+    if len(out) != 1:
+        raise MeshError(f"face-gear sector: the cut by the ring gave {len(out)} volumes")
+    solid.volume = out[0][1]
+    return solid.volume, _classify(model, solid, _FACE_GROUPS)
+
+
+def add_sectors(model, pair: GearPair,
+                analysis: PairAnalysis) -> tuple[dict[str, int], dict[str, list[int]]]:
+    """Both sectors in ``model`` (OCC, millimetres), placed as ``analysis`` says.
+
+    Returns the volume tags (``pinion``, ``face_gear``) and the surface tags
+    of each surface group.
+    """
+    pinion, pinion_groups = _add_pinion(model, pair, analysis)
+    face, face_groups = _add_face_gear(model, pair, analysis)
+    extra = [(3, t) for _, t in model.getEntities(3) if t not in (pinion, face)]
+    if extra:  # construction leftovers of the boolean
+        model.occ.remove(extra, recursive=True)
+        model.occ.synchronize()
+    return {"pinion": pinion, "face_gear": face}, {**pinion_groups, **face_groups}
+
+
+# -- the mesh on the exact flanks --------------------------------------------------------
+def snap_flanks(model, pair: GearPair, analysis: PairAnalysis,
+                groups: dict[str, list[int]]) -> NDArray:
+    """Move the mesh nodes of both flanks onto the exact flanks; largest move per flank [m].
+
+    ``groups`` are the surface tags of :func:`add_sectors`.
+    """
+    moves = []
+    for group, snap in (("pinion_flank", _snap_pinion), ("face_flank", _snap_face)):
+        nodes, coords = [], []
+        for surface in groups[group]:
+            t, c, _ = model.mesh.getNodes(2, surface, includeBoundary=True)
+            nodes.append(t)
+            coords.append(c.reshape(-1, 3))
+        nodes, first = np.unique(np.concatenate(nodes), return_index=True)
+        x = np.concatenate(coords)[first] / MM
+        exact = snap(pair, analysis, x)
+        moves.append(float(np.linalg.norm(exact - x, axis=1).max()))
+        for tag, coord in zip(nodes, exact * MM, strict=True):
+            model.mesh.setNode(int(tag), coord.tolist(), [])
+    return np.array(moves)
+
+
+def _snap_pinion(pair: GearPair, analysis: PairAnalysis, x: NDArray) -> NDArray:
+    rot = pair.pinion_rotation(analysis.pinion_roll_placed)
+    local = (x - np.array([0.0, pair.pinion.pitch_radius, pair.z0])) @ rot
+    exact = _pinion_flank_point(pair.pinion, local[:, 2], np.hypot(local[:, 0], local[:, 1]))
+    return pair.pinion_to_mesh(exact, analysis.pinion_roll_placed)
+
+
+def _snap_face(pair: GearPair, analysis: PairAnalysis, x: NDArray) -> NDArray:
+    angle = analysis.contact.face_angle
+    local = x @ pair.face_rotation(angle)
+    exact = _FaceFlank(pair.face).point(np.hypot(local[:, 0], local[:, 2]), local[:, 1])
+    return pair.face_to_mesh(exact, angle)

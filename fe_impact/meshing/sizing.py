@@ -1,0 +1,201 @@
+"""Element sizes of the tooth-pair mesh: refinement levels, the stretch and gmsh size fields.
+
+A :class:`MeshLevel` gives the element sizes relative to the design Hertz
+ellipse; :func:`design_pair` turns it, for one
+:class:`~fe_impact.gears.pairanalysis.PairSpec`, into the
+sizes and the :class:`~fe_impact.meshing.contactstretch.ContactStretch` of
+the stretched space (:class:`PairDesign`); :func:`reference_size_field` and
+:func:`size_field` set gmsh's background size in physical and in stretched
+space (:mod:`fe_impact.meshing.toothpair` describes the steps).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fe_impact.gears.pairanalysis import (
+    LEVEL_NAMES,
+    PairAnalysis,
+    PairSpec,
+    analyse_stage_pair,
+)
+from fe_impact.gears.tca import ContactEllipse, ContactPoint, GearPair
+from fe_impact.meshing.contactstretch import ContactStretch
+from fe_impact.meshing.pairgeometry import MM
+
+__all__ = [
+    "LEVELS",
+    "MeshLevel",
+    "PairDesign",
+    "design_pair",
+    "reference_size_field",
+    "size_field",
+]
+
+
+# -- levels ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class MeshLevel:
+    """Element sizes of a refinement level, relative to the design Hertz ellipse.
+
+    Attributes
+    ----------
+    minor_fraction : float
+        Size across the ellipse (minor axis) and along the normal, over ``b``.
+    major_fraction : float
+        Size along the major axis, over ``a``; the stretch factor is
+        ``major_fraction a / (minor_fraction b)``, capped at ``max_stretch``.
+    far_modules : float
+        Largest element size, in modules.
+    gradation : float
+        Growth of the element size per unit distance from the contact zone
+        (in the stretched space).
+    max_stretch : float
+        Upper bound of the element aspect ratio in the contact zone.
+    """
+
+    minor_fraction: float
+    major_fraction: float
+    far_modules: float
+    gradation: float
+    max_stretch: float = 8.0
+
+
+LEVELS: dict[str, MeshLevel] = {
+    "coarse": MeshLevel(1 / 2, 1 / 3, 1.25, 0.7),
+    "default": MeshLevel(1 / 3, 1 / 4, 0.8, 0.5),
+    "fine": MeshLevel(1 / 4, 1 / 6, 0.5, 0.35),
+}
+if tuple(LEVELS) != LEVEL_NAMES:  # PairSpec accepts exactly these names
+    raise ImportError(f"LEVELS {list(LEVELS)} differ from PairSpec's {list(LEVEL_NAMES)}")
+
+
+# -- design: sizes and stretch -----------------------------------------------------------
+@dataclass(frozen=True)
+class PairDesign:
+    """Everything computed before meshing (SI units, mesh frame).
+
+    ``sizes`` holds the element sizes [m] ``minor``, ``major`` and ``far`` and
+    the stretch ``factor`` (``major / minor``).
+    """
+
+    pair: GearPair
+    analysis: PairAnalysis
+    sizes: dict[str, float]
+    stretch: ContactStretch
+
+    @property
+    def ellipse(self) -> ContactEllipse:
+        return self.analysis.design_ellipse
+
+
+def design_pair(gearset, spec: PairSpec, max_stretch: float | None = None) -> PairDesign:
+    """The analysis of ``spec``'s pair, its element sizes and the stretch; the
+    stretch factor capped at ``max_stretch`` too if given."""
+    pair, analysis = analyse_stage_pair(gearset, spec)
+    ellipse = analysis.design_ellipse
+    level = LEVELS[spec.level]
+    minor = level.minor_fraction * ellipse.b
+    cap = level.max_stretch if max_stretch is None else min(max_stretch, level.max_stretch)
+    factor = float(np.clip(level.major_fraction * ellipse.a / minor, 1.0, cap))
+    sizes = {"minor": minor, "major": factor * minor, "factor": factor,
+             "far": level.far_modules * pair.pinion.module}
+    return PairDesign(pair=pair, analysis=analysis, sizes=sizes,
+                      stretch=_stretch(analysis.contact, spec, ellipse, sizes))
+
+
+def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllipse,
+             sizes: dict[str, float]) -> ContactStretch:
+    """The anisotropic map for this contact (see
+    :class:`~fe_impact.meshing.contactstretch.ContactStretch`).
+
+    The zone covers the ellipse with 30 % to spare; its outer half is the
+    ramp back from full compression (the size field keeps the elements there
+    short, so they follow the map closely); the compensation takes 1.5 zone
+    lengths; the core radius reaches where the graded size has grown to the
+    major-axis size, and the fall-off is twice the largest shift wide (shear
+    below about 1).
+    """
+    level = LEVELS[spec.level]
+    e1 = ellipse.major if ellipse.major[2] > 0 else -ellipse.major  # towards larger radius
+    n = design_contact.normal
+    half = 1.3 * ellipse.a
+    ramp = 0.5 * half
+    core = 1.5 * ellipse.b + (sizes["major"] - sizes["minor"]) / level.gradation
+    shift = (1.0 - 1.0 / sizes["factor"]) * half
+    return ContactStretch(
+        origin=design_contact.point + 0.5 * spec.gap * n,
+        axes=np.stack([e1, np.cross(n, e1), n]),
+        factor=sizes["factor"],
+        half_length=half,
+        reach=2.5 * half,
+        ramp=ramp,
+        core_radius=core,
+        outer_radius=core + max(2.0 * shift, core),
+    )
+
+
+# -- gmsh size fields ---------------------------------------------------------------------
+def _box_distance(axes: NDArray, centre: NDArray, half: tuple[float, ...]) -> str:
+    """MathEval expression: distance [mm] from the box ``|(x - centre) . axes_i| <= half_i``."""
+    terms = []
+    for axis, width in zip(axes, half, strict=True):
+        dot = "+".join(f"({a:.17g})*({v}-({c:.17g}))" for a, v, c in zip(axis, "xyz", centre,
+                                                                        strict=True))
+        terms.append(f"Max(Fabs({dot})-({width:.17g}),0)^2")
+    return "Sqrt(" + "+".join(terms) + ")"
+
+
+def _set_size_field(model, terms: list[tuple[float, str]], gradation: float, far: float) -> None:
+    """Background size ``min(far, min_i(size_i + gradation d_i))`` [mm], all else off.
+
+    ``terms`` pairs a size [mm] with a distance expression (see :func:`_box_distance`).
+    """
+    import gmsh
+
+    expr = f"{far:.17g}"
+    for size, distance in terms:
+        expr = f"Min({expr},{size:.17g}+{gradation}*{distance})"
+    field_id = model.mesh.field.add("MathEval")
+    model.mesh.field.setString(field_id, "F", expr)
+    model.mesh.field.setAsBackgroundMesh(field_id)
+    for name, value in (("MeshSizeExtendFromBoundary", 0), ("MeshSizeFromPoints", 0),
+                        ("MeshSizeFromCurvature", 0), ("MeshSizeMax", far),
+                        ("Algorithm3D", 10), ("SecondOrderLinear", 1)):
+        gmsh.option.setNumber(f"Mesh.{name}", value)
+
+
+def _zone_half_widths(design: PairDesign) -> tuple[float, float]:
+    """Half-widths [m] of the refined zone across the ellipse and along the normal."""
+    return 1.25 * design.ellipse.b, 1.0 * design.ellipse.b
+
+
+def reference_size_field(model, design: PairDesign) -> None:
+    """Physical-space sizes of the reference surface mesh.
+
+    It only carries the geometry into the stretched space, where the final
+    mesh is placed on it; it is finer than the final mesh across the ellipse
+    (and isotropic, so much finer along it).
+    """
+    st, level = design.stretch, LEVELS[design.analysis.spec.level]
+    width, depth = _zone_half_widths(design)
+    half = (st.half_length * MM, width * MM, depth * MM)
+    distance = _box_distance(st.axes, st.origin * MM, half)
+    _set_size_field(model, [(0.7 * design.sizes["minor"] * MM, distance)],
+                    0.5 * level.gradation, 0.5 * design.sizes["far"] * MM)
+
+
+def size_field(model, design: PairDesign) -> None:
+    """Isotropic size field of the stretched space: ``minor`` in the image of the
+    zone (ramps included, so elements stay short where the compression
+    changes), graded out to ``far``."""
+    st, level, sizes = design.stretch, LEVELS[design.analysis.spec.level], design.sizes
+    width, depth = _zone_half_widths(design)
+    lo, hi = st.mapped_interval(st.half_length)
+    centre = (st.origin + 0.5 * (lo + hi) * st.axes[0]) * MM
+    half = (0.5 * (hi - lo) * MM, width * MM, depth * MM)
+    _set_size_field(model, [(sizes["minor"] * MM, _box_distance(st.axes, centre, half))],
+                    level.gradation, sizes["far"] * MM)

@@ -2,9 +2,9 @@
 
 A :class:`MeshLevel` gives the element sizes relative to the design Hertz
 ellipse; :func:`design_pair` turns it, for one
-:class:`~fe_impact.gears.pairanalysis.PairSpec`, into the
-sizes and the :class:`~fe_impact.meshing.contactstretch.ContactStretch` of
-the stretched space (:class:`PairDesign`); :func:`reference_size_field` and
+:class:`~fe_impact.gears.pairanalysis.PairSpec`, into the sizes and the
+:class:`~fe_impact.meshing.contactstretch.ContactStretch` of the stretched
+space (:class:`PairDesign`); :func:`reference_size_field` and
 :func:`size_field` set gmsh's background size in physical and in stretched
 space (:mod:`fe_impact.meshing.toothpair` describes the steps).
 """

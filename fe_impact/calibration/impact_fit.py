@@ -88,7 +88,8 @@ class ImpactFit:
     message : str
         Optimiser status and any warning (parameter at a bound, ...).
     n_evaluations : int
-        Model evaluations of the whole fit (starts and optimisation).
+        Residual evaluations of the optimisations from all starts (the root
+        solves for the starting ``cmax`` not counted).
     start : tuple of float
         Starting ``(k, exponent, cmax, d)`` of the winning optimisation.
     fe_force_max, fe_contact_time : float
@@ -127,7 +128,6 @@ class ImpactFit:
             "message",
         )
         return {key: getattr(self, key) for key in keys}
-
 
 
 # -- the optimiser's variables ------------------------------------------------------------
@@ -177,6 +177,7 @@ class _Bounds(NamedTuple):
     @classmethod
     def checked(cls, exponent_bounds: tuple[float, float],
                 d_bounds: tuple[float, float]) -> _Bounds:
+        """The bounds as floats; CalibrationError unless ``0 < low < high`` for both."""
         lo_n, hi_n = (float(b) for b in exponent_bounds)
         lo_d, hi_d = (float(b) for b in d_bounds)
         if not 0.0 < lo_n < hi_n:

@@ -320,4 +320,3 @@ def mesh_stiffness(
         n_local=int(d_loc.size),
         power_fit=power,
     )
-

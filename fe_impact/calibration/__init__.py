@@ -1,3 +1,21 @@
-"""Calibration: fit the lumped IMPACT law to FE impacts
-(:mod:`~fe_impact.calibration.fitting`), the sweep over stages and speeds
-(:mod:`~fe_impact.calibration.sweep`) and its report."""
+"""Calibration: the lumped IMPACT law from FE impacts.
+
+In the order the data flows:
+
+- :mod:`~fe_impact.calibration.history`: an FE force-approach history checked
+  and resampled for fitting;
+- :mod:`~fe_impact.calibration.stiffness`: the power law ``F = K delta^xi`` of
+  the loading branch and the mesh stiffness at a nominal load;
+- :mod:`~fe_impact.calibration.impact_model`: the fast dimensionless one-DOF
+  IMPACT-law model;
+- :mod:`~fe_impact.calibration.impact_fit`: the joint fit of
+  ``(k, exponent, cmax, d)`` to force history and restitution;
+- :mod:`~fe_impact.calibration.closed_form`: the seed's closed-form parameters,
+  the hysteresis factors and the comparison with the fit;
+- :mod:`~fe_impact.calibration.records`: the calibration record, its schema and
+  its JSON/CSV files;
+- :mod:`~fe_impact.calibration.sweep`: the cases of a run on a Dask cluster,
+  resumable; :mod:`~fe_impact.calibration.report`: ``report.md`` and plots.
+
+:mod:`~fe_impact.calibration.fitting` re-exports the fitting functions.
+"""

@@ -2,7 +2,7 @@
 
 Plain scalar functions compiled with numba (``njit``, cached on disk), so
 that compiled code can call them directly: the one-degree-of-freedom
-integrator of `fe_impact.calibration.fitting` and the torsional kernel of
+integrator of `fe_impact.calibration.impact_model` and the torsional kernel of
 `fe_impact.switching._kernel`. `fe_impact.physics.laws` applies them to
 arrays through the ufuncs `step_ufunc` and `impact_force_ufunc`.
 

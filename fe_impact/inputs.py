@@ -35,6 +35,8 @@ from typing import Any
 from fe_impact.errors import FeImpactError
 
 __all__ = [
+    "MAX_DENSITY",
+    "MAX_YOUNGS_MODULUS",
     "SYNTAXES",
     "Reader",
     "check_choice",
@@ -48,6 +50,12 @@ __all__ = [
 
 #: Document syntaxes :func:`read_document` understands.
 SYNTAXES = ("toml", "json")
+#: Upper bounds of material values shared by the readers (case files, gear
+#: sets): finite numbers beyond them are unit mistakes, and 1.7e308 Pa
+#: overflowed in the assembly. Young's modulus: 10 x diamond's 1.2e12 Pa;
+#: density: 4 x osmium's 22,590 kg/m^3.
+MAX_YOUNGS_MODULUS = 1e13
+MAX_DENSITY = 1e5
 
 
 def is_real(value: Any) -> bool:
@@ -119,7 +127,9 @@ def read_document(path: str | Path, what: str, error: type[FeImpactError] = FeIm
 
 # -- checks of single values ----------------------------------------------------------
 def _bound(x: float, scale: float | None) -> str:
-    return str(x) if scale is None else f"{x * scale:g}"
+    if scale is not None:
+        return f"{x * scale:g}"
+    return str(x) if x == 0 or 1e-4 <= abs(x) < 1e6 else f"{x:g}"   # 1e+13, not 10000000000000.0
 
 
 def _range(low: float | None, high: float | None, low_open: bool, high_open: bool,

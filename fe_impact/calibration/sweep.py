@@ -17,6 +17,16 @@ Cases run as a sweep on Dask (a local cluster by default, or an existing
 ``cases/<id>/result.json`` at once (atomically), so an interrupted run keeps
 its finished cases and a rerun computes only the missing ones.
 
+A case is computed under a lock on its folder (``cases/<id>/.lock``, see
+:func:`fe_impact.output.files.folder_lock`): a second run on the same output
+folder waits for the cases the first is computing and takes their results.
+Holding the lock, a case first deletes the temporary files that a killed
+run may have left in its folder. SIGINT (Ctrl-C) or SIGTERM stops the
+sweep: the running cases stop within a second or so (:data:`STOP_GRACE` at
+most), ``calibration.json`` is written with ``status: "stopped"`` and the
+finished cases, and the command ends with one line. The workers ignore both
+signals themselves; the parent stops them.
+
 Impact speeds (the seed's eq. 4 and 5): in mesh, the seed's relative sliding
 speed ``v12 = sqrt((w_f r_f)^2 + (w_c r_c)^2) - sqrt((w_c r_c)^2 + (w_c r_c
 cos a)^2)`` (the middle line of eq. 4; its last line is not dimensionally
@@ -32,7 +42,9 @@ import hashlib
 import json
 import logging
 import math
+import threading
 import time
+import uuid
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -60,6 +72,8 @@ from fe_impact.calibration.records import (  # noqa: F401 (KINDS, UNITS: importa
 )
 from fe_impact.errors import CalibrationError
 from fe_impact.inputs import Reader, read_document
+from fe_impact.interrupts import Interrupted, handle_signals, ignore_signals
+from fe_impact.output.files import folder_lock, remove_temporaries
 
 if TYPE_CHECKING:
     from fe_impact.fe.case import Case
@@ -87,6 +101,12 @@ MAX_GAP = 2e-6
 STOP_AFTER_SEPARATION = 0.25
 #: Nominal mesh load (N) at which the linearised mesh stiffness is reported.
 NOMINAL_LOAD = 100.0
+#: After SIGINT/SIGTERM, wait at most this long [s] for the running cases to
+#: stop before the workers are closed regardless. A case checks every
+#: STOP_POLL s and stops at the next Python statement, which in a tooth
+#: impact is well within a second (one Newmark step is 0.1-0.5 s).
+STOP_GRACE = 20.0
+STOP_POLL = 0.25
 # SCHEMA, KINDS and UNITS of the calibration files: fe_impact.calibration.records.
 
 
@@ -407,24 +427,38 @@ def load_finished(out: Path, cases: list[ImpactCase], settings: Settings,
     """Finished cases of an earlier run with the same parameters (resume)."""
     sweep = Sweep(cases)
     for c in cases:
-        path = out / "cases" / c.id / "result.json"
-        if not path.is_file():
-            continue
-        try:
-            data = read_document(path, "calibration result", CalibrationError, "json")
-            if data.get("hash") != case_hash(c, settings, gearset_text):
-                continue   # another version, gear set or settings: computed again
-            sweep.done[c.id] = CalibrationRecord.from_dict(
-                data, Reader(str(path), CalibrationError, "json"))
-        except CalibrationError as exc:   # cut short or edited: computed again
-            logger.warning("%s; case %s is computed again", exc, c.id)
+        record = finished_record(out, c, settings, gearset_text)
+        if record is not None:
+            sweep.done[c.id] = record
     return sweep
+
+
+def finished_record(out: Path, case: ImpactCase, settings: Settings,
+                    gearset_text: str) -> CalibrationRecord | None:
+    """``cases/<id>/result.json`` if it holds this case with these settings, else None."""
+    path = Path(out) / "cases" / case.id / "result.json"
+    if not path.is_file():
+        return None
+    try:
+        data = read_document(path, "calibration result", CalibrationError, "json")
+        if data.get("hash") != case_hash(case, settings, gearset_text):
+            return None   # another version, gear set or settings: computed again
+        return CalibrationRecord.from_dict(data, Reader(str(path), CalibrationError, "json"))
+    except CalibrationError as exc:   # cut short or edited: computed again
+        logger.warning("%s; case %s is computed again", exc, case.id)
+        return None
 
 
 def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,
               cache: Path, workers: int | None = None, scheduler: str | None = None,
               progress: Callable[[int, int, str], None] | None = None) -> Path:
-    """Run the sweep (resuming), then write calibration.json/.csv and the report."""
+    """Run the sweep (resuming), then write calibration.json/.csv and the report.
+
+    On SIGINT or SIGTERM (:class:`KeyboardInterrupt`) the files are written
+    with the cases finished so far and ``status: "stopped"`` (the others are
+    listed under ``missing``), and the interrupt is raised again.
+    """
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     sweep = load_finished(out, cases, settings, gearset_text)
@@ -433,26 +467,45 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     if progress is not None:
         progress(len(sweep.done), len(cases), "")
     todo = sweep.todo
+    stopped = None
     if todo:
-        _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-                  progress)
-    wall = time.perf_counter() - t0
-    records = [sweep.done[c.id] for c in cases]
+        try:
+            _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
+                      progress)
+        except KeyboardInterrupt as exc:
+            stopped = exc
+    path = _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
+                          "stopped" if stopped is not None else "completed")
+    if stopped is not None:
+        raise stopped
+    return path
+
+
+def _write_summary(out: Path, cases: list[ImpactCase], sweep: Sweep, settings: Settings,
+                   wall: float, status: str) -> Path:
+    """calibration.json, calibration.csv and report.md of the finished cases."""
     from fe_impact.calibration.report import write_calibration_report
 
+    records = [sweep.done[c.id] for c in cases if c.id in sweep.done]
     calibration = Calibration(cases=records, settings=asdict(settings), wall_time_s=wall,
-                              fe_impact_version=__version__, notes=NOTES)
-    path = write_calibration(out / "calibration.json", calibration)
-    write_calibration_csv(out / "calibration.csv", records)
-    write_calibration_report(out, calibration)
+                              fe_impact_version=__version__, notes=NOTES, status=status,
+                              missing=tuple(c.id for c in cases if c.id not in sweep.done))
+    with ignore_signals():   # the three files belong together: a second Ctrl-C waits
+        path = write_calibration(out / "calibration.json", calibration)
+        write_calibration_csv(out / "calibration.csv", records)
+        write_calibration_report(out, calibration)
     return path
+
+
+class CaseStopped(CalibrationError):
+    """A case stopped part-way because the sweep was interrupted."""
 
 
 def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
               progress) -> None:
     log = logging.getLogger("distributed")
     level = log.level
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import Client, Event
 
     # Importing distributed sets its logger to INFO, which would print every
     # worker's start and, at shutdown, a closed-connection traceback; keep the
@@ -466,72 +519,262 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
             raise CalibrationError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
         cluster = None
     else:
-        n = workers or max(1, min(len(todo), _cores()))
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster)
+        cluster, client = _local_cluster(workers or max(1, min(len(todo), _cores())))
+    stop_name = f"fe-impact-stop-{uuid.uuid4().hex}"
     try:
         # Largest models first (bigger face gears, then slower impacts: finer
         # meshes), so the last case to finish is a small one.
         order = sorted(todo, key=lambda c: (-c.face_teeth, c.impact_speed))
-        futures = {client.submit(run_case, c, settings, gearset_text, str(out), str(cache),
+        futures = {client.submit(run_locked_case, c, settings, gearset_text, str(out),
+                                 str(cache), stop_name,
                                  key=f"fe-impact-{c.id}-{case_hash(c, settings, gearset_text)}",
                                  priority=len(order) - i, pure=False): c
                    for i, c in enumerate(order)}
-        failures = []
+        failures: list[str] = []
         with _interrupt_flag() as interrupted:
-            pending = dict(futures)
-            while pending:
-                # Poll rather than block in the client: a Ctrl-C that lands while
-                # dask's machinery runs can be swallowed there, the flag is not.
-                if interrupted.is_set():
-                    raise KeyboardInterrupt
-                finished = [f for f in pending if f.done()]
-                if not finished:
-                    time.sleep(0.2)
-                    continue
-                for fut in finished:
-                    c = pending.pop(fut)
-                    try:
-                        sweep.done[c.id] = fut.result()
-                    except Exception as exc:  # a failed case does not stop the others
-                        failures.append(f"{c.id}: {exc}")
-                        logger.error("case %s failed: %s", c.id, exc)
-                    if progress is not None:
-                        progress(len(sweep.done), len(sweep.cases), c.id)
+            try:
+                _collect(futures, sweep, failures, progress, interrupted)
+            except KeyboardInterrupt:
+                with ignore_signals():   # stopping is bounded by STOP_GRACE
+                    _stop_cases(Event(stop_name, client=client), futures)
+                raise
         if failures:
             raise CalibrationError(f"{len(failures)} case(s) failed (finished cases are kept; "
                                    "rerun to retry): " + "; ".join(failures))
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        with ignore_signals():
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        _clean_cases(out, todo)
+
+
+def _collect(futures: dict, sweep: Sweep, failures: list[str], progress,
+             interrupted: threading.Event) -> None:
+    """Wait for the cases, recording each as it finishes."""
+    pending = dict(futures)
+    while pending:
+        # Poll rather than block in the client: a Ctrl-C that lands while
+        # dask's machinery runs can be swallowed there, the flag is not.
+        if interrupted.is_set():
+            raise Interrupted(interrupted.signum)
+        finished = [f for f in pending if f.done()]
+        if not finished:
+            time.sleep(0.2)
+            continue
+        for fut in finished:
+            c = pending.pop(fut)
+            try:
+                sweep.done[c.id] = fut.result()
+            except Exception as exc:  # a failed case does not stop the others
+                failures.append(f"{c.id}: {exc}")
+                logger.error("case %s failed: %s", c.id, exc)
+            if progress is not None:
+                progress(len(sweep.done), len(sweep.cases), c.id)
+
+
+def _stop_cases(stop, futures: dict) -> None:
+    """Tell every case to stop (:func:`run_locked_case` watches ``stop``) and wait for them.
+
+    Cases not started yet end at once; running ones at their next Python
+    statement. At most :data:`STOP_GRACE` seconds.
+    """
+    try:
+        stop.set()
+    except Exception as exc:   # scheduler gone: the workers are going too
+        logger.info("could not signal the workers to stop: %s", exc)
+        return
+    deadline = time.monotonic() + STOP_GRACE
+    while time.monotonic() < deadline and not all(f.done() for f in futures):
+        time.sleep(0.1)
+    running = [c.id for f, c in futures.items() if not f.done()]
+    if running:
+        logger.warning("cases %s did not stop within %g s; their workers are closed", running,
+                       STOP_GRACE)
+
+
+def _clean_cases(out, cases: list[ImpactCase]) -> None:
+    """Delete temporary files in the folders of ``cases`` that no process is writing."""
+    for c in cases:
+        folder = Path(out) / "cases" / c.id
+        if not folder.is_dir():
+            continue
+        with folder_lock(folder, wait=False) as free:
+            if free:
+                for path in remove_temporaries(folder):
+                    logger.info("removed the unfinished file %s", path)
+
+
+def _local_cluster(n: int):
+    """A local Dask cluster of ``n`` single-thread worker processes and its client.
+
+    The workers are started with SIGINT and SIGTERM ignored (they keep
+    that): Ctrl-C in a terminal signals the whole process group, and a
+    worker that got it printed tracebacks and stopped mid-write. The
+    scheduler's HTTP server (the dashboard's) takes a free port, so a second
+    run never finds 8787 taken.
+    """
+    from dask.distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=0, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR,
+                           scheduler_kwargs={"dashboard_address": ":0"})
+    try:
+        before = _spawned_children()
+        with ignore_signals():
+            cluster.scale(n)
+            _wait_spawned(cluster, n, before)
+        client = Client(cluster)
+    except BaseException:
+        cluster.close()
+        raise
+    return cluster, client
+
+
+def _spawned_children() -> int | None:
+    """How many child processes run multiprocessing's spawn entry point (Linux), or None."""
+    try:
+        pids = {pid for task in Path("/proc/self/task").iterdir()
+                for pid in (task / "children").read_text().split()}
+    except OSError:
+        return None
+    count = 0
+    for pid in pids:
+        with contextlib.suppress(OSError):
+            count += b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()
+    return count
+
+
+def _wait_spawned(cluster, n: int, before: int | None, timeout: float = 60.0) -> None:
+    """Wait until the ``n`` worker processes exist (a started process keeps ``SIG_IGN``)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        count = _spawned_children()
+        if count is not None and before is not None:
+            if count >= before + n:
+                return
+        elif len(cluster.workers) >= n and all(
+                getattr(getattr(w, "process", None), "pid", None)
+                for w in cluster.workers.values()):
+            return
+        time.sleep(0.02)
 
 
 @contextlib.contextmanager
 def _interrupt_flag():
-    """An event set by SIGINT (Ctrl-C) while the sweep waits; the old handler is restored.
+    """An event set by SIGINT (Ctrl-C) or SIGTERM while the sweep waits.
 
-    The handler also raises KeyboardInterrupt at once; the event keeps the
-    interrupt if some library code in between catches it.
+    The handler also raises :class:`~fe_impact.interrupts.Interrupted` at
+    once; the event (with the signal number as ``flag.signum``) keeps the
+    interrupt if some library code in between catches it. The old handlers
+    are restored at the end.
     """
-    import signal
-    import threading
-
     flag = threading.Event()
-    if threading.current_thread() is not threading.main_thread():
-        yield flag
-        return
+    flag.signum = None
 
-    def handler(signum, frame):
+    def note(signum: int) -> None:
+        flag.signum = signum
         flag.set()
-        raise KeyboardInterrupt
 
-    old = signal.signal(signal.SIGINT, handler)
-    try:
+    with handle_signals(note):
         yield flag
+
+
+# -- one case under its lock (runs on a worker) -------------------------------------------
+
+
+def run_locked_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
+                    cache: str, stop_name: str | None = None) -> CalibrationRecord:
+    """:func:`run_case` holding the case folder's lock; stops when ``stop_name`` is set.
+
+    Waits while another process holds the lock (a second run on the same
+    output folder) and then returns that run's result if it finished the
+    case. Before computing, deletes the temporary files a killed run left in
+    the case folder. ``stop_name`` names a ``distributed.Event``: once it is
+    set the case ends with :class:`CaseStopped`.
+    """
+    folder = Path(out) / "cases" / case.id
+    try:
+        with _stop_watch(stop_name, case.id), _case_lock(folder, case.id):
+            record = finished_record(Path(out), case, settings, gearset_text)
+            if record is not None:
+                logger.info("case %s: finished by another run", case.id)
+                return record
+            for path in remove_temporaries(folder):
+                logger.info("removed the unfinished file %s", path)
+            return run_case(case, settings, gearset_text, out, cache)
+    except KeyboardInterrupt:
+        # A stopped case must end as an ordinary task error, not unwind the worker.
+        raise CaseStopped(f"case {case.id}: stopped") from None
+
+
+@contextlib.contextmanager
+def _case_lock(folder: Path, case_id: str):
+    """Hold the case folder's lock, polling (a stop request must get through the wait)."""
+    waited = False
+    while True:
+        with folder_lock(folder, wait=False) as held:
+            if held:
+                yield
+                return
+        if not waited:
+            logger.info("case %s: another run is computing it; waiting", case_id)
+            waited = True
+        time.sleep(STOP_POLL)
+
+
+@contextlib.contextmanager
+def _stop_watch(stop_name: str | None, case_id: str):
+    """Raise KeyboardInterrupt in this thread once the event ``stop_name`` is set.
+
+    A watcher thread polls the event (and the worker's status: a closing
+    worker stops its case too) every :data:`STOP_POLL` s and raises the
+    exception asynchronously in the case's thread, which gets it at its next
+    Python statement. Outside a Dask worker nothing is watched.
+    """
+    import ctypes
+
+    try:
+        from distributed import Event, get_client, get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):
+        worker = None
+    if stop_name is None or worker is None:
+        yield
+        return
+    event = Event(stop_name, client=get_client())
+    if event.is_set():
+        raise CaseStopped(f"case {case_id}: stopped before it started")
+    target = threading.get_ident()
+    guard = threading.Lock()
+    finished = threading.Event()
+
+    def raise_in_target(exc) -> None:
+        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(target),
+                                                   None if exc is None else ctypes.py_object(exc))
+
+    def watch() -> None:
+        while not finished.wait(STOP_POLL):
+            try:
+                stop = event.is_set() or worker.status.name not in ("running", "paused")
+            except Exception:   # the scheduler is gone: the run is over
+                stop = True
+            if stop:
+                with guard:
+                    if not finished.is_set():
+                        logger.info("case %s: stopping", case_id)
+                        raise_in_target(Interrupted)
+                return
+
+    thread = threading.Thread(target=watch, name=f"stop-watch-{case_id}", daemon=True)
+    thread.start()
+    try:
+        yield
     finally:
-        signal.signal(signal.SIGINT, old)
+        with guard:
+            finished.set()
+            raise_in_target(None)   # one raised too late would hit the worker's own code
 
 
 def _cores() -> int:

@@ -1,8 +1,16 @@
 """Command line: ``fe-impact SUBCOMMAND ...``.
 
-User mistakes (bad case files, missing meshes, invalid options) print one
-clear line and exit with status 2; nothing else prints a traceback unless
-``--debug`` is given.
+User mistakes (bad case files, missing meshes, invalid options, an output
+folder that cannot be made) print one clear line and exit with status 2,
+before any computation starts; nothing else prints a traceback unless
+``--debug`` is given. Settings that are legal but surely unintended get a
+warning saying why (a transient case with fewer than `MIN_STEPS_PER_CONTACT`
+time steps, more than `MAX_FRAMES` output frames).
+
+SIGINT (Ctrl-C) and SIGTERM stop every command alike
+(:mod:`fe_impact.interrupts`): the summary is written with
+``status: "stopped"``, no temporary file is left, one line is printed, and
+the exit status is 128 + the signal's number (130, 143).
 """
 
 from __future__ import annotations
@@ -20,6 +28,17 @@ from fe_impact.errors import FeImpactError
 
 logger = logging.getLogger("fe_impact")
 
+#: Most VTU frames ``solve`` writes for a transient case unless ``--max-frames``
+#: says otherwise; above it the output interval is widened (with a warning).
+#: A frame of a 100k-DOF tooth pair is some 10 MB and 0.3 s: an output interval
+#: of 1e-10 s over a 40 us impact asked for 400,000 frames and, with the
+#: automatic Newmark step, as many steps.
+MAX_FRAMES = 1000
+#: Fewer time steps than this over a transient run, or over its measured
+#: contact, get a warning: the peak force and the contact time are not resolved
+#: (the impact benchmark needs some 60 for 0.4 %).
+MIN_STEPS_PER_CONTACT = 20
+
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fe-impact`` command; returns the exit status."""
@@ -35,6 +54,21 @@ def main(argv: list[str] | None = None) -> int:
     from fe_impact.runtime import keep_freed_memory
 
     keep_freed_memory()
+    from fe_impact.interrupts import exit_status, handle_signals
+
+    try:
+        with handle_signals():
+            return _run(args)
+    except KeyboardInterrupt as exc:
+        if args.debug:
+            raise
+        print(f"fe-impact: stopped ({getattr(exc, 'name', 'SIGINT')}); finished results are "
+              "kept, rerun to continue", file=sys.stderr)
+        return exit_status(exc)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """The command, with user errors as one line."""
     try:
         return args.func(args)
     except FeImpactError as exc:
@@ -45,9 +79,20 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into e.g. `head`
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - silence the flush at exit
         return 0
-    except KeyboardInterrupt:
-        print("fe-impact: interrupted; finished results are kept", file=sys.stderr)
-        return 130
+    except ArithmeticError as exc:   # numpy's LinAlgError is a ValueError: see below
+        if args.debug:
+            raise
+        print(f"fe-impact: error: numerical failure ({type(exc).__name__}: {exc}); check "
+              "the input values", file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        import numpy as np
+
+        if args.debug or not isinstance(exc, np.linalg.LinAlgError):
+            raise
+        print(f"fe-impact: error: a linear solve failed ({exc}); check the input values "
+              "(a penalty or modulus far out of scale?)", file=sys.stderr)
+        return 2
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -65,6 +110,9 @@ def _parser() -> argparse.ArgumentParser:
                                    "series and, for an impact, history.csv and plots to --out.")
     s.add_argument("case", type=Path, help="the case file (.toml)")
     s.add_argument("--out", type=Path, required=True, help="output folder")
+    s.add_argument("--max-frames", type=int, default=MAX_FRAMES, metavar="N",
+                   help=f"most VTU frames of a transient run (default {MAX_FRAMES}); a finer "
+                        "[analysis] output_interval is widened to give N, with a warning")
     s.set_defaults(func=_cmd_solve)
     c = sub.add_parser(
         "calibrate", help="FE tooth impacts -> lumped IMPACT-law parameters (the main job)",
@@ -110,12 +158,17 @@ def _configure_logging(verbose: int) -> None:
 def _cmd_solve(args: argparse.Namespace) -> int:
     from fe_impact.fe.case import load_case
     from fe_impact.fe.mesh import load_mesh
+    from fe_impact.interrupts import ignore_signals
+    from fe_impact.output.files import check_output_dir
     from fe_impact.output.results import write_static_results
-    from fe_impact.solvers.static import StaticSolver
+    from fe_impact.solvers.static import StaticResult, StaticSolver
 
+    if args.max_frames < 2:
+        raise FeImpactError(f"--max-frames {args.max_frames}: must be at least 2")
     case = load_case(args.case)
+    check_output_dir(args.out)
     if case.analysis.dynamic:
-        return _solve_dynamic(case, args.out)
+        return _solve_dynamic(_checked_dynamic(case, args.max_frames), args.out)
     t0 = time.perf_counter()
     print(f"{case.path.name}: setting up (mesh, assembly, factorisation)", flush=True)
     solver = StaticSolver(case, load_mesh(case.mesh_file, case.unit))
@@ -123,13 +176,24 @@ def _cmd_solve(args: argparse.Namespace) -> int:
             f"{len(solver.zone_dofs)} contact-zone DOFs")
     print(f"  {info} ({time.perf_counter() - t0:.1f} s)", flush=True)
 
+    done = []
+
     def progress(i: int, step) -> None:
+        done.append(step)
         forces = ", ".join(f"{f:.4g}" for f in step.contact_force)
         print(f"  step {i + 1}/{case.n_steps}: value {step.value:.4g} m, contact force "
               f"{forces} N, max pressure {step.max_pressure / 1e6:.4g} MPa, "
               f"{step.iterations} iterations", flush=True)
 
-    result = solver.run(step_hook=progress)
+    try:
+        result = solver.run(step_hook=progress)
+    except KeyboardInterrupt as exc:
+        partial = StaticResult(done, solver.mesh, solver.model,
+                               [p.penalty for p in solver.pairs], dict(solver.timings), {})
+        with ignore_signals():
+            write_static_results(args.out, case, partial, status="stopped",
+                                 error=f"interrupted ({getattr(exc, 'name', 'SIGINT')})")
+        raise
     out = write_static_results(args.out, case, result)
     print(f"wrote {out} ({time.perf_counter() - t0:.1f} s)")
     return 0
@@ -167,17 +231,21 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from fe_impact.errors import CalibrationError
     from fe_impact.gears import default_gearset, load_gearset
     from fe_impact.gears.gearset import _default_candidates
+    from fe_impact.output.files import check_output_dir
 
     if args.workers is not None and args.workers < 1:
         raise CalibrationError(f"--workers {args.workers}: must be at least 1")
     if args.scheduler is not None:
         check_scheduler_address(args.scheduler)
+    check_output_dir(args.out)
+    check_output_dir(args.cache, "--cache")
     if args.gearset is not None:
         gearset = load_gearset(args.gearset)
-        text = args.gearset.read_text()
+        text = args.gearset.read_text(encoding="utf-8-sig")
     else:
         gearset = default_gearset()
-        text = next(p for p in _default_candidates() if p.is_file()).read_text()
+        text = next(p for p in _default_candidates() if p.is_file()).read_text(
+            encoding="utf-8-sig")
     settings = Settings(level=args.level, integrator=args.integrator)
     cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)
     print(f"calibrating {len(cases)} impacts ({settings.level} meshes, {settings.integrator}) "
@@ -198,11 +266,36 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _checked_dynamic(case, max_frames: int):
+    """The transient case with at most ``max_frames`` output frames; warnings for
+    settings that are legal but surely unintended."""
+    import math
+    from dataclasses import replace
+
+    a = case.analysis
+    where = f"{case.path.name}: [analysis]"
+    if a.time_step is not None and a.duration / a.time_step < MIN_STEPS_PER_CONTACT:
+        logger.warning("%s time_step = %.4g s gives %d step(s) over the whole duration %.4g s, "
+                       "and fewer over the contact: an impact needs about %d or more over "
+                       "the contact", where, a.time_step, max(1, round(a.duration / a.time_step)),
+                       a.duration, MIN_STEPS_PER_CONTACT)
+    interval = a.output_interval or a.duration / 100.0
+    frames = math.floor(a.duration / interval * (1 + 1e-9)) + 1
+    if frames <= max_frames:
+        return case
+    wider = a.duration / (max_frames - 1)
+    logger.warning("%s output_interval = %.4g s asks for %d frames, more than the cap of %d: "
+                   "writing every %.4g s instead (raise the cap with --max-frames)", where,
+                   interval, frames, max_frames, wider)
+    return replace(case, analysis=replace(a, output_interval=wider))
+
+
 def _solve_dynamic(case, out: Path) -> int:
     from tqdm import tqdm
 
     from fe_impact.errors import SolverError
     from fe_impact.fe.mesh import load_mesh
+    from fe_impact.interrupts import ignore_signals
     from fe_impact.output.results import DynamicWriter
     from fe_impact.solvers.dynamic import DynamicSolver
 
@@ -225,12 +318,21 @@ def _solve_dynamic(case, out: Path) -> int:
         result = solver.run(frame_hook=writer.frame, progress=progress)
     except (SolverError, KeyboardInterrupt) as exc:
         bar.close()
-        partial = solver.result()
-        writer.finish(partial, status="stopped", error=str(exc) or "interrupted")
+        with ignore_signals():   # a second Ctrl-C must not cut the summary short
+            partial = solver.result()
+            error = (f"interrupted ({getattr(exc, 'name', 'SIGINT')})"
+                     if isinstance(exc, KeyboardInterrupt) else str(exc))
+            writer.finish(partial, status="stopped", error=error)
         raise
     bar.close()
     path = writer.finish(result)
     m = result.measurements
+    t_c = m.get("contact_duration")
+    if t_c is not None and t_c / solver.dt < MIN_STEPS_PER_CONTACT:
+        logger.warning("the contact lasted %.4g s, only %.1f time steps of %.4g s (fewer than "
+                       "%d): peak force and contact time are not resolved; use [analysis] "
+                       "time_step = %.3g s or less", t_c, t_c / solver.dt, solver.dt,
+                       MIN_STEPS_PER_CONTACT, t_c / MIN_STEPS_PER_CONTACT)
 
     def fmt(v, scale=1.0, spec=".4g"):
         return "-" if v is None else format(v * scale, spec)

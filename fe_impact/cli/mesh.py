@@ -81,8 +81,10 @@ def run(args: argparse.Namespace) -> int:
     from fe_impact.errors import GeometryError
     from fe_impact.gears import default_gearset, load_gearset
     from fe_impact.meshing.toothpair import build_pair
+    from fe_impact.output.files import check_output_dir
 
     _check_options(args)
+    check_output_dir(args.out)
     gearset = default_gearset() if args.gearset is None else load_gearset(args.gearset)
     n = len(gearset.stages)
     if not 1 <= args.stage <= n:
@@ -170,15 +172,19 @@ def write_picture(pair, path: Path, gearset=None) -> tuple[Path, str]:
     ``gearset`` (optional) lets the ellipse be drawn on the curved face flank.
     Returns the path and which renderer drew it.
     """
+    from fe_impact.output.files import atomic_path
+
     points, surfaces, volumes = _surfaces(pair.mesh_path)
     ellipse = _ellipse_outline(pair, gearset)
-    try:
-        _pyvista_picture(points, surfaces, volumes, ellipse, pair, path)
-        return path, "pyvista, off-screen"
-    except Exception as exc:  # no OpenGL context, missing VTK pieces, ...
-        logger.warning("pyvista off-screen rendering failed (%s); using matplotlib", exc)
-        _matplotlib_picture(points, surfaces, ellipse, path)
-        return path, f"matplotlib 3-D: pyvista failed ({type(exc).__name__})"
+    with atomic_path(path) as tmp:   # a stopped run leaves no half-written picture
+        try:
+            _pyvista_picture(points, surfaces, volumes, ellipse, pair, tmp)
+            how = "pyvista, off-screen"
+        except Exception as exc:  # no OpenGL context, missing VTK pieces, ...
+            logger.warning("pyvista off-screen rendering failed (%s); using matplotlib", exc)
+            _matplotlib_picture(points, surfaces, ellipse, tmp)
+            how = f"matplotlib 3-D: pyvista failed ({type(exc).__name__})"
+    return path, how
 
 
 def _pyvista_picture(points, surfaces, volumes, ellipse, pair, path: Path) -> None:

@@ -21,9 +21,14 @@ from pathlib import Path
 
 from fe_impact.errors import CalibrationError, CaseError
 
-__all__ = ["register", "run"]
+__all__ = ["MIN_MESH_CYCLES", "register", "run"]
 
 logger = logging.getLogger(__name__)
+
+#: Fewer mesh cycles than this in a segment (pinion teeth x revolutions) and
+#: its statistics are those of the start transient: a warning says so. The
+#: seed's 5 s segments hold 158 cycles at 100 r/min.
+MIN_MESH_CYCLES = 20
 
 _DESCRIPTION = (
     "Lumped torsional model of the multistage face-gear drive (pinions, three rings, output) "
@@ -50,6 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
                         "every integration step)")
     p.add_argument("--out", type=Path, metavar="DIR", help="output folder")
     p.set_defaults(func=run)
+    p.epilog = (f"A segment with fewer than {MIN_MESH_CYCLES} mesh cycles gets a warning: "
+                "its statistics are not comparable with the seed's 5 s tables.")
     return p
 
 
@@ -63,16 +70,48 @@ def _list_presets() -> int:
 
 
 def _check(args: argparse.Namespace) -> None:
+    from fe_impact.output.files import check_output_dir
+
     if args.preset is None:
         raise CaseError("--preset is required (or --list); see fe-impact switching --list")
     if args.out is None:
         raise CaseError("--out is required with --preset: the folder for the results")
+    check_output_dir(args.out)
     for option, value in (("--duration", args.duration),
                           ("--sample-interval", args.sample_interval)):
         if value is not None and not (math.isfinite(value) and value > 0.0):
             raise CaseError(f"{option} = {value!r} s must be a number > 0")
-    if args.calibration is not None and not args.calibration.is_file():
-        raise CalibrationError(f"--calibration = {str(args.calibration)!r}: no such file")
+    if args.calibration is not None:
+        if args.calibration.is_dir():
+            raise CalibrationError(f"--calibration = {str(args.calibration)!r}: is a "
+                                   "directory; give a calibration file (calibration.json)")
+        if not args.calibration.is_file():
+            raise CalibrationError(f"--calibration = {str(args.calibration)!r}: no such file")
+
+
+def _check_preset(args: argparse.Namespace, preset, pinion_teeth: int) -> list[str]:
+    """Options against the preset: an error, or warnings (returned) for a short run."""
+    shortest = min(c.schedule.duration for c in preset.cases)
+    if args.sample_interval > shortest:
+        raise CaseError(f"--sample-interval = {args.sample_interval:g} s: longer than the run "
+                        f"({shortest:g} s); give at most the duration")
+    notes, needed = [], 0.0
+    for case in preset.cases:
+        total = case.schedule.duration
+        for seg in case.schedule.segments:
+            cycles = seg.duration * seg.speed_rpm / 60.0 * pinion_teeth
+            if seg.speed_rpm > 0.0 and cycles < MIN_MESH_CYCLES:
+                needed = max(needed, MIN_MESH_CYCLES / cycles * total)
+                notes.append(f"{case.name}: stage {seg.stage} at {seg.speed_rpm:g} r/min runs "
+                             f"{cycles:.3g} mesh cycles in {seg.duration:.3g} s")
+    if not notes:
+        return []
+    text = (f"run too short for its statistics: {'; '.join(notes[:3])}"
+            f"{'; ...' if len(notes) > 3 else ''} (fewer than {MIN_MESH_CYCLES}): they "
+            f"describe the start, not a steady run, and are not comparable with the seed's "
+            f"tables; give --duration {needed:.3g} or more")
+    logger.warning("%s", text)
+    return [text]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -89,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None:
         preset = preset.scaled(args.duration)
     model = DriveModel()
+    notes = _check_preset(args, preset, model.gearset.pinion.teeth)
     masses = [model.effective_mass(s) for s in range(1, model.n_stages + 1)]
     try:
         model = model.with_laws(laws_for(model.gearset, masses, args.calibration))
@@ -98,12 +138,21 @@ def run(args: argparse.Namespace) -> int:
           f"laws: {model.law_set.source}", flush=True)
     t0 = time.perf_counter()
     runs = {}
-    for case in preset.cases:
-        runs[case.name] = _run_case(model, case, args.sample_interval)
-        info = runs[case.name].info
-        print(f"  {case.name}: {info['steps']} steps, {info['impacts']} impacts, "
-              f"{info['wall_s']:.1f} s", flush=True)
-    write_results(args.out, preset, runs)
+    try:
+        for case in preset.cases:
+            runs[case.name] = _run_case(model, case, args.sample_interval)
+            info = runs[case.name].info
+            print(f"  {case.name}: {info['steps']} steps, {info['impacts']} impacts, "
+                  f"{info['wall_s']:.1f} s", flush=True)
+    except KeyboardInterrupt:
+        from fe_impact.interrupts import ignore_signals
+
+        with ignore_signals():   # the files of the finished cases belong together
+            write_results(args.out, preset, runs, status="stopped",
+                          missing=[c.name for c in preset.cases if c.name not in runs],
+                          notes=notes)
+        raise
+    write_results(args.out, preset, runs, notes=notes)
     print(f"wrote {args.out} ({time.perf_counter() - t0:.1f} s)")
     return 0
 

@@ -68,7 +68,7 @@ from typing import Any
 
 from fe_impact.errors import CaseError, MeshError
 from fe_impact.fe.mesh import UNITS, FEMesh
-from fe_impact.inputs import Reader, read_document
+from fe_impact.inputs import MAX_DENSITY, MAX_YOUNGS_MODULUS, Reader, read_document
 
 COMPONENTS = {"x": 0, "y": 1, "z": 2}
 ANALYSIS_TYPES = ("static", "dynamic")
@@ -84,6 +84,15 @@ MOTIONS = ("translation", "rotation")
 MULTIPLIERS = ("linear", "split")
 _TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "analysis",
              "initial_velocities", "rigid_bodies"}
+#: Upper bounds of values that are finite but far outside anything the
+#: solvers are meant for; beyond them a value is a unit mistake (Young's
+#: modulus and density: `fe_impact.inputs.MAX_YOUNGS_MODULUS`, `MAX_DENSITY`).
+#: Penalty: 1e8 x that of a 0.1 mm element of steel (E/h = 2e15 Pa/m);
+#: displacements: 1 m (a small-strain model); speeds: 1e4 m/s (or rad/s),
+#: above the speed of sound in steel.
+MAX_PENALTY = 1e23
+MAX_DISPLACEMENT = 1.0
+MAX_SPEED = 1e4
 
 
 @dataclass(frozen=True)
@@ -254,6 +263,9 @@ def parse_case(data: dict[str, Any], path: Path) -> Case:
     r.keys(mesh, "mesh", {"file", "unit"}, required={"file"})
     unit = r.choice(mesh, "mesh", "unit", tuple(UNITS), default="m")
     mesh_file = (path.parent / r.string(mesh, "mesh", "file")).resolve()
+    if mesh_file.is_dir():
+        raise r.fail("mesh", "file", mesh["file"], f"is a directory ({mesh_file}); give a "
+                     "Gmsh .msh file")
     if not mesh_file.is_file():
         raise r.fail("mesh", "file", mesh["file"], f"no such file (looked for {mesh_file})")
     analysis = _analysis(r, r.table(data, "", "analysis", default={}))
@@ -285,13 +297,16 @@ def _material(r: Reader, t: dict, where: str) -> MaterialSpec:
     r.keys(t, where, {"volumes", "youngs_modulus", "poisson_ratio", "density",
                       "yield_strength", "hardening_modulus"},
            required={"volumes", "youngs_modulus", "poisson_ratio"})
-    E = r.number(t, where, "youngs_modulus", low=0.0, low_open=True)
+    E = r.number(t, where, "youngs_modulus", low=0.0, high=MAX_YOUNGS_MODULUS, low_open=True,
+                 hint="(Pa)")
     nu = r.number(t, where, "poisson_ratio", low=-1.0, high=0.5, low_open=True,
                   high_open=True)
-    rho = r.number(t, where, "density", low=0.0, low_open=True, default=7860.0)
+    rho = r.number(t, where, "density", low=0.0, high=MAX_DENSITY, low_open=True,
+                   default=7860.0, hint="(kg/m^3)")
     yield_ = None
     if "yield_strength" in t:
-        yield_ = r.number(t, where, "yield_strength", low=0.0, low_open=True)
+        yield_ = r.number(t, where, "yield_strength", low=0.0, high=E, low_open=True,
+                          hint="(Pa, below the Young's modulus)")
     hard = r.number(t, where, "hardening_modulus", low=0.0, high=E, high_open=True,
                     default=0.0, hint="(below the Young's modulus)")
     return MaterialSpec(tuple(r.strings(t, where, "volumes")), E, nu, rho, yield_, hard)
@@ -299,8 +314,11 @@ def _material(r: Reader, t: dict, where: str) -> MaterialSpec:
 
 def _initial_velocity(r: Reader, t: dict, where: str) -> InitialVelocitySpec:
     r.keys(t, where, {"volumes", "value"}, required={"volumes", "value"})
-    return InitialVelocitySpec(tuple(r.strings(t, where, "volumes")),
-                               r.vector(t, where, "value", "m/s"))
+    value = r.vector(t, where, "value", "m/s")
+    if max(abs(c) for c in value) > MAX_SPEED:
+        raise r.fail(where, "value", t["value"], f"components must be in [-{MAX_SPEED:g}, "
+                     f"{MAX_SPEED:g}] m/s")
+    return InitialVelocitySpec(tuple(r.strings(t, where, "volumes")), value)
 
 
 def _rigid_body(r: Reader, t: dict, where: str) -> RigidBodySpec:
@@ -314,7 +332,7 @@ def _rigid_body(r: Reader, t: dict, where: str) -> RigidBodySpec:
     point = r.vector(t, where, "point", "m") if "point" in t else (0.0, 0.0, 0.0)
     inertia = r.number(t, where, "inertia", low=0.0, default=0.0,
                        hint="(kg, or kg m^2 for a rotation)")
-    v0 = r.number(t, where, "initial_velocity", default=0.0,
+    v0 = r.number(t, where, "initial_velocity", low=-MAX_SPEED, high=MAX_SPEED, default=0.0,
                   hint="(m/s, or rad/s for a rotation)")
     return RigidBodySpec(r.string(t, where, "surface"), motion,
                          tuple(c / norm for c in d), point, inertia, v0)
@@ -325,7 +343,8 @@ def _contact(r: Reader, t: dict, where: str) -> ContactSpec:
            required={"slave", "master"})
     penalty = search = None
     if t.get("penalty", "auto") != "auto":
-        penalty = r.number(t, where, "penalty", low=0.0, low_open=True, hint='or "auto"')
+        penalty = r.number(t, where, "penalty", low=0.0, high=MAX_PENALTY, low_open=True,
+                           hint='(Pa/m) or "auto"')
     if t.get("search_distance", "auto") != "auto":
         search = r.number(t, where, "search_distance", low=0.0, low_open=True,
                           hint='or "auto"')
@@ -354,6 +373,9 @@ def _displacements(r: Reader, tables: list) -> tuple[DisplacementSpec, ...]:
                required={"surface", "component", "values"})
         comp = r.choice(t, where, "component", tuple(COMPONENTS))
         values = r.numbers(t, where, "values", unit="(m)")
+        if max(abs(v) for v in values) > MAX_DISPLACEMENT:
+            raise r.fail(where, "values", t["values"], f"must be in [-{MAX_DISPLACEMENT:g}, "
+                         f"{MAX_DISPLACEMENT:g}] m (a small-strain model)")
         out.append(DisplacementSpec(r.string(t, where, "surface"), COMPONENTS[comp], values))
     lengths = {len(d.values) for d in out}
     if len(lengths) > 1:

@@ -97,11 +97,18 @@ def load_mesh(path: str | Path, unit: str = "m") -> FEMesh:
     path = Path(path)
     if unit not in UNITS:
         raise MeshError(f"unknown length unit '{unit}'; pick one of {sorted(UNITS)}")
+    if path.is_dir():
+        raise MeshError(f"mesh file {path} is a directory; give a Gmsh .msh file")
     if not path.is_file():
         raise MeshError(f"mesh file not found: {path}")
+    with open(path, "rb") as fh:
+        head = fh.read(64).lstrip()
+    if not head.startswith(b"$MeshFormat"):   # ASCII and binary MSH alike
+        what = "is empty" if not head else "does not start with $MeshFormat"
+        raise MeshError(f"mesh file {path} {what}: not a Gmsh MSH file")
     try:
         m = meshio.read(path, file_format="gmsh")
-    except Exception as exc:  # meshio raises many kinds on bad files
+    except (Exception, SystemExit) as exc:  # meshio raises many kinds, even SystemExit
         raise MeshError(f"cannot read mesh file {path}: {exc}") from exc
     return mesh_from_meshio(m, scale=UNITS[unit], source=str(path))
 

@@ -64,10 +64,13 @@ from fe_impact.gears.facegear import (
 )
 from fe_impact.gears.pinion import (
     PinionTooth,
+    involute_function,
     max_fillet_radius_coeff,
     min_teeth_without_undercut,
 )
 from fe_impact.inputs import (
+    MAX_DENSITY,
+    MAX_YOUNGS_MODULUS,
     Reader,
     check_choice,
     check_flag,
@@ -146,9 +149,13 @@ class Material:
     yield_strength: float
 
     def __post_init__(self) -> None:
-        _positive("material.youngs_modulus", self.youngs_modulus, "Pa", 1.0)
-        _positive("material.density", self.density, "kg/m^3", 1.0)
-        _positive("material.yield_strength", self.yield_strength, "Pa", 1.0)
+        check_number("material.youngs_modulus", self.youngs_modulus, low=0.0, low_open=True,
+                     high=MAX_YOUNGS_MODULUS, unit="Pa", error=GeometryError)
+        check_number("material.density", self.density, low=0.0, low_open=True,
+                     high=MAX_DENSITY, unit="kg/m^3", error=GeometryError)
+        check_number("material.yield_strength", self.yield_strength, low=0.0, low_open=True,
+                     high=self.youngs_modulus, high_open=True, unit="Pa",
+                     hint="(below the Young's modulus)", error=GeometryError)
         check_number("material.poisson_ratio", self.poisson_ratio, low=-1, high=0.5,
                      low_open=True, high_open=True, error=GeometryError)
 
@@ -196,13 +203,16 @@ class Pinion:
         _positive("pinion.inertia", self.inertia, "kg m^2", 1.0)
         check_number("pinion.pressure_angle_deg", self.pressure_angle_deg, low=0, high=45,
                      low_open=True, high_open=True, unit="deg", error=GeometryError)
+        _integer("pinion.teeth", self.teeth, 1)
+        self._check_rack()
         rho_max = max_fillet_radius_coeff(
             self.pressure_angle_deg, self.addendum_coeff, self.clearance_coeff
         )
         if not 0.0 < self.fillet_radius_coeff <= rho_max:
             raise GeometryError(
                 f"pinion.fillet_radius_coeff = {self.fillet_radius_coeff!r} must lie in "
-                f"(0, {rho_max:.4f}] for this rack"
+                f"(0, {rho_max:.4f}] for this rack (addendum_coeff = {self.addendum_coeff:g}, "
+                f"clearance_coeff = {self.clearance_coeff:g}, {self.pressure_angle_deg:g} deg)"
             )
         z_min = min_teeth_without_undercut(
             self.pressure_angle_deg,
@@ -210,14 +220,61 @@ class Pinion:
             self.clearance_coeff,
             self.fillet_radius_coeff,
         )
-        _integer("pinion.teeth", self.teeth, 1)
         if self.teeth < z_min:
             raise GeometryError(
                 f"pinion.teeth = {self.teeth} must be >= {math.ceil(z_min)} "
                 f"(bound {z_min:.2f}): fewer teeth are undercut by the rack"
             )
+        self._check_tip_land()
         _crowning("pinion.lengthwise_crowning", self.lengthwise_crowning, self.module)
         _crowning("pinion.profile_crowning", self.profile_crowning, self.module)
+
+    def _check_rack(self) -> None:
+        """The generating rack's tooth, ``(ha* + c*) m`` deep, must not be pointed.
+
+        Its flanks meet at a depth of ``pi m / (4 tan alpha)`` below the pitch
+        line (half its pitch-line width ``pi m / 4`` over ``tan alpha``).
+        """
+        depth = math.pi / (4.0 * math.tan(math.radians(self.pressure_angle_deg)))
+        total = self.addendum_coeff + self.clearance_coeff
+        if total >= depth:
+            raise GeometryError(
+                f"pinion.addendum_coeff = {self.addendum_coeff:g} and clearance_coeff = "
+                f"{self.clearance_coeff:g}: their sum {total:g} must be below "
+                f"pi / (4 tan {self.pressure_angle_deg:g} deg) = {depth:.4g}, where the "
+                "generating rack's tooth comes to a point; addendum_coeff < "
+                f"{depth - self.clearance_coeff:.4g} with this clearance"
+            )
+
+    def tip_land(self, addendum_coeff: float | None = None) -> float:
+        """Tooth thickness on the tip circle [m] (negative: the tooth is pointed).
+
+        ``s_a = 2 r_a (pi / (2 z) + inv(alpha) - inv(alpha_a))``, ``cos alpha_a =
+        r_b / r_a`` (unshifted tooth; Litvin & Fuentes, *Gear Geometry*, sec. 10.4).
+        """
+        ha = self.addendum_coeff if addendum_coeff is None else addendum_coeff
+        alpha = math.radians(self.pressure_angle_deg)
+        r = 0.5 * self.module * self.teeth
+        r_a = r + ha * self.module
+        alpha_a = math.acos(r * math.cos(alpha) / r_a)
+        return 2.0 * r_a * (math.pi / (2.0 * self.teeth) + float(involute_function(alpha))
+                            - float(involute_function(alpha_a)))
+
+    def _check_tip_land(self) -> None:
+        """The pinion tooth must keep a tip land (not come to a point below its tip)."""
+        land = self.tip_land()
+        if land > 0.0:
+            return
+        low, high = 0.0, self.addendum_coeff   # the land shrinks as the addendum grows
+        for _ in range(60):
+            mid = 0.5 * (low + high)
+            low, high = (mid, high) if self.tip_land(mid) > 0.0 else (low, mid)
+        raise GeometryError(
+            f"pinion.addendum_coeff = {self.addendum_coeff:g}: the pinion tooth comes to a "
+            f"point below its tip circle (tip land {land * 1e3:.3g} mm); with "
+            f"{self.teeth} teeth at {self.pressure_angle_deg:g} deg, addendum_coeff must be "
+            f"below {low:.4g}"
+        )
 
     @property
     def pitch_radius(self) -> float:
@@ -319,6 +376,7 @@ class GearSet:
         for number, stage in enumerate(self.stages, start=1):
             self._check_stage(number, stage)
         self._check_overlap()
+        self._check_pinion_face()
 
     # -- validation -----------------------------------------------------------------
     def _check_module(self) -> None:
@@ -344,6 +402,20 @@ class GearSet:
                 f"{self.n_pinions} (pinions arranged symmetrically)"
             )
         low, high = (self.pinion.teeth + e for e in SHAPER_TEETH_EXCESS)
+        if stage.shaper_teeth < self.pinion.teeth:
+            raise GeometryError(
+                f"{label}: shaper_teeth = {stage.shaper_teeth} must be at least pinion.teeth = "
+                f"{self.pinion.teeth}, force_shaper or not: the flank of a face gear cut by a "
+                "smaller shaper curves away from the pinion's, so they make no point contact "
+                f"(usual: {low}..{high})"
+            )
+        if stage.shaper_teeth == self.pinion.teeth and self.pinion.lengthwise_crowning <= 0.0:
+            raise GeometryError(
+                f"{label}: shaper_teeth = {stage.shaper_teeth} equals pinion.teeth and the "
+                "pinion has no lengthwise crowning: the teeth touch along a line, not at a "
+                "point; crown the pinion (pinion.lengthwise_crowning_um > 0) or use a shaper "
+                f"with {low}..{high} teeth"
+            )
         if not stage.force_shaper and not low <= stage.shaper_teeth <= high:
             raise GeometryError(
                 f"{label}: shaper_teeth = {stage.shaper_teeth} must lie in [{low}, {high}] "
@@ -372,6 +444,39 @@ class GearSet:
             raise GeometryError(
                 f"{label}: outer_radius = {stage.outer_radius * 1e3:.3f} mm is beyond the "
                 f"pointing limit; {usable}"
+            )
+
+    def pinion_face_limit(self) -> float:
+        """Widest pinion face [m] that keeps the pinions clear of each other.
+
+        The pinion's mid-face sits at the engaged ring's pitch radius ``r_2``
+        (:attr:`fe_impact.gears.tca.GearPair.z0`), so its inner end is at
+        ``r_2 - b/2``. Pinions ``2 pi / n`` apart, each a cylinder of its tip
+        radius ``r_a`` about its axis, touch where their axes are ``2 r_a``
+        apart, at ``r_a / sin(pi / n)`` from the face-gear axis (``r_a`` for
+        one or two pinions: clear of the axis). The innermost ring binds.
+        """
+        p = self.pinion
+        r_a = p.pitch_radius + p.addendum_coeff * p.module
+        clear = r_a / math.sin(math.pi / max(self.n_pinions, 2))
+        r_2 = min(0.5 * p.module * s.teeth for s in self.stages)
+        return 2.0 * (r_2 - clear)
+
+    def _check_pinion_face(self) -> None:
+        limit = self.pinion_face_limit()
+        if self.pinion.face_width > limit:
+            p = self.pinion
+            r_2 = min(0.5 * p.module * s.teeth for s in self.stages)
+            inner = r_2 - 0.5 * p.face_width
+            reach = (f"{-inner * 1e3:.4g} mm past the face-gear axis" if inner < 0.0
+                     else f"radius {inner * 1e3:.4g} mm")
+            raise GeometryError(
+                f"pinion.face_width = {p.face_width * 1e3:g} mm: centred on the innermost "
+                f"ring's pitch radius {r_2 * 1e3:g} mm, the pinion reaches {reach}, inside "
+                f"radius {(r_2 - 0.5 * limit) * 1e3:.4g} mm where it hits its neighbours "
+                f"({self.n_pinions} pinions, tip radius "
+                f"{(p.pitch_radius + p.addendum_coeff * p.module) * 1e3:.4g} mm); allowed at "
+                f"most {max(limit, 0.0) * 1e3:.4g} mm"
             )
 
     def _check_overlap(self) -> None:

@@ -48,7 +48,7 @@ def write_msh(path: str | Path) -> Path:
     gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
     # Only elements in physical groups are saved: the groups are the interface.
     gmsh.option.setNumber("Mesh.SaveAll", 0)
-    fd, tmp = tempfile.mkstemp(suffix=".msh", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
         gmsh.write(tmp)

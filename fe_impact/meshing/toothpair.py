@@ -344,7 +344,7 @@ def build_pair(
         allowed) and meshes that cannot be made.
     """
     from fe_impact.fe.casefile import write_case
-    from fe_impact.output.files import write_json
+    from fe_impact.output.files import atomic_folder, write_json
 
     started = time.perf_counter()
     try:
@@ -360,7 +360,12 @@ def build_pair(
         design = design_pair(gearset, spec, cached["stretch_factor"])
         stats = MeshStats(**cached["mesh"])
     else:
-        design, stats = _mesh_with_retries(gearset, spec, paths[0], key, verbose, started)
+        # Mesh in a private folder (gmsh's scratch file there is this process's own)
+        # and move the mesh in whole; tca.json, written last, makes the entry valid.
+        with atomic_folder(out, "pair") as tmp:
+            design, stats = _mesh_with_retries(gearset, spec, tmp / paths[0].name, key,
+                                               verbose, started)
+            (tmp / paths[0].name).replace(paths[0])
     case = impact_case(gearset, design.pair, design.analysis, paths[1], paths[0])
     if cached is None:
         header = case_header(gearset, design.pair, design.analysis, key)

@@ -1,15 +1,24 @@
 """Result files: JSON summaries, VTU fields, PVD collections, CSV tables.
 
-Every writer writes to a temporary name in the target folder and renames it,
-so an interrupted run never leaves a half-written file behind.
+Every writer writes to a temporary name in the target folder,
+``.{stem}-XXXXXXXX{suffix}`` (:func:`atomic_path`), and renames it, so an
+interrupted run never leaves a half-written file under the real name. A
+process killed outright can still leave the temporary file:
+:func:`remove_temporaries` deletes such leftovers, and :func:`folder_lock`
+lets a run make sure that no other process is writing the folder first.
+:func:`check_output_dir` refuses an output folder that cannot be made before
+any work starts.
 """
 
 from __future__ import annotations
 
 import contextlib
 import csv
+import fcntl
 import json
 import os
+import re
+import shutil
 import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -17,7 +26,88 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from fe_impact.errors import FeImpactError
 from fe_impact.fe.mesh import FEMesh
+
+#: Names of the temporary files and folders of :func:`atomic_path` and
+#: :func:`atomic_folder`: ``.`` + stem + ``-`` + eight characters of
+#: :func:`tempfile.mkstemp`'s alphabet + the suffix.
+TEMPORARY_NAME = re.compile(r"^\..+-[a-z0-9_]{8}(\.[A-Za-z0-9]+)?$")
+#: The lock file :func:`folder_lock` holds in a folder.
+LOCK_NAME = ".lock"
+
+
+def check_output_dir(path: str | Path, option: str = "--out") -> Path:
+    """``path`` if it is a folder or can be made one; else one line naming ``option``.
+
+    Nothing is created: this is meant to run before any computation, so that
+    a run is not lost to an output folder that turns out to be a file, to
+    lie under a file, or to be read-only.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise FeImpactError(f"{option} {path}: is a file, not a folder; give a folder "
+                            "(it is made if missing)")
+    existing = path
+    while not os.path.lexists(existing) and existing != existing.parent:
+        existing = existing.parent
+    if existing != path and not existing.is_dir():
+        what = "a broken link" if existing.is_symlink() else "a file"
+        raise FeImpactError(f"{option} {path}: cannot make the folder, {existing} is {what}")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise FeImpactError(f"{option} {path}: {existing} is not writable")
+    return path
+
+
+def is_temporary(path: str | Path) -> bool:
+    """True for a name that :func:`atomic_path` or :func:`atomic_folder` makes."""
+    return bool(TEMPORARY_NAME.match(Path(path).name))
+
+
+def remove_temporaries(folder: str | Path, recursive: bool = True) -> list[Path]:
+    """Delete the temporary files and folders that killed writers left in ``folder``.
+
+    Call it only while no other process writes to ``folder`` (hold its
+    :func:`folder_lock`): a live writer's temporary file looks the same.
+    Returns what was removed.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    removed = []
+    for entry in sorted(folder.iterdir()):
+        if is_temporary(entry):
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry, ignore_errors=True)
+            else:
+                entry.unlink(missing_ok=True)
+            removed.append(entry)
+        elif recursive and entry.is_dir() and not entry.is_symlink():
+            removed += remove_temporaries(entry, recursive)
+    return removed
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str | Path, wait: bool = True) -> Iterator[bool]:
+    """Hold an exclusive lock on ``folder`` (``flock`` on its ``.lock`` file).
+
+    Yields True once the lock is held; with ``wait=False`` yields False at
+    once if another process holds it. The operating system releases the
+    lock when the holder exits, however it ends, so a killed run never
+    leaves a folder locked. The folder is made if missing.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd = os.open(folder / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+        except BlockingIOError:
+            yield False
+            return
+        yield True
+    finally:
+        os.close(fd)   # releases the lock
 
 
 @contextlib.contextmanager
@@ -36,6 +126,23 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
+
+
+@contextlib.contextmanager
+def atomic_folder(folder: str | Path, stem: str = "build") -> Iterator[Path]:
+    """Yield a new private folder inside ``folder`` (``.{stem}-XXXXXXXX``), removed at the end.
+
+    Files made there and moved into ``folder`` with :func:`os.replace`
+    appear whole under their real names, and scratch files made there are
+    the process's own.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{stem}-", dir=folder))
+    try:
+        yield tmp
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def standard_json(obj):

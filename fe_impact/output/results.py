@@ -32,8 +32,13 @@ def step_record(step: StepResult) -> dict:
     }
 
 
-def write_static_results(out: str | Path, case: Case, result: StaticResult) -> Path:
-    """Write ``summary.json``, ``step_NNN.vtu`` and ``static.pvd`` to ``out``."""
+def write_static_results(out: str | Path, case: Case, result: StaticResult,
+                         status: str = "completed", error: str | None = None) -> Path:
+    """Write ``summary.json``, ``step_NNN.vtu`` and ``static.pvd`` to ``out``.
+
+    ``status`` says how the run ended (``"stopped"``: interrupted, ``result``
+    holds the load steps done).
+    """
     out = Path(out)
     frames = []
     for i, step in enumerate(result.steps):
@@ -47,6 +52,8 @@ def write_static_results(out: str | Path, case: Case, result: StaticResult) -> P
     summary = {
         "schema": SUMMARY_SCHEMA,
         "fe_impact_version": __version__,
+        "status": status,
+        "error": error,
         "case": str(case.path),
         "mesh": str(case.mesh_file),
         "units": {"value": "m", "contact_force": "N", "contact_area": "m^2",

@@ -595,7 +595,7 @@ def integrate(t_end, run, y, f, p, stages, aoff, atol, corners, sch, tab, ntab, 
             scale = atol[i] + rtol * max(abs(y[i]), abs(ynew[i]))
             err += (h * e / scale) ** 2
         err = math.sqrt(err / nv)
-        if err > 1.0:
+        if not err <= 1.0:  # a NaN error (an overflowing law) is rejected too, not accepted
             run.rejected += 1
             h /= min(5.0, err**_EXPO / _SAFE)
             if h < 1e-15 * max(1.0, t):

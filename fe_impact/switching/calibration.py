@@ -70,6 +70,11 @@ _PARAMETERS = ("k", "exponent", "cmax", "d")
 CLOSED_FORM_SPEEDS = np.logspace(-5.0, 1.0, 25)
 #: Reference load for the Hertz stiffness: any load gives the same K.
 _REFERENCE_LOAD = 100.0
+#: Shortest contact a law may give [s]: the undamped contact time at a table's
+#: impact speed, and the damping time m / cmax. The seed's tooth contacts last
+#: 1e-5 to 1e-3 s; a law far below (e.g. k = 1e300, a unit slip) would need
+#: steps so small that the run cannot finish (its force overflows first).
+MIN_CONTACT_TIME = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,6 +290,40 @@ def _tables_from_cases(records: Sequence[CalibrationRecord], source: str
     return tables
 
 
+def contact_time(k: float, exponent: float, mass: float, speed: float) -> float:
+    """Undamped duration of an impact under ``F = k delta^exponent`` [s].
+
+    The approach peaks at ``delta_m = ((n+1) m v^2 / (2 k))^(1/(n+1))`` and
+    the contact lasts ``2 delta_m / v * sqrt(pi) G(1 + 1/(n+1)) / G(1/2 + 1/(n+1))``
+    (energy conservation, ``n`` the exponent; 2.943 delta_m / v for Hertz's
+    1.5, Johnson's *Contact Mechanics* eq. 11.24). Worked in logarithms, so
+    that ``k = 1e300`` gives a tiny time rather than an overflow.
+    """
+    n1 = exponent + 1.0
+    log_delta = (math.log(n1 * mass * speed**2 / 2.0) - math.log(k)) / n1
+    factor = 2.0 * math.sqrt(math.pi) * math.gamma(1.0 + 1.0 / n1) / math.gamma(0.5 + 1.0 / n1)
+    return factor * math.exp(log_delta) / speed
+
+
+def check_integrable(table: LawTable, mass: float) -> None:
+    """Refuse a law whose contacts are too short to integrate (`MIN_CONTACT_TIME`).
+
+    ``mass`` is the stage's effective mass of one mesh [kg].
+    """
+    for v, k, n, cmax in zip(table.impact_speed, table.k, table.exponent, table.cmax,
+                             strict=True):
+        t_c = contact_time(float(k), float(n), mass, float(v))
+        t_d = mass / cmax if cmax > 0.0 else math.inf
+        if min(t_c, t_d) < MIN_CONTACT_TIME:
+            what = (f"its contact would last {t_c:.3g} s" if t_c <= t_d
+                    else f"its damping time m/cmax would be {t_d:.3g} s")
+            raise CalibrationError(
+                f"{table.source}: stage {table.stage} {table.kind!r} at {v:.4g} m/s: k = "
+                f"{k:.4g}, exponent = {n:.4g}, cmax = {cmax:.4g}: {what} (effective mass "
+                f"{mass:.4g} kg), below {MIN_CONTACT_TIME:g} s: the law cannot be integrated; "
+                "check the units (k in N/m^exponent, cmax in N s/m)")
+
+
 def load_calibration(path: str | Path, gearset: GearSet,
                      effective_masses: Sequence[float] | None = None) -> LawSet:
     """Read a calibration file (schema ``fe-impact/calibration/1``).
@@ -300,11 +339,20 @@ def load_calibration(path: str | Path, gearset: GearSet,
         message names the file, the case and the key.
     """
     path = Path(path)
-    parsed = read_calibration(path, law_only=True).cases
+    calibration = read_calibration(path, law_only=True)
+    if calibration.status != "completed":
+        logger.warning("%s: status %r: the calibration was interrupted before the cases %s "
+                       "finished; run fe-impact calibrate again to finish it", path,
+                       calibration.status, list(calibration.missing))
+    parsed = calibration.cases
     r = Reader(str(path), CalibrationError, "json")
     for i, record in enumerate(parsed):
         _parse_case(record, i, gearset, r)
     tables = _tables_from_cases(parsed, path.name)
+    if effective_masses is not None:
+        for (stage, _), table in tables.items():
+            if 1 <= stage <= len(effective_masses):
+                check_integrable(table, float(effective_masses[stage - 1]))
     notes = []
     fallback = None
     for stage in range(1, len(gearset.stages) + 1):

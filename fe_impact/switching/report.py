@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -239,7 +241,7 @@ def _mean_force_text(runs: dict[str, SwitchingRun]) -> str:
     for name, run in runs.items():
         for stage, stats in series_statistics(run).items():
             if stage != "all":
-                parts.append(f"{name} stage {stage}: {stats['impact_force'][0]:.3g} N")
+                parts.append(f"{name} stage {stage}: {_fmt(stats['impact_force'][0])} N")
     return "; ".join(parts[:4]) + ("; ..." if len(parts) > 4 else "")
 
 
@@ -306,14 +308,16 @@ def _trend_lines(preset: Preset, runs: dict[str, SwitchingRun]) -> list[str]:
     ]
 
 
-def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict]) -> str:
-    """The text of ``report.md``."""
+def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict],
+                  notes: Sequence[str] = ()) -> str:
+    """The text of ``report.md``; ``notes`` (warnings about the run) come first."""
     table = SEED_TABLES[preset.seed_table]
     conditions = list(dict.fromkeys(r["condition"] for r in rows))
     first = next(iter(runs.values()))
     lines = [
         f"# Ratio-switching study `{preset.name}`",
         "",
+        *[f"**Note:** {n}\n" for n in notes],
         f"{preset.description}. Compared with the seed's {table.source} ({table.title}); "
         f"plots correspond to the seed's {preset.figures}.",
         "",
@@ -439,9 +443,25 @@ def _plot_impacts(runs: dict[str, SwitchingRun], path: Path) -> Path:
 
 
 # -- everything -----------------------------------------------------------------------------
-def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun]) -> list[Path]:
-    """Write all result files of a study to ``out``; returns their paths."""
+def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun],
+                  status: str = "completed", missing: Sequence[str] = (),
+                  notes: Sequence[str] = ()) -> list[Path]:
+    """Write all result files of a study to ``out``; returns their paths.
+
+    ``status`` is ``"completed"`` or ``"stopped"`` (interrupted: ``runs``
+    holds the cases finished, ``missing`` names the others, and with no
+    finished case only ``statistics.json`` is written). ``notes`` are
+    warnings about the run, kept in statistics.json and report.md.
+    """
     out = Path(out)
+    if not runs:
+        return [write_json(out / "statistics.json", {
+            "preset": preset.name, "status": status, "missing": list(missing),
+            "notes": list(notes), "cases": {}})]
+    preset = replace(preset, cases=tuple(c for c in preset.cases if c.name in runs))
+    if status != "completed":
+        notes = [*notes, f"status {status}: interrupted before the case(s) {list(missing)} "
+                         "finished; the tables hold the finished cases only"]
     written = []
     for name, run in runs.items():
         columns = list(run.series)
@@ -457,6 +477,9 @@ def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun]
     model = next(iter(runs.values())).model
     summary = {
         "preset": preset.name,
+        "status": status,
+        "missing": list(missing),
+        "notes": list(notes),
         "description": preset.description,
         "seed_table": SEED_TABLES[preset.seed_table].source,
         "seed_notes": list(SEED_TABLES[preset.seed_table].notes),
@@ -473,7 +496,7 @@ def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun]
     }
     written.append(write_json(out / "statistics.json", _clean(summary)))
     with atomic_path(out / "report.md") as tmp:
-        tmp.write_text(render_report(preset, runs, rows))
+        tmp.write_text(render_report(preset, runs, rows, notes))
     written.append(out / "report.md")
     for quantity in QUANTITIES:
         written.append(_plot_quantity(preset, runs, quantity, out / f"{quantity}.png"))

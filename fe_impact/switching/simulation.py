@@ -428,6 +428,10 @@ def simulate(
             if status != 0:
                 raise SolverError(f"step size collapsed at t = {run['t']:.6g} s "
                                   f"(stage {seg.stage}); loosen rtol or check the laws")
+            if not np.all(np.isfinite(y)):
+                raise SolverError(f"the state became NaN/inf at t = {run['t']:.6g} s (stage "
+                                  f"{seg.stage}): the contact laws cannot be integrated; "
+                                  "check their parameters (k in N/m^exponent, cmax in N s/m)")
             if step_hook is not None:
                 step_hook(float(run["t"]), t_total)
     data = np.concatenate(pieces) if pieces else np.zeros((0, ncol))

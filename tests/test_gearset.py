@@ -16,6 +16,7 @@ from fe_impact.gears import (
     gearset_from_dict,
     load_gearset,
 )
+from fe_impact.gears.gearset import Pinion
 
 SEED = Path(__file__).resolve().parents[1] / "geometry" / "seed.toml"
 
@@ -212,3 +213,83 @@ def test_units_are_converted_to_si(seed_data):
     )
     assert gs.pinion.face_width == pytest.approx(0.024, rel=1e-15)
     assert gs.stages[0].inertia == pytest.approx(7.15e-3)
+
+
+# -- the gear set's own limits: rack, tip land, shaper, pinion face -------------------------
+def _pinion(**change):
+    fields = dict(teeth=19, module=3e-3, pressure_angle_deg=20.0, addendum_coeff=1.0,
+                  clearance_coeff=0.25, face_width=0.024, fillet_radius_coeff=0.38,
+                  lengthwise_crowning=0.0, profile_crowning=0.0, inertia=1e-4)
+    return Pinion(**{**fields, **change})
+
+
+def test_tip_land_equals_the_tooth_thickness_of_the_tooth_geometry():
+    """The closed form of the tip land against the involute tooth's own thickness
+    (PinionTooth, from the involute's polar angle); both are exact: 1e-12."""
+    for teeth, angle, ha in ((19, 20.0, 1.0), (12, 30.0, 1.0), (40, 25.0, 1.2)):
+        p = _pinion(teeth=teeth, pressure_angle_deg=angle, addendum_coeff=ha,
+                    clearance_coeff=0.1, fillet_radius_coeff=0.01)
+        tooth = PinionTooth(teeth=teeth, module=3e-3, pressure_angle_deg=angle,
+                            addendum_coeff=ha, clearance_coeff=0.1, fillet_radius_coeff=0.01)
+        assert p.tip_land() == pytest.approx(float(tooth.tooth_thickness(tooth.tip_radius)),
+                                             rel=1e-12)
+
+
+def test_pointed_pinion_tooth_names_the_addendum_and_its_limit():
+    # 12 teeth at 30 deg: the tip closes at ha* = 1.125 (bisection of the tip land),
+    # before the rack (1.26 with c* = 0.1) or the undercut bound (9.7 teeth) object.
+    with pytest.raises(GeometryError, match=r"pinion.addendum_coeff = 1.2: the pinion tooth "
+                                            r"comes to a point .* below 1.12"):
+        _pinion(teeth=12, pressure_angle_deg=30.0, addendum_coeff=1.2, clearance_coeff=0.1,
+                fillet_radius_coeff=0.01)
+    limit = 1.1245
+    p = _pinion(teeth=12, pressure_angle_deg=30.0, addendum_coeff=limit, clearance_coeff=0.1,
+                fillet_radius_coeff=0.01)
+    assert 0.0 < p.tip_land() < 1e-3 * p.module     # just below the limit: a thin land
+
+
+def test_rack_tooth_pointed_names_addendum_and_clearance():
+    # The rack tooth is pi m / 2 wide on its pitch line and its flanks lean at alpha:
+    # they meet (pi / 4) / tan(alpha) modules below it, 2.158 at 20 deg.
+    depth = np.pi / 4 / np.tan(np.radians(20.0))
+    with pytest.raises(GeometryError, match=rf"their sum 3.25 must be below .* = "
+                                            rf"{depth:.4g}"):
+        _pinion(addendum_coeff=3.0)
+
+
+def test_shaper_never_fewer_teeth_than_the_pinion(seed_data):
+    stage = seed_data["face_gear"]["stages"][0]
+    stage.update(shaper_teeth=18, force_shaper=True)
+    with pytest.raises(GeometryError, match=r"shaper_teeth = 18 must be at least pinion.teeth "
+                                            r"= 19, force_shaper or not"):
+        gearset_from_dict(seed_data)
+    stage.update(shaper_teeth=19)
+    seed_data["pinion"]["lengthwise_crowning_um"] = 0.0
+    with pytest.raises(GeometryError, match=r"shaper_teeth = 19 equals pinion.teeth and the "
+                                            r"pinion has no lengthwise crowning"):
+        gearset_from_dict(seed_data)
+
+
+def test_pinion_face_limit_is_where_neighbouring_pinions_touch():
+    """At the limit the pinion cylinders (tip radius) of neighbouring pinions touch:
+    the closest points of the two axis segments, found on a grid, are 2 r_a apart."""
+    gs = default_gearset()
+    limit = gs.pinion_face_limit()
+    r_a = gs.pinion.pitch_radius + gs.pinion.addendum_coeff * gs.pinion.module
+    r_2 = 0.5 * gs.module * min(s.teeth for s in gs.stages)
+    theta = 2 * np.pi / gs.n_pinions
+    s = np.linspace(r_2 - limit / 2, r_2 + limit / 2, 2001)
+    a = np.stack([s, 0 * s], axis=1)
+    b = np.stack([s * np.cos(theta), s * np.sin(theta)], axis=1)
+    closest = np.sqrt(((a[:, None, :] - b[None, :, :]) ** 2).sum(-1)).min()
+    assert closest == pytest.approx(2 * r_a, rel=1e-9)
+    assert limit * 1e3 == pytest.approx(78.90, abs=0.01)
+    assert gs.pinion.face_width < limit           # the seed's 24 mm
+    with pytest.raises(GeometryError, match=r"pinion.face_width = 300 mm: .* at most 78.9 mm"):
+        GearSet(gs.name, _replace(gs.pinion, face_width=0.3), gs.stages, gs.material)
+
+
+def _replace(record, **change):
+    import dataclasses
+
+    return dataclasses.replace(record, **change)

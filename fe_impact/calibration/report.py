@@ -30,7 +30,7 @@ def write_calibration_report(out: Path, calibration: Calibration) -> Path:
     settings = calibration.settings or {}
     plots = []
     for name, fn in (("force_time.png", _plot_histories), ("parameters.png", _plot_parameters),
-                     ("stress.png", _plot_stress)):
+                     ("stress.png", _plot_stress)) if cases else ():
         try:
             if fn(out, cases, out / name):
                 plots.append(name)

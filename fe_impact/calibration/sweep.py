@@ -565,7 +565,10 @@ def _collect(futures: dict, sweep: Sweep, failures: list[str], progress,
         for fut in finished:
             c = pending.pop(fut)
             try:
-                sweep.done[c.id] = fut.result()
+                record = fut.result()
+                if record is None:   # stopped (only after an interrupt)
+                    continue
+                sweep.done[c.id] = record
             except Exception as exc:  # a failed case does not stop the others
                 failures.append(f"{c.id}: {exc}")
                 logger.error("case %s failed: %s", c.id, exc)
@@ -684,14 +687,15 @@ def _interrupt_flag():
 
 
 def run_locked_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
-                    cache: str, stop_name: str | None = None) -> CalibrationRecord:
+                    cache: str, stop_name: str | None = None) -> CalibrationRecord | None:
     """:func:`run_case` holding the case folder's lock; stops when ``stop_name`` is set.
 
     Waits while another process holds the lock (a second run on the same
     output folder) and then returns that run's result if it finished the
     case. Before computing, deletes the temporary files a killed run left in
     the case folder. ``stop_name`` names a ``distributed.Event``: once it is
-    set the case ends with :class:`CaseStopped`.
+    set the case stops and None is returned (a stop is not a failure: the
+    worker logs nothing).
     """
     folder = Path(out) / "cases" / case.id
     try:
@@ -703,9 +707,9 @@ def run_locked_case(case: ImpactCase, settings: Settings, gearset_text: str, out
             for path in remove_temporaries(folder):
                 logger.info("removed the unfinished file %s", path)
             return run_case(case, settings, gearset_text, out, cache)
-    except KeyboardInterrupt:
-        # A stopped case must end as an ordinary task error, not unwind the worker.
-        raise CaseStopped(f"case {case.id}: stopped") from None
+    except (KeyboardInterrupt, CaseStopped):
+        # A stopped case ends as an ordinary return, not by unwinding the worker.
+        return None
 
 
 @contextlib.contextmanager

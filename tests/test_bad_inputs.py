@@ -1,0 +1,330 @@
+"""Bad inputs to every command: one line naming the file, key or option, the value and
+what is allowed; exit status 2; no traceback; nothing written, and all of it before
+any computation starts.
+
+Each table row is (id, argv builder, words the message must hold). A builder
+gets the test's folder and returns the command line; ``OUT`` stands for the
+output folder, which must not exist afterwards.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from fe_impact.cli.main import main
+from fe_impact.gears.gearset import _default_candidates
+from validation.hertz_static import CASE_TEMPLATE, DISPLACEMENTS
+from validation.impact_cases import _MATERIAL, SDOF
+
+MESHES = Path(__file__).resolve().parents[1] / "meshes"
+SEED = next(p for p in _default_candidates() if p.is_file()).read_text()
+STATIC = CASE_TEMPLATE.format(mesh=MESHES / "hertz_coarse.msh", values=list(DISPLACEMENTS))
+# The two-block SDOF (tests/test_dynamic.py): a 1 mm cube with 10 g on a 1e12 N/m
+# spring, 1 m/s; contact time pi sqrt(m/k) = 0.314 us.
+T_CONTACT = math.pi * math.sqrt((0.01 + 7860e-9) / 1e12)
+DURATION = 1e-8 + 2.0 * T_CONTACT
+
+
+def sdof(time_step: float | str = "auto", duration: float = DURATION, extra: str = "",
+         penalty: float = 1e18) -> str:
+    return SDOF.format(mesh=MESHES / "two_blocks.msh",
+                       material=_MATERIAL.format(volumes='["upper", "lower"]'),
+                       penalty=penalty, mass=0.01, v=-1.0, integrator="newmark",
+                       duration=duration,
+                       time_step=f'"{time_step}"' if isinstance(time_step, str) else time_step,
+                       extra=extra)
+
+
+def write(folder: Path, name: str, text: str | bytes) -> str:
+    path = folder / name
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    return str(path)
+
+
+def changed(text: str, old: str, new: str) -> str:
+    assert old in text, old
+    return text.replace(old, new)
+
+
+def solve(text: str, *more: str):
+    return lambda d: ["solve", write(d, "case.toml", text), "--out", "OUT", *more]
+
+
+def static(old: str, new: str):
+    return solve(changed(STATIC, old, new))
+
+
+def gearset(old: str, new: str, command: str = "mesh"):
+    def argv(d):
+        path = write(d, "gears.toml", changed(SEED, old, new))
+        more = ["--level", "coarse", "--no-picture"] if command == "mesh" else \
+            ["--stages", "1", "--speeds", "300", "--level", "coarse"]
+        return [command, path, "--out", "OUT", *more]
+    return argv
+
+
+def mesh(*options: str):
+    return lambda d: ["mesh", "--level", "coarse", "--out", "OUT", *options]
+
+
+def calibrate(*options: str):
+    return lambda d: ["calibrate", "--out", "OUT", "--cache", str(d / "cache"), *options]
+
+
+def switching(*options: str, preset: str = "table1-100rpm"):
+    return lambda d: ["switching", "--preset", preset, "--duration", "0.5", "--out", "OUT",
+                      *options]
+
+
+def calibration_file(k=1e7, cmax=20.0, **top):
+    """A calibration file with one stage-1 case (every other stage: closed forms)."""
+    data = {"schema": "fe-impact/calibration/1", **top,
+            "cases": [{"stage": 1, "kind": "mesh", "impact_speed": 0.01,
+                       "impact": {"k": k, "exponent": 1.5, "cmax": cmax, "d": 1e-7}}]}
+    return json.dumps(data, allow_nan=True)
+
+
+def with_calibration(text: str):
+    return lambda d: switching("--calibration", write(d, "cal.json", text))(d)
+
+
+def a_file(d: Path) -> str:
+    return write(d, "a_file", "x")
+
+
+LATIN1 = STATIC.replace("unit", "# caf\xe9\nunit").encode("latin-1")
+UNCROWNED = changed(SEED, "lengthwise_crowning_um = 10.0", "lengthwise_crowning_um = 0.0")
+
+SOLVE = [
+    ("case missing", lambda d: ["solve", str(d / "none.toml"), "--out", "OUT"],
+     ["none.toml", "case file not found"]),
+    ("case is a directory", lambda d: ["solve", str(d), "--out", "OUT"],
+     ["is a directory, not a case file"]),
+    ("case not UTF-8", lambda d: ["solve", write(d, "c.toml", LATIN1), "--out", "OUT"],
+     ["c.toml", "not UTF-8 text (byte 0xe9", "save the case file as UTF-8"]),
+    ("case not TOML", solve("[mesh\n"), ["case.toml", "not valid TOML", "line 1"]),
+    ("case empty", solve(""), ["missing key(s) ['materials', 'mesh']"]),
+    ("--out is a file", lambda d: ["solve", write(d, "c.toml", STATIC), "--out", a_file(d)],
+     ["--out", "a_file: is a file, not a folder"]),
+    ("--out under a file",
+     lambda d: ["solve", write(d, "c.toml", STATIC), "--out", a_file(d) + "/sub"],
+     ["--out", "cannot make the folder", "a_file is a file"]),
+    ("--max-frames 1", solve(sdof(), "--max-frames", "1"), ["--max-frames 1", "at least 2"]),
+    ("[mesh] file is a directory", static(f'"{MESHES / "hertz_coarse.msh"}"', f'"{MESHES}"'),
+     ["[mesh] file", "is a directory", "give a Gmsh .msh file"]),
+    ("[mesh] file missing", static("hertz_coarse.msh", "nowhere.msh"),
+     ["[mesh] file", "nowhere.msh", "no such file"]),
+    ("[mesh] file empty", lambda d: static(f'"{MESHES / "hertz_coarse.msh"}"',
+                                           f'"{write(d, "e.msh", "")}"')(d),
+     ["e.msh is empty", "not a Gmsh MSH file"]),
+    ("[mesh] file not a mesh", lambda d: static(f'"{MESHES / "hertz_coarse.msh"}"',
+                                                f'"{write(d, "g.msh", bytes(range(256)))}"')(d),
+     ["g.msh does not start with $MeshFormat"]),
+    ("[mesh] unit", static('unit = "m"', 'unit = "inch"'), ["unit = 'inch'", "['m', 'mm']"]),
+    ("youngs_modulus 1.7e308", static("212000000000.0", "1.7e308"),
+     ["[materials[0]] youngs_modulus = 1.7e+308", "must be in (0.0, 1e+13] (Pa)"]),
+    ("youngs_modulus nan", static("212000000000.0", "nan"),
+     ["youngs_modulus = nan", "must be a number"]),
+    ("poisson_ratio 0.5", static("poisson_ratio = 0.289", "poisson_ratio = 0.5"),
+     ["poisson_ratio = 0.5", "(-1.0, 0.5)"]),
+    ("density 1e300", static("density = 7860", "density = 1e300"),
+     ["density = 1e+300", "(0.0, 100000.0] (kg/m^3)"]),
+    ("yield above E", static("density = 7860", "density = 7860\nyield_strength = 3e11"),
+     ["yield_strength = 300000000000.0", "below the Young's modulus"]),
+    ("penalty 1e300", static('penalty = "auto"', "penalty = 1e300"),
+     ["penalty = 1e+300", "(0.0, 1e+23]"]),
+    ("displacement 1e300", static("-5e-06", "-1e300"),
+     ["[displacements[0]] values", "must be in [-1, 1] m"]),
+    ("unknown key", static("density = 7860", 'density = 7860\ncolour = "red"'),
+     ["unknown key(s) ['colour'] in [materials[0]]"]),
+    ("duration -1", solve(sdof(duration=-1.0)), ["[analysis] duration = -1", "> 0"]),
+    ("time_step above the duration", solve(sdof(time_step=2 * DURATION)),
+     ["[analysis] time_step", "at most the duration"]),
+    ("output_interval 0", solve(sdof(extra="output_interval = 0.0")),
+     ["[analysis] output_interval = 0.0", "must be in"]),
+    ("initial_velocity 1e300",
+     solve(changed(sdof(), "initial_velocity = -1.0", "initial_velocity = -1e300")),
+     ["[rigid_bodies[0]] initial_velocity = -1e+300", "[-10000.0, 10000.0]"]),
+    ("rigid inertia inf", solve(changed(sdof(), "inertia = 0.01", "inertia = inf")),
+     ["inertia = inf", "must be a number >= 0"]),
+    ("dynamic penalty 1e300", solve(sdof(penalty=1e300)), ["penalty = 1e+300"]),
+]
+
+MESH = [
+    ("gear set missing", lambda d: ["mesh", str(d / "none.toml"), "--out", "OUT"],
+     ["none.toml: gear-set file not found"]),
+    ("gear set is a directory", lambda d: ["mesh", str(d), "--out", "OUT"],
+     ["is a directory, not a gear-set file"]),
+    ("gear set not UTF-8",
+     lambda d: ["mesh", write(d, "g.toml", SEED.replace("name =", "# caf\xe9\nname =")
+                              .encode("latin-1")), "--out", "OUT"],
+     ["g.toml: not UTF-8 text", "save the gear-set file as UTF-8"]),
+    ("gear set not TOML", lambda d: ["mesh", write(d, "g.toml", "[pinion\n"), "--out", "OUT"],
+     ["g.toml: not valid TOML"]),
+    ("--out is a file", lambda d: ["mesh", "--out", a_file(d)], ["--out", "is a file"]),
+    ("--out under a file", lambda d: ["mesh", "--out", a_file(d) + "/x"],
+     ["--out", "cannot make the folder"]),
+    ("--level", mesh("--level", "superfine"), ["--level 'superfine'", "coarse, default, fine"]),
+    ("--order", mesh("--order", "3"), ["--order 3", "1 (linear) or 2 (quadratic)"]),
+    ("--gap", mesh("--gap", "-1"), ["--gap -1 um", "0 .. 1000 um"]),
+    ("--gap nan", mesh("--gap", "nan"), ["--gap nan um"]),
+    ("--impact-speed", mesh("--impact-speed", "0"), ["--impact-speed 0 m/s", "(0, 20] m/s"]),
+    ("--face-teeth", mesh("--face-teeth", "4"), ["--face-teeth 4", "1, 2 or 3"]),
+    ("--roll-angle", mesh("--roll-angle", "90"), ["--roll-angle 90 deg", "-60 .. 60 deg"]),
+    ("--stage", mesh("--stage", "4"), ["--stage 4", "has stages 1..3"]),
+    ("--stage not a number", mesh("--stage", "x"), ["--stage", "invalid int value: 'x'"]),
+    # Used to name fillet_radius_coeff with the empty range (0, -0.5677].
+    ("addendum_coeff 3", gearset("addendum_coeff = 1.0", "addendum_coeff = 3.0"),
+     ["pinion.addendum_coeff = 3 and clearance_coeff = 0.25", "below pi / (4 tan 20 deg)",
+      "addendum_coeff < 1.908"]),
+    ("clearance_coeff 2", gearset("clearance_coeff = 0.25", "clearance_coeff = 2.0"),
+     ["clearance_coeff = 2", "their sum 3"]),
+    ("addendum_coeff 1.2", gearset("addendum_coeff = 1.0", "addendum_coeff = 1.2"),
+     ["fillet_radius_coeff = 0.38", "(0, 0.3679]", "addendum_coeff = 1.2"]),
+    ("pinion teeth 10", gearset("teeth = 19", "teeth = 10"), ["pinion.teeth = 10", ">= 18"]),
+    # Used to fail in the contact analysis: "relative curvature is not positive definite".
+    ("shaper fewer teeth than the pinion",
+     gearset("shaper_teeth = 21   #", "force_shaper = true\nshaper_teeth = 15   #"),
+     ["stage 1 (56 teeth): shaper_teeth = 15", "at least pinion.teeth = 19", "force_shaper"]),
+    ("shaper as many teeth as an uncrowned pinion",
+     lambda d: ["mesh", write(d, "g.toml", changed(
+         UNCROWNED, "shaper_teeth = 21   #", "force_shaper = true\nshaper_teeth = 19   #")),
+                "--out", "OUT"],
+     ["shaper_teeth = 19 equals pinion.teeth", "lengthwise_crowning_um > 0"]),
+    ("shaper outside pinion + 1..3", gearset("shaper_teeth = 21   #", "shaper_teeth = 25   #"),
+     ["shaper_teeth = 25 must lie in [20, 22]", "force_shaper = true"]),
+    # Used to be meshed: 300 mm of pinion on a ring of 84 mm pitch radius.
+    ("pinion face width 300 mm", gearset("face_width_mm = 24.0", "face_width_mm = 300.0"),
+     ["pinion.face_width = 300 mm", "66 mm past the face-gear axis", "at most 78.9 mm"]),
+    ("outer radius beyond the pointing limit",
+     gearset("outer_radius_mm = 96.0", "outer_radius_mm = 99.0"),
+     ["stage 1 (56 teeth): outer_radius = 99.000 mm", "pointing limit", "96.978"]),
+    ("inner radius below the undercut limit",
+     gearset("inner_radius_mm = 82.5", "inner_radius_mm = 70.0"),
+     ["inner_radius = 70.000 mm is below the inner limit", "82.371"]),
+    ("crowning 1 mm", gearset("lengthwise_crowning_um = 10.0",
+                              "lengthwise_crowning_um = 1000.0"),
+     ["pinion.lengthwise_crowning = 1000 um", "[0, 300] um"]),
+    ("youngs_modulus 1.7e308 (gear set)",
+     gearset("youngs_modulus_pa = 212e9", "youngs_modulus_pa = 1.7e308"),
+     ["material.youngs_modulus = 1.7e+308 Pa", "(0, 1e+13] Pa"]),
+    ("yield above E (gear set)", gearset("yield_strength_pa = 835e6",
+                                         "yield_strength_pa = 835e12"),
+     ["material.yield_strength", "below the Young's modulus"]),
+    ("module mismatch", gearset("(checked).\nmodule_mm = 3.0", "(checked).\nmodule_mm = 2.0"),
+     ["face_gear.module = 2 mm differs from pinion.module = 3 mm"]),
+    ("teeth not a multiple of the pinions", gearset("teeth = 56", "teeth = 57"),
+     ["teeth = 57 must be a multiple of n_pinions = 4"]),
+    ("unknown key (gear set)", gearset("teeth = 19", "teeth = 19\ncolour = 1"),
+     ["unknown key(s) ['colour'] in [pinion]"]),
+]
+
+CALIBRATE = [
+    # An empty list used to mean "all stages".
+    ("--stages ,", calibrate("--stages", ","), ["--stages", "need at least one integer"]),
+    ("--speeds ,", calibrate("--speeds", ","), ["--speeds", "need at least one number"]),
+    ("--stages a", calibrate("--stages", "a"), ["--stages", "need comma-separated integers"]),
+    ("--stages 9", calibrate("--stages", "9"), ["--stages [9]", "stages 1..3"]),
+    # Used to start the Dask cluster and fail on a worker with a remote traceback.
+    ("--speeds 1e9", calibrate("--speeds", "1e9"),
+     ["--speeds 1e+09", "allowed impact speeds are (0, 20] m/s"]),
+    ("--speeds -1", calibrate("--speeds", "-1"), ["--speeds [-1.0]", "positive numbers"]),
+    ("--speeds nan", calibrate("--speeds", "nan"), ["--speeds [nan]", "positive numbers"]),
+    ("--impact-speeds 25", calibrate("--impact-speeds", "25"),
+     ["--impact-speeds 25", "(0, 20] m/s"]),
+    ("--speeds and --impact-speeds", calibrate("--speeds", "100", "--impact-speeds", "0.1"),
+     ["give --speeds (r/min) or --impact-speeds (m/s), not both"]),
+    # Used to end in distributed's ValueError.
+    ("--scheduler", calibrate("--scheduler", "not an address"),
+     ["--scheduler 'not an address'", "give host:port or tcp://host:port"]),
+    ("--workers 0", calibrate("--workers", "0"), ["--workers 0", "at least 1"]),
+    ("--level", calibrate("--level", "superfine"), ["level = 'superfine'", "coarse"]),
+    ("--integrator", calibrate("--integrator", "rk4"), ["integrator = 'rk4'", "newmark"]),
+    ("--out is a file", lambda d: ["calibrate", "--out", a_file(d), "--cache",
+                                   str(d / "cache")], ["--out", "is a file, not a folder"]),
+    ("--out under a file", lambda d: ["calibrate", "--out", a_file(d) + "/x", "--cache",
+                                      str(d / "cache")], ["--out", "cannot make the folder"]),
+    ("--cache is a file", lambda d: ["calibrate", "--out", "OUT", "--cache", a_file(d)],
+     ["--cache", "is a file, not a folder"]),
+    ("gear set is a directory", lambda d: calibrate()(d)[:1] + [str(d)] + calibrate()(d)[1:],
+     ["is a directory, not a gear-set file"]),
+    ("pinion face width 300 mm (calibrate)",
+     gearset("face_width_mm = 24.0", "face_width_mm = 300.0", "calibrate"),
+     ["pinion.face_width = 300 mm"]),
+]
+
+SWITCHING = [
+    ("no --preset", lambda d: ["switching", "--out", "OUT"], ["--preset is required"]),
+    ("unknown preset", switching(preset="nope"), ["--preset = 'nope' is not a preset"]),
+    ("no --out", lambda d: ["switching", "--preset", "table1-100rpm"], ["--out is required"]),
+    ("--out is a file", lambda d: ["switching", "--preset", "table1", "--out", a_file(d)],
+     ["--out", "is a file, not a folder"]),
+    ("--out under a file", lambda d: ["switching", "--preset", "table1", "--out",
+                                      a_file(d) + "/x"], ["--out", "cannot make the folder"]),
+    ("--duration 0", switching("--duration", "0"), ["--duration = 0.0 s", "> 0"]),
+    ("--duration nan", switching("--duration", "nan"), ["--duration = nan s"]),
+    ("--duration inf", switching("--duration", "inf"), ["--duration = inf s"]),
+    ("--sample-interval 0", switching("--sample-interval", "0"), ["--sample-interval = 0.0"]),
+    # Used to run and be compared with the seed's tables.
+    ("--sample-interval longer than the run", switching("--sample-interval", "1"),
+     ["--sample-interval = 1 s: longer than the run (0.5 s)"]),
+    ("--calibration missing", lambda d: switching("--calibration", str(d / "no.json"))(d),
+     ["--calibration", "no.json", "no such file"]),
+    # Used to say "no such file".
+    ("--calibration is a directory", lambda d: switching("--calibration", str(d))(d),
+     ["--calibration", "is a directory"]),
+    ("--calibration not UTF-8", with_calibration(b'{"a": "caf\xe9"}'),
+     ["cal.json: not UTF-8 text"]),
+    ("--calibration not JSON", with_calibration("{"), ["cal.json: not valid JSON"]),
+    ("--calibration schema", with_calibration('{"schema": "x", "cases": []}'),
+     ["schema = 'x': expected 'fe-impact/calibration/1'"]),
+    ("--calibration k -1", with_calibration(calibration_file(k=-1.0)),
+     ["[cases[0].impact] k = -1.0", "must be > 0"]),
+    ("--calibration k Infinity", with_calibration(calibration_file(k=math.inf)),
+     ["k = inf", "must be a number > 0"]),
+    # Used to run to exit 0 with a NaN series and a statistics.json of zeros.
+    ("--calibration k 1e300", with_calibration(calibration_file(k=1e300)),
+     ["cal.json: stage 1 'mesh'", "k = 1e+300", "cannot be integrated"]),
+    ("--calibration cmax 1e300", with_calibration(calibration_file(cmax=1e300)),
+     ["damping time m/cmax", "cannot be integrated"]),
+    ("--calibration stopped before any case",
+     with_calibration(json.dumps({"schema": "fe-impact/calibration/1", "status": "stopped",
+                                  "missing": ["a"], "cases": []})),
+     ["status = 'stopped' and no case", "run fe-impact calibrate again"]),
+]
+
+
+def _params(command: str, table: list) -> list:
+    return [pytest.param(build, words, id=f"{command}: {name}") for name, build, words in table]
+
+
+@pytest.mark.parametrize("build,words", _params("solve", SOLVE) + _params("mesh", MESH)
+                         + _params("calibrate", CALIBRATE) + _params("switching", SWITCHING))
+def test_bad_input_gets_one_clear_line(tmp_path, capsys, build, words):
+    before = sorted(tmp_path.rglob("*"))
+    argv = [str(tmp_path / "out") if a == "OUT" else a for a in build(tmp_path)]
+    made = sorted(tmp_path.rglob("*"))     # the inputs the builder wrote
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "Warning:" not in err, err
+    errors = [line for line in err.splitlines() if line.startswith("fe-impact")]
+    assert len(errors) == 1 and ": error: " in errors[0], err   # argparse adds its usage
+    message = errors[0]
+    for w in words:
+        assert w in message, (w, message)
+    # Nothing written: no output folder, no cache, no file beside the inputs.
+    assert not (tmp_path / "out").exists()
+    assert not (tmp_path / "cache").exists()
+    assert sorted(tmp_path.rglob("*")) == made and set(before) <= set(made)
+    assert all(Path(p).read_bytes() == b"x" for p in made if Path(p).name == "a_file")
+
+
+def test_table_covers_every_kind_of_the_issue():
+    """The table holds each kind the report found, per command (the count is the report's)."""
+    counts = {"solve": len(SOLVE), "mesh": len(MESH), "calibrate": len(CALIBRATE),
+              "switching": len(SWITCHING)}
+    assert all(n >= 10 for n in counts.values()), counts

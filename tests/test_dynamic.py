@@ -256,7 +256,7 @@ def test_normal_condensation_is_exact_on_a_flat_master(tmp_path):
     assert np.abs(projected - full).max() < 1e-9 * np.abs(full).max()
     # One condensed coordinate per zone node, except the nodes on the symmetry
     # planes, which keep their free components unrotated.
-    assert len(solver.cond) < 0.5 * 3 * len(solver.zone.points())
+    assert len(solver.condensed.coordinates) < 0.5 * 3 * len(solver.zone.points())
 
 
 DYNAMIC_BAD = [

@@ -118,8 +118,8 @@ def newmark(out: Path, solver: str | None = None, h: float = H_CONTACT) -> dict:
                 "krylov_products": pl["krylov_products"],
                 "plastic_points": pl["plastic_points"], "restitution": m["restitution"],
                 "dissipation_J": pl["dissipation"], "energy_error": m["energy_error"]}
-    b = np.random.default_rng(0).random(dyn.K_eff.shape[0])
-    solve = _best_time(lambda: dyn.solver.solve(b), 20)
+    b = np.random.default_rng(0).random(dyn.condensed.K_eff.shape[0])
+    solve = _best_time(lambda: dyn.condensed.solver.solve(b), 20)
     step = cpu / res.info["steps"]
     return {"n_dofs": res.info["n_dofs"], "steps": res.info["steps"],
             "steps_in_contact": int(round(m["contact_duration"] / res.info["time_step"])),

@@ -15,6 +15,7 @@ import scipy.sparse as sp
 
 from fe_impact.errors import CaseError
 from fe_impact.fe.case import Case, RigidBodySpec
+from fe_impact.fe.elasticity import lumped_mass
 from fe_impact.fe.mesh import FEMesh
 
 
@@ -92,6 +93,21 @@ class Kinematics:
     def reduce(self, A: sp.spmatrix) -> sp.csr_matrix:
         """``T^T A T``: a matrix on all DOFs in reduced coordinates."""
         return (self.T.T @ A @ self.T).tocsr()
+
+    def mass(self, M: sp.spmatrix, lumped: bool = False
+             ) -> tuple[sp.csr_matrix, np.ndarray | None]:
+        """Reduced mass ``T^T M T + diag(inertia)`` with the rigid bodies' inertias.
+
+        ``lumped``: from the HRZ-lumped ``M`` (diagonal; its diagonal is
+        returned too, else None).
+        """
+        inertia = np.zeros(self.n)
+        inertia[self.n_free:] = [b.inertia for b in self.rigid]
+        T = self.T
+        if lumped:
+            m = np.asarray(T.T.multiply(T.T) @ lumped_mass(M)).ravel() + inertia
+            return sp.diags(m).tocsr(), m
+        return (T.T @ M @ T + sp.diags(inertia)).tocsr(), None
 
 
 def _rigid_body_dofs(case: Case, mesh: FEMesh, k: int, tied: np.ndarray,

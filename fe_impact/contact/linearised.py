@@ -1,0 +1,250 @@
+"""Penalty contact on linearised gaps, for time integration in reduced coordinates.
+
+The gaps of the contact zone's slave nodes are linearised about their last
+projection on the master surface, ``g = g_ref + B (z - z_ref)`` with ``z``
+the reduced coordinates of :class:`~fe_impact.fe.kinematics.Kinematics`, and
+re-projected whenever the zone has moved by more than a tolerance
+(:class:`ContactModel`). :func:`zone_frames` gives each zone node a
+normal/tangent frame so an implicit step can keep only the normal
+coordinates in contact, and :class:`SurfaceMonitor` watches the slave nodes
+outside the zone so faces join it before they touch.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from fe_impact.contact.surfaces import GapState, nodal_pressure
+from fe_impact.contact.zone import ContactZone, face_size
+from fe_impact.fe.elasticity import ElasticModel
+from fe_impact.fe.kinematics import Kinematics, point_dofs
+from fe_impact.fe.mesh import FEMesh
+
+
+class ContactModel:
+    """Penalty forces on linearised weighted gaps, re-projected as the bodies move."""
+
+    def __init__(self, mesh: FEMesh, model: ElasticModel, kin: Kinematics, zone: ContactZone,
+                 tolerance: float) -> None:
+        self.mesh, self.model, self.kin, self.zone = mesh, model, kin, zone
+        self.tolerance = tolerance
+        self.n_projections = 0
+        self.projector: sp.csr_matrix | None = None
+        self.update(np.zeros(kin.n))
+
+    def point_values(self, z: np.ndarray) -> np.ndarray:
+        """Nodal (n_points, 3) displacement of the reduced coordinates ``z``."""
+        return self.model.point_values(self.kin.T @ z)
+
+    def update(self, z: np.ndarray) -> None:
+        """Project the zone's slave nodes on the configuration ``z``."""
+        self.states: list[GapState] = self.zone.gap_states(self.mesh, self.point_values(z))
+        B = sp.vstack([s.B for s in self.states]).tocsr()
+        self.B = (B @ self.kin.T).tocsr()
+        self.g_ref = np.concatenate([s.gap for s in self.states])
+        self.active_rows = np.isfinite(self.g_ref)
+        self.g_ref = np.where(self.active_rows, self.g_ref, 0.0)
+        self.B = sp.diags(self.active_rows.astype(float)) @ self.B
+        self.B_full = self.B
+        if self.projector is not None:
+            self.B = (self.B @ self.projector).tocsr()
+        self.BT = self.B.T.tocsr()
+        self.eps_w = np.concatenate([p.penalty * s.weight for p, s in
+                                     zip(self.zone.pairs, self.states, strict=True)])
+        self.eps_w = np.where(self.active_rows, self.eps_w, 0.0)
+        self.sizes = [len(s.gap) for s in self.states]
+        self.T_zone = self.kin.T[point_dofs(self.mesh, self.zone.points())]
+        self.z_ref = z.copy()
+        self.n_projections += 1
+
+    def set_projector(self, projector: sp.csr_matrix | None) -> None:
+        """Keep only the normal components of the zone nodes in the gap Jacobian.
+
+        ``projector`` is :func:`zone_frames`' ``n n^T`` per zone node: gaps and
+        contact forces then act along each node's surface normal (the
+        node-to-surface convention); ``None`` restores the full Jacobian.
+        """
+        self.projector = projector
+        self.B = self.B_full if projector is None else (self.B_full @ projector).tocsr()
+        self.BT = self.B.T.tocsr()   # forces B^T lam every step: transpose once
+
+    def moved(self, z: np.ndarray) -> bool:
+        """True if the zone moved by more than the re-projection tolerance."""
+        du = (self.T_zone @ (z - self.z_ref)).reshape(-1, 3)
+        du -= du.mean(axis=0)
+        return float(np.abs(du).max(initial=0.0)) > self.tolerance
+
+    def gaps(self, z: np.ndarray) -> np.ndarray:
+        return self.g_ref + self.B @ (z - self.z_ref)
+
+    def forces(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nodal penalty forces ``lambda`` (N) and the gaps they come from."""
+        g = self.gaps(z)
+        return self.eps_w * np.maximum(-g, 0.0), g
+
+    def energy(self, lam: np.ndarray) -> float:
+        """Penalty potential sum(eps w <-g>^2 / 2) = sum(lam^2 / (2 eps w))."""
+        on = lam > 0
+        return float(0.5 * np.sum(lam[on] ** 2 / self.eps_w[on]))
+
+    def pair_forces(self, lam: np.ndarray) -> list[float]:
+        out, start = [], 0
+        for n in self.sizes:
+            out.append(float(lam[start:start + n].sum()))
+            start += n
+        return out
+
+    def pressure(self, lam: np.ndarray) -> np.ndarray:
+        """Nodal contact pressure (Pa) on all mesh points."""
+        p = np.zeros(self.mesh.n_points)
+        start = 0
+        for pair, st, n in zip(self.zone.pairs, self.states, self.sizes, strict=True):
+            lk = lam[start:start + n]
+            start += n
+            p = np.maximum(p, nodal_pressure(self.mesh, pair, st,
+                                             np.where(lk > 0, lk / st.weight, 0.0)))
+        return p
+
+
+@dataclass(frozen=True, eq=False)
+class ZoneFrames:
+    """Normal/tangent frames of the contact-zone nodes in reduced coordinates.
+
+    ``z = R z'`` rotates the three coordinates of every zone node whose
+    components are all free into (normal, tangent, tangent), the normal
+    taking the slot of the x coordinate; ``projector = R P R^T`` keeps the
+    normal part. ``condensed`` lists the normal slots, every free coordinate
+    of zone nodes that cannot be rotated (a component held by a support or
+    tied to a rigid body) and the coordinates of rigid bodies that zone nodes
+    follow, sorted.
+    """
+
+    R: sp.csr_matrix
+    projector: sp.csr_matrix
+    condensed: np.ndarray
+
+
+def zone_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel) -> ZoneFrames:
+    """Frames whose normal is the direction the gaps see each zone node move.
+
+    A node's normal is the principal direction of ``sum_r b_r b_r^T`` over its
+    3-vector entries ``b_r`` in the full gap Jacobian ``contact.B_full``: the
+    contact normal at the points it carries (the master normal, also for
+    slave nodes). A zone node no gap sees yet takes its area-weighted surface
+    normal.
+    """
+    zone, B = contact.zone, contact.B_full
+    pts = zone.points()   # the rows of contact.T_zone, three per point
+    red = -np.ones(kin.T.shape[0], dtype=np.int64)
+    red[kin.free] = np.arange(kin.n_free)
+    j = red[(3 * mesh.point_dof[pts])[:, None] + np.arange(3)]            # (np, 3)
+    free = (j >= 0).all(axis=1)
+    jf = j[free]
+    Bc = B.tocsc()
+    C = np.empty((len(jf), 3, 3))
+    cols = [Bc[:, jf[:, a]] for a in range(3)]
+    for a in range(3):
+        for b in range(a, 3):
+            C[:, a, b] = C[:, b, a] = np.asarray(cols[a].multiply(cols[b]).sum(axis=0)).ravel()
+    lam, vec = np.linalg.eigh(C)
+    n = vec[:, :, -1]
+    unseen = lam[:, -1] <= 1e-12 * max(float(lam[:, -1].max(initial=0.0)), 1e-300)
+    if unseen.any():
+        acc = np.zeros((mesh.n_points, 3))
+        for pair, sf, mf in zip(zone.pairs, zone.slave_faces, zone.master_faces, strict=True):
+            for faces in (pair.slave.faces[sf], pair.master.faces[mf]):
+                x = mesh.points[faces[:, :3]]
+                nrm = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])   # 2 x area x normal
+                np.add.at(acc, faces.ravel(), np.repeat(nrm, faces.shape[1], axis=0))
+        a = acc[pts[free][unseen]]
+        n[unseen] = a / np.maximum(np.linalg.norm(a, axis=1), 1e-300)[:, None]
+    # Tangents: any unit vector normal to n, then n x t1.
+    helper = np.where(np.abs(n[:, [0]]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t1 = np.cross(n, helper)
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    t2 = np.cross(n, t1)
+    F = np.stack([n, t1, t2], axis=2)                 # (nr, xyz, slot)
+    rows = np.broadcast_to(jf[:, :, None], F.shape).ravel()
+    cols_ = np.broadcast_to(jf[:, None, :], F.shape).ravel()
+    keep = np.ones(kin.n, dtype=bool)
+    keep[jf.ravel()] = False
+    ident = np.flatnonzero(keep)
+    rr, cc = np.concatenate([rows, ident]), np.concatenate([cols_, ident])
+    one = np.ones(len(ident))
+    R = sp.csr_matrix((np.concatenate([F.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
+    nn = n[:, :, None] * n[:, None, :]               # (nr, 3, 3)
+    P = sp.csr_matrix((np.concatenate([nn.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
+    # Unrotated nodes keep every coordinate they move with: their free
+    # components and, if tied, their rigid body's.
+    other = contact.T_zone[(3 * np.flatnonzero(~free)[:, None] + np.arange(3)).ravel()]
+    condensed = np.unique(np.concatenate([jf[:, 0], other.indices]))
+    return ZoneFrames(R, P, condensed)
+
+
+class SurfaceMonitor:
+    """Linearised gaps of every slave node, to see faces outside the zone coming close.
+
+    The zone grows when the smallest gap outside it, extrapolated to the check
+    after next at the rate it closed since the last check, falls below
+    :attr:`margin` (a quarter of the zone's reach beyond the first contact,
+    at most a quarter of a face): a face joins before it can touch, and a
+    zone that merely has neighbours a few microns away is left alone.
+    """
+
+    def __init__(self, mesh: FEMesh, kin: Kinematics, zone: ContactZone,
+                 reach: list[float], states: list) -> None:
+        self.mesh, self.zone = mesh, zone
+        self.pairs = []
+        margins = []
+        for s, st in zip(reach, states, strict=True):
+            ok = np.isfinite(st.gap)
+            self.pairs.append((st.nodes[ok], st.gap[ok], (st.B[ok] @ kin.T).tocsr()))
+            margins.append(0.25 * max(s - float(np.min(st.gap[ok])), 0.0))
+        self.margin = min(min(margins), 0.25 * min(face_size(mesh, p.slave)
+                                                   for p in zone.pairs))
+        self._held_cache: dict[int, tuple[int, np.ndarray]] = {}
+        #: Smallest linearised gap outside the zone seen so far (m).
+        self.closest = math.inf
+        self.closing = 0.0    # closure of that gap since the last check (m)
+        self._last = None
+
+    def outside_gap(self, z: np.ndarray) -> float:
+        """Smallest linearised gap of the slave nodes the zone does not hold (m).
+
+        Those are the nodes outside it and the nodes on its edge, whose faces
+        are not all in the zone (they carry no weighted gap there).
+        """
+        g_min = math.inf
+        for k, (nodes, g0, B) in enumerate(self.pairs):
+            inside = np.isin(nodes, self._held(k))
+            if np.any(~inside):
+                g_min = min(g_min, float((g0[~inside] + B[~inside] @ z).min()))
+        return g_min
+
+    def _held(self, k: int) -> np.ndarray:
+        """Nodes of pair ``k`` all of whose faces are in the zone (cached: zones only grow)."""
+        faces = self.zone.slave_faces[k]
+        cached = self._held_cache.get(k)
+        if cached is None or cached[0] != len(faces):
+            cached = (len(faces), self.zone.pairs[k].slave.complete_nodes(faces))
+            self._held_cache[k] = cached
+        return cached[1]
+
+    def close_outside(self, z: np.ndarray) -> bool:
+        g = self.outside_gap(z)
+        if not math.isfinite(g):
+            return False
+        self.closest = min(self.closest, g)
+        self.closing = max(self._last - g, 0.0) if self._last is not None else 0.0
+        self._last = g
+        return g - 2.0 * self.closing < self.margin
+
+    def grow_margin(self) -> float:
+        """Gap below which faces outside join the zone once it has to grow (m)."""
+        self._last = None   # the faces outside change
+        return 2.0 * (self.margin + 2.0 * self.closing)
+

@@ -1,0 +1,341 @@
+"""Time integrators of the reduced equations of motion, as step functions.
+
+    M z'' + K z = B^T lambda(z) + F_p(z)
+
+(reduced coordinates ``z``, penalty contact forces ``lambda`` of a
+:class:`~fe_impact.contact.linearised.ContactModel`, plastic force ``F_p``
+of a :class:`~fe_impact.fe.plasticity.PlasticZone`). A step function takes
+the :class:`State` after step ``n`` and returns the one after step ``n + 1``;
+the contact model re-projects its gaps and the plastic zone commits its
+history on the way, and nothing is written anywhere.
+
+- :func:`central_difference_step`: explicit central difference (velocity
+  Verlet) with a lumped mass; stable below :func:`stable_time_step`.
+- :func:`newmark_step`: implicit Newmark average acceleration (beta = 1/4,
+  gamma = 1/2; Newmark 1959), or HHT-alpha with ``alpha < 0`` (Hilber,
+  Hughes and Taylor 1977); contact by the condensed complementarity problem
+  of :class:`~fe_impact.contact.condensed.CondensedContact`, plasticity by
+  :func:`plastic_newmark_solve`.
+- :func:`time_step`: the case's time step, or the automatic one of either.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from fe_impact.contact.condensed import CondensedContact, StepContact
+from fe_impact.contact.linearised import ContactModel
+from fe_impact.errors import CaseError, ContactError, SolverError
+from fe_impact.fe.case import Case
+from fe_impact.fe.linalg import SPDSolver
+
+logger = logging.getLogger(__name__)
+
+#: The explicit step re-projects the contact and watches the zone every this many steps.
+CHECK_EVERY = 10
+#: Automatic Newmark step: this many steps over the duration (at least), so a
+#: contact lasting a third of the run is resolved by about 70 steps.
+NEWMARK_STEPS = 200
+
+
+@dataclass(frozen=True, eq=False)
+class State:
+    """The solution after step ``n``, in reduced coordinates.
+
+    Attributes
+    ----------
+    z, v, a : ndarray, shape (n_reduced,)
+        Displacement (m), velocity (m/s) and acceleration (m/s^2).
+    lam : ndarray
+        Penalty forces (N) on the contact model's rows.
+    strain_energy : float
+        ``z K z / 2`` (J), without the plastic zone's correction.
+    f_contact, f_plastic : ndarray, optional
+        Newmark: ``B^T lam`` and the committed plastic force (N), which the
+        HHT-alpha average of the next step needs.
+    active : bool ndarray, optional
+        Newmark: the contact rows in compression, the next step's warm start.
+    """
+
+    n: int
+    z: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    lam: np.ndarray
+    strain_energy: float = 0.0
+    f_contact: np.ndarray | None = None
+    f_plastic: np.ndarray | None = None
+    active: np.ndarray | None = None
+
+
+def time_step(case: Case, dt_stable: float | None) -> float:
+    """The case's time step, or the automatic one.
+
+    Explicit (``dt_stable`` given): ``[analysis] safety_factor`` x the stable
+    step, and a given step above it is refused. Newmark: at least
+    :data:`NEWMARK_STEPS` steps over the duration and a whole number of
+    steps per output interval.
+    """
+    a = case.analysis
+    out = a.output_interval or a.duration / 100.0
+    if dt_stable is not None:
+        if a.time_step is not None:
+            if a.time_step > dt_stable:
+                raise CaseError(
+                    f"{case.path.name}: [analysis] time_step = {a.time_step:.4g} s is "
+                    f"above the explicit stability limit {dt_stable:.4g} s; use at "
+                    f"most that, or \"auto\" ({a.safety_factor} x the limit)")
+            return a.time_step
+        return a.safety_factor * dt_stable
+    dt = a.time_step if a.time_step is not None else min(out, a.duration / NEWMARK_STEPS)
+    if a.time_step is None:
+        dt = out / math.ceil(out / dt - 1e-9)   # a whole number of steps per output
+    return dt
+
+
+# -- central difference ------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class CentralDifference:
+    """Explicit central difference with the lumped reduced mass ``m``."""
+
+    dt: float
+    K: sp.csr_matrix
+    m: np.ndarray
+    minv: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "minv", 1.0 / self.m)
+
+
+def stable_time_step(K: sp.csr_matrix, m: np.ndarray, contact: ContactModel) -> float:
+    """Critical central-difference step ``2 / omega_max``, contact penalty included.
+
+    ``omega_max^2`` is the largest eigenvalue of ``M^-1/2 (K + K_c) M^-1/2``
+    (Lanczos), with every row of the contact model in contact.
+    """
+    Kc = (contact.B.T @ sp.diags(contact.eps_w) @ contact.B).tocsr()
+    s = 1.0 / np.sqrt(m)
+    A = sp.diags(s) @ (K + Kc) @ sp.diags(s)
+    if A.shape[0] < 10:
+        lam = float(np.linalg.eigvalsh(A.toarray()).max())
+    else:
+        lam = spla.eigsh(A, k=1, which="LA", tol=1e-4, return_eigenvectors=False,
+                         v0=np.ones(A.shape[0]))[0]
+    if lam <= 0:
+        raise SolverError("the model has no stiffness: nothing limits the time step; "
+                          "give [analysis] time_step")
+    return 2.0 / math.sqrt(lam)
+
+
+def central_difference_start(cd: CentralDifference, v0: np.ndarray,
+                             contact: ContactModel) -> State:
+    """The state at rest position with velocity ``v0``."""
+    z = np.zeros(len(v0))
+    lam, _ = contact.forces(z)
+    return State(0, z, v0.copy(), cd.minv * (contact.BT @ lam), lam)
+
+
+def central_difference_step(s: State, cd: CentralDifference, contact: ContactModel,
+                            plastic=None, watch: Callable[[np.ndarray], object] | None = None
+                            ) -> State:
+    """One velocity-Verlet step.
+
+    Every :data:`CHECK_EVERY` steps, once the displacement is known, the
+    contact is re-projected if the zone moved and ``watch(z)`` may grow the
+    zone, before the forces are evaluated.
+    """
+    n, dt = s.n + 1, cd.dt
+    v = s.v + 0.5 * dt * s.a
+    z = s.z + dt * v
+    if n % CHECK_EVERY == 0:
+        if contact.moved(z):
+            contact.update(z)
+        if watch is not None:
+            watch(z)
+    Kz = cd.K @ z
+    f_int = Kz
+    if plastic is not None:
+        f_int = Kz - plastic.update(z)
+        plastic.commit()
+    lam, _ = contact.forces(z)
+    a = cd.minv * (contact.BT @ lam - f_int)
+    v += 0.5 * dt * a
+    return State(n, z, v, a, lam, 0.5 * float(z @ Kz))
+
+
+# -- Newmark / HHT-alpha -----------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Newmark:
+    """Newmark's average acceleration, HHT-alpha if ``alpha < 0`` (-1/3 <= alpha <= 0).
+
+    ``beta = (1 - alpha)^2 / 4``, ``gamma = 1/2 - alpha``; the internal and
+    contact forces are taken at ``(1 + alpha) t_n+1 - alpha t_n``.
+    """
+
+    dt: float
+    K: sp.csr_matrix
+    M: sp.csr_matrix
+    alpha: float = 0.0
+
+    @property
+    def beta(self) -> float:
+        return (1.0 - self.alpha) ** 2 / 4.0
+
+    @property
+    def gamma(self) -> float:
+        return 0.5 - self.alpha
+
+    @property
+    def force_factor(self) -> float:
+        """Weight ``1 + alpha`` of the new step's forces."""
+        return 1.0 + self.alpha
+
+    def effective_stiffness(self) -> sp.csr_matrix:
+        """``(1 + alpha) K + M / (beta dt^2)``, the matrix every step solves with."""
+        c0 = 1.0 / (self.beta * self.dt ** 2)
+        return ((1.0 + self.alpha) * self.K + c0 * self.M).tocsr()
+
+
+def newmark_start(nm: Newmark, v0: np.ndarray, contact: ContactModel) -> State:
+    """The state at rest position with velocity ``v0`` (and the acceleration of any contact)."""
+    z = np.zeros(len(v0))
+    lam, _ = contact.forces(z)
+    f_c = contact.BT @ lam
+    acc = np.zeros_like(z)
+    if np.any(lam > 0):
+        acc = SPDSolver(nm.M).solve(f_c - nm.K @ z)
+    return State(0, z, v0.copy(), acc, lam, 0.0, f_c, np.zeros_like(z), None)
+
+
+def newmark_step(s: State, nm: Newmark, contact: ContactModel,
+                 solve: Callable[[np.ndarray, np.ndarray | None, np.ndarray], StepContact],
+                 plastic=None, max_projections: int = 30) -> State:
+    """One Newmark step.
+
+    ``solve(rhs, active, z_n)`` returns the step's contact forces and
+    displacement for the right-hand side ``rhs`` (see
+    :meth:`CondensedContact.solve` and :func:`plastic_newmark_solve`); it is
+    called again after each re-projection of the contact, until the zone has
+    not moved.
+    """
+    n, dt, alpha, beta = s.n + 1, nm.dt, nm.alpha, nm.beta
+    c0, c1, c2 = 1.0 / (beta * dt ** 2), 1.0 / (beta * dt), 1.0 / (2.0 * beta) - 1.0
+    Kz = nm.K @ s.z
+    rhs0 = nm.M @ (c0 * s.z + c1 * s.v + c2 * s.a) + alpha * (Kz - s.f_plastic - s.f_contact)
+    active = s.active
+    for _ in range(max_projections):
+        lam, z_new, active = solve(rhs0, active, s.z)
+        if not contact.moved(z_new):
+            break
+        contact.update(z_new)
+    else:
+        raise ContactError(f"contact did not settle within {max_projections} re-projections "
+                           f"at t = {n * dt:.6g} s; raise [analysis] max_iterations")
+    f_p = s.f_plastic
+    if plastic is not None:
+        plastic.commit()
+        f_p = plastic.plastic_force()
+    acc = c0 * (z_new - s.z) - c1 * s.v - c2 * s.a
+    v = s.v + dt * ((1.0 - nm.gamma) * s.a + nm.gamma * acc)
+    return State(n, z_new, v, acc, lam, 0.5 * float(z_new @ (nm.K @ z_new)),
+                 contact.BT @ lam, f_p, active)
+
+
+# -- plasticity in a Newmark step --------------------------------------------------
+
+
+@dataclass
+class PlasticStats:
+    """Counters of the Newmark plasticity over a run."""
+
+    iterations: int = 0         # solver iterations, elastic trials included
+    krylov_products: int = 0    # GMRES products of the Newton corrections
+    newton_fallbacks: int = 0   # steps Newton handed to Anderson
+
+
+class _ElasticSolve:
+    """``f_p -> z``: the step's elastic solve with the plastic force ``f_p`` on the right.
+
+    Keeps the contact solution of the last call: its forces, and its active
+    set as the next call's warm start.
+    """
+
+    def __init__(self, rhs0: np.ndarray, contact: CondensedContact,
+                 active: np.ndarray | None) -> None:
+        self.rhs0, self.contact = rhs0, contact
+        self.last = StepContact(np.zeros(0), np.zeros(0), active)
+        self._lin: Callable[[np.ndarray], np.ndarray] | None = None
+
+    def __call__(self, f_p: np.ndarray) -> np.ndarray:
+        rhs = self.rhs0 + self.contact.force_factor * f_p
+        self.last = self.contact.solve(rhs, self.last.active)
+        self._lin = None
+        return self.last.z
+
+    def derivative(self, w: np.ndarray) -> np.ndarray:
+        """The last solve's response to a plastic force ``w`` at a fixed active set."""
+        if self._lin is None:
+            self._lin = self.contact.linearisation(self.last.lam)
+        return self._lin(self.contact.force_factor * w)
+
+
+def plastic_newmark_solve(rhs0: np.ndarray, active: np.ndarray | None, z_n: np.ndarray,
+                          contact: CondensedContact, zone, method: str,
+                          stats: PlasticStats) -> StepContact:
+    """One Newmark step with plasticity: ``z = step(F_p(z))``.
+
+    ``step`` is one elastic solve (plastic force on the right, contact
+    condensed). ``method``: ``newton``
+    (:func:`~fe_impact.fe.plasticity.solve_newton`) with the zone's
+    consistent tangent, GMRES on the elastic factorisation for each
+    correction; ``anderson``
+    (:func:`~fe_impact.fe.plasticity.solve_fixed_point`) modified Newton on
+    the elastic factorisation with Anderson mixing. A step Newton fails is
+    redone by Anderson. ``stats`` counts the work.
+    """
+    from fe_impact.fe.plasticity import solve_fixed_point, solve_newton
+
+    step = _ElasticSolve(rhs0, contact, active)
+    # An elastic step with the committed plastic force: if no point yields
+    # further, it is the solution (most steps of a mildly plastic impact).
+    f_old = zone.plastic_force()
+    z_new = step(f_old)
+    f_new = zone.update(z_new)
+    if np.array_equal(f_new, f_old):
+        stats.iterations += 1
+        return step.last
+    z0, products = z_new, 0
+
+    def anderson():
+        try:
+            return solve_fixed_point(step, zone, z0, tol=1e-7, max_iter=200, reference=z_n)
+        except RuntimeError as exc:
+            raise SolverError(f"plasticity did not converge in a Newmark step: {exc}; "
+                              "reduce the time step or use the explicit integrator") from None
+
+    if method == "anderson":
+        z_new, its = anderson()
+    else:
+        try:
+            z_new, its, products = solve_newton(step, step.derivative, zone, z0, tol=1e-7,
+                                                max_iter=50, reference=z_n)
+        except RuntimeError as exc:
+            # e.g. the contact's active set alternating between iterations
+            logger.warning("Newton's plasticity iteration failed (%s); this step "
+                           "falls back to Anderson-accelerated modified Newton", exc)
+            stats.newton_fallbacks += 1
+            z_new, its = anderson()
+    stats.iterations += its
+    stats.krylov_products += products
+    return StepContact(step.last.lam, z_new, step.last.active)

@@ -150,7 +150,10 @@ SOLVE = [
      solve(changed(sdof(), "initial_velocity = -1.0", "initial_velocity = -1e300")),
      ["[rigid_bodies[0]] initial_velocity = -1e+300", "[-10000.0, 10000.0]"]),
     ("rigid inertia inf", solve(changed(sdof(), "inertia = 0.01", "inertia = inf")),
-     ["inertia = inf", "must be a number >= 0"]),
+     ["inertia = inf", "must be a number in [0.0, 1e+09]"]),
+    # Used to end in "the solution became NaN/inf ...; reduce the time step".
+    ("rigid inertia 1e300", solve(changed(sdof(), "inertia = 0.01", "inertia = 1e300")),
+     ["inertia = 1e+300", "must be in [0.0, 1e+09] (kg, or kg m^2 for a rotation)"]),
     ("dynamic penalty 1e300", solve(sdof(penalty=1e300)), ["penalty = 1e+300"]),
 ]
 
@@ -272,6 +275,8 @@ SWITCHING = [
     # Used to run and be compared with the seed's tables.
     ("--sample-interval longer than the run", switching("--sample-interval", "1"),
      ["--sample-interval = 1 s: longer than the run (0.5 s)"]),
+    ("--duration 1e-9", switching("--duration", "1e-9"),
+     ["--duration = 1e-09 s: shorter than the time series' sample interval (0.0002 s"]),
     ("--calibration missing", lambda d: switching("--calibration", str(d / "no.json"))(d),
      ["--calibration", "no.json", "no such file"]),
     # Used to say "no such file".

@@ -36,3 +36,33 @@ def test_solve_writes_summary_and_fields(coarse_hertz_case, tmp_path, capsys):
 def test_help_and_version(capsys):
     assert main([]) == 0
     assert "solve" in capsys.readouterr().out
+
+
+def test_static_solve_stopped_keeps_the_steps_done(coarse_hertz_case, tmp_path, monkeypatch,
+                                                   capsys):
+    """A SIGTERM during the third load step: summary.json with the two steps done and
+    status "stopped", exit status 143, one line, no temporary file."""
+    import signal
+
+    from fe_impact.interrupts import Interrupted
+    from fe_impact.output.files import is_temporary
+    from fe_impact.solvers.static import StaticSolver
+
+    solve_step = StaticSolver.solve_step
+
+    def interrupted_at_the_third(self, i):
+        if i == 2:
+            raise Interrupted(signal.SIGTERM)
+        return solve_step(self, i)
+
+    monkeypatch.setattr(StaticSolver, "solve_step", interrupted_at_the_third)
+    out = tmp_path / "out"
+    assert main(["solve", str(coarse_hertz_case), "--out", str(out)]) == 143
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == ("fe-impact: stopped (SIGTERM); finished results are "
+                                            "kept, rerun to continue")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "stopped" and summary["error"] == "interrupted (SIGTERM)"
+    assert [s["value"] for s in summary["steps"]] == [-5e-6, -1e-5]
+    assert sorted(p.name for p in out.glob("step_*.vtu")) == ["step_001.vtu", "step_002.vtu"]
+    assert not [p for p in out.iterdir() if is_temporary(p)]

@@ -29,6 +29,8 @@ logger = logging.getLogger(__name__)
 #: its statistics are those of the start transient: a warning says so. The
 #: seed's 5 s segments hold 158 cycles at 100 r/min.
 MIN_MESH_CYCLES = 20
+#: Default time-series sampling interval [s].
+SAMPLE_INTERVAL = 2e-4
 
 _DESCRIPTION = (
     "Lumped torsional model of the multistage face-gear drive (pinions, three rings, output) "
@@ -50,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, metavar="S",
                    help="simulated time of each case [s] (default: the seed's, 5 s per "
                         "segment); segments are scaled in proportion")
-    p.add_argument("--sample-interval", type=float, default=2e-4, metavar="S",
+    p.add_argument("--sample-interval", type=float, default=SAMPLE_INTERVAL, metavar="S",
                    help="time-series sampling interval [s] (default 2e-4; statistics use "
                         "every integration step)")
     p.add_argument("--out", type=Path, metavar="DIR", help="output folder")
@@ -93,6 +95,9 @@ def _check_preset(args: argparse.Namespace, preset, pinion_teeth: int) -> list[s
     """Options against the preset: an error, or warnings (returned) for a short run."""
     shortest = min(c.schedule.duration for c in preset.cases)
     if args.sample_interval > shortest:
+        if args.duration is not None and args.sample_interval == SAMPLE_INTERVAL:
+            raise CaseError(f"--duration = {args.duration:g} s: shorter than the time series' "
+                            f"sample interval ({SAMPLE_INTERVAL:g} s, --sample-interval)")
         raise CaseError(f"--sample-interval = {args.sample_interval:g} s: longer than the run "
                         f"({shortest:g} s); give at most the duration")
     notes, needed = [], 0.0

@@ -89,8 +89,10 @@ _TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "anal
 #: modulus and density: `fe_impact.inputs.MAX_YOUNGS_MODULUS`, `MAX_DENSITY`).
 #: Penalty: 1e8 x that of a 0.1 mm element of steel (E/h = 2e15 Pa/m);
 #: displacements: 1 m (a small-strain model); speeds: 1e4 m/s (or rad/s),
-#: above the speed of sound in steel.
+#: above the speed of sound in steel; rigid-body inertia: 1e9 kg (kg m^2),
+#: a ship's propeller shaft is 1e5 kg m^2.
 MAX_PENALTY = 1e23
+MAX_INERTIA = 1e9
 MAX_DISPLACEMENT = 1.0
 MAX_SPEED = 1e4
 
@@ -330,7 +332,7 @@ def _rigid_body(r: Reader, t: dict, where: str) -> RigidBodySpec:
     if norm == 0.0:
         raise r.fail(where, "direction", t["direction"], "must be a non-zero vector")
     point = r.vector(t, where, "point", "m") if "point" in t else (0.0, 0.0, 0.0)
-    inertia = r.number(t, where, "inertia", low=0.0, default=0.0,
+    inertia = r.number(t, where, "inertia", low=0.0, high=MAX_INERTIA, default=0.0,
                        hint="(kg, or kg m^2 for a rotation)")
     v0 = r.number(t, where, "initial_velocity", low=-MAX_SPEED, high=MAX_SPEED, default=0.0,
                   hint="(m/s, or rad/s for a rotation)")

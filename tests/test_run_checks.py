@@ -121,3 +121,29 @@ def test_an_overflowing_law_stops_the_run_with_an_error_not_a_nan_table():
     case = get_preset("table1-300rpm").cases[0]
     with pytest.raises(SolverError, match=r"step size collapsed|became NaN/inf"):
         simulate(model, case.schedule.scaled(0.2))
+
+
+def test_a_nan_anywhere_in_the_state_stops_the_transient_run(tmp_path, monkeypatch, capsys):
+    """A NaN put into the last velocity (the rigid body's) at step 3: one line naming the
+    step, exit 2, and summary.json says how the run ended."""
+    from fe_impact.solvers import integrators
+
+    step = integrators.newmark_step
+
+    def poisoned(s, *args, **kwargs):
+        new = step(s, *args, **kwargs)
+        if new.n == 3:
+            new.v[-1] = np.nan
+        return new
+
+    monkeypatch.setattr(integrators, "newmark_step", poisoned)
+    case = tmp_path / "c.toml"
+    case.write_text(sdof())
+    out = tmp_path / "o"
+    assert main(["solve", str(case), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert re.search(r"fe-impact: error: the solution became NaN/inf at t = \S+ s \(step 3\)",
+                     err), err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "stopped" and "step 3" in summary["error"]

@@ -323,9 +323,10 @@ class DynamicSolver:
 
     def _check(self, s: ti.State, total: float) -> None:
         e0, t = self.log.energy0, s.n * self.dt
-        if not math.isfinite(total) or not np.isfinite(s.z[:1]).all():
-            raise SolverError(f"the solution became NaN/inf at t = {t:.6g} s (step {s.n}); "
-                              "reduce the time step")
+        if not (math.isfinite(total) and np.isfinite(s.z).all() and np.isfinite(s.v).all()):
+            raise SolverError(f"the solution became NaN/inf at t = {t:.6g} s (step {s.n}): "
+                              "reduce the time step, or check the case's values for one far "
+                              "out of scale (penalty, modulus, inertia, speed)")
         if e0 > 0 and total > (1.0 + self.case.analysis.energy_limit) * e0:
             raise SolverError(f"energy grew to {total / e0:.4g} x its initial value at "
                               f"t = {t:.6g} s (step {s.n}), beyond [analysis] energy_limit = "

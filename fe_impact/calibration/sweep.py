@@ -467,6 +467,10 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     if progress is not None:
         progress(len(sweep.done), len(cases), "")
     todo = sweep.todo
+    busy = [c.id for c in todo if _held_elsewhere(out / "cases" / c.id)]
+    if busy:
+        logger.warning("cases %s are being computed by another run on %s: this run waits for "
+                       "them and takes their results", busy, out)
     stopped = None
     if todo:
         try:
@@ -479,6 +483,14 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     if stopped is not None:
         raise stopped
     return path
+
+
+def _held_elsewhere(folder: Path) -> bool:
+    """True if another process holds the case folder's lock."""
+    if not folder.is_dir():
+        return False
+    with folder_lock(folder, wait=False) as held:
+        return not held
 
 
 def _write_summary(out: Path, cases: list[ImpactCase], sweep: Sweep, settings: Settings,

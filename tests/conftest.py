@@ -8,6 +8,7 @@ is generated into the test's folder instead.
 from __future__ import annotations
 
 import shutil
+import warnings
 from pathlib import Path
 
 import pytest
@@ -15,6 +16,50 @@ import pytest
 from validation.hertz_static import CASE_TEMPLATE, DISPLACEMENTS, write_case
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
+
+#: Tests that take more than about 10 s (the call, or the module fixture they need),
+#: by file: test-name prefixes, "" for every test of the file. They get the ``slow``
+#: marker here, so that ``pytest -m "not slow"`` is a fast subset. Measured with
+#: ``--durations`` on two loaded cores (the whole suite took 24 minutes, the fast
+#: subset 3); a test file may also mark its own tests with ``@pytest.mark.slow``.
+SLOW_TESTS: dict[str, tuple[str, ...]] = {
+    "test_calibrate_e2e.py": ("",),       # a coarse calibration (module fixture ~1 min)
+    # each study's quick setting, 10 s - 3 min
+    "test_validation_quick.py": ("test_study_passes_its_checks_on_the_quick_setting",),
+    "test_plastic_impact.py": ("",),      # three plastic impacts (module fixture 1.5 min)
+    "test_dynamic.py": ("test_contact_zone_grows_before_faces_outside_touch",
+                        "test_coarse_hemisphere_impact_against_hertz"),
+    # the medium Hertz specimen (the medium_run fixture, 10-20 s) and its variants
+    "test_static_contact.py": ("test_force_matches_hertz_locally",
+                               "test_pressure_and_radius_at_full_load",
+                               "test_peak_pressure_converges",
+                               "test_pressure_settles_as_the_penalty_grows",
+                               "test_split_multiplier_agrees_in_force",
+                               "test_midside_pressure_is_the_corner_mean"),
+    "test_switching.py": ("test_undamped_frictionless_run_conserves_energy",),
+    "test_toothmesh.py": ("test_command_writes_mesh_case_summary_and_picture",),
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark the tests of :data:`SLOW_TESTS`; warn about entries that match nothing."""
+    used: set[tuple[str, str]] = set()
+    files = set()
+    for item in items:
+        prefixes = SLOW_TESTS.get(item.path.name)
+        if prefixes is None:
+            continue
+        files.add(item.path.name)
+        for prefix in prefixes:
+            if item.name.startswith(prefix):
+                item.add_marker(pytest.mark.slow)
+                used.add((item.path.name, prefix))
+    stale = [f"{name}::{prefix}" for name in files for prefix in SLOW_TESTS[name]
+             if (name, prefix) not in used]
+    if stale and not config.getoption("keyword"):
+        warnings.warn(pytest.PytestWarning(
+            f"tests/conftest.py SLOW_TESTS entries match no collected test: {stale}"),
+            stacklevel=1)
 
 
 def hertz_case(folder: Path, committed: str, h_contact: float, order: int = 2) -> Path:

@@ -179,6 +179,9 @@ class DynamicSolver:
         self.scheme, self.condensed = self._scheme()
         self.timings["stable_step" if self.explicit else "factorisation"] = \
             time.perf_counter() - t
+        if self.condensed is not None:
+            self.timings["condensation"] = self.condensed.seconds
+            self.timings["factorisation"] -= self.condensed.seconds
         self.log = _RunLog(SeparationWatch(a.stop_after_separation))
 
     def _scheme(self) -> tuple[ti.CentralDifference | ti.Newmark, CondensedContact | None]:

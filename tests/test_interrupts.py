@@ -1,7 +1,7 @@
 """SIGINT and SIGTERM stop ``solve`` and ``calibrate`` cleanly (subprocesses).
 
 The signal goes to the whole process group, as Ctrl-C in a terminal does. A stopped
-run prints one line, exits with 128 + the signal, writes its summary with
+run prints one line, exits with 128 + the signal, writes its summary.json with
 ``status: "stopped"``, leaves no temporary file and no worker process, and a rerun
 finishes the job (and removes what an earlier killed run left behind).
 """
@@ -86,7 +86,7 @@ def check_stopped(rc: int, err: str, sig: int) -> None:
     assert rc == 128 + sig, err
     assert "Traceback" not in err, err
     name = signal.Signals(sig).name
-    assert messages(err) == [f"fe-impact: stopped ({name}); finished results are kept, "
+    assert messages(err) == [f"fe-impact: interrupted ({name}); finished results are kept, "
                              "rerun to continue"], err
 
 
@@ -123,6 +123,8 @@ def test_calibrate_stops_cleanly_and_resumes(tmp_path):
             "--level", "coarse", "--workers", "1"]
     case_id = "stage1_mesh_300rpm"
     fe = out / "cases" / case_id / "fe"
+    out.mkdir()
+    (out / "calibration.json").write_text("{}")    # an earlier run's: a stop keeps it
     for sig in SIGNALS:
         proc = start(argv)
         wait_for(lambda: len(list(fe.glob("frame_*.vtu"))) >= 3, proc, 600)
@@ -132,9 +134,10 @@ def test_calibrate_stops_cleanly_and_resumes(tmp_path):
         assert seconds < STOP_GRACE, seconds
         assert group_gone(proc.pid), "a worker outlived the stopped run"
         assert leftovers(out, cache) == []
-        calibration = strict(out / "calibration.json")
-        assert calibration["status"] == "stopped" and calibration["missing"] == [case_id]
-        assert calibration["cases"] == []
+        summary = strict(out / "summary.json")
+        assert summary["status"] == "stopped" and summary["missing"] == [case_id]
+        assert summary["finished"] == [] and summary["calibration"] is None
+        assert (out / "calibration.json").read_text() == "{}"
         for stale in fe.glob("frame_*.vtu"):    # the next run must write frames afresh
             stale.unlink()
     mesh = next(cache.glob("meshes/*/pair.msh"))
@@ -144,8 +147,10 @@ def test_calibrate_stops_cleanly_and_resumes(tmp_path):
     _, err = proc.communicate(timeout=900)
     assert proc.returncode == 0, err
     assert "Traceback" not in err and "8787" not in err
+    summary = strict(out / "summary.json")
+    assert summary["status"] == "completed" and summary["missing"] == []
+    assert summary["finished"] == [case_id] and summary["calibration"] == "calibration.json"
     calibration = strict(out / "calibration.json")
-    assert calibration["status"] == "completed" and calibration["missing"] == []
     assert [c["id"] for c in calibration["cases"]] == [case_id]
     assert mesh.stat().st_mtime_ns == meshed          # resumed on the cached mesh
     assert leftovers(out, cache) == []

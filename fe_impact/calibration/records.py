@@ -44,7 +44,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from fe_impact.errors import CalibrationError
-from fe_impact.inputs import Reader, check_choice, read_document
+from fe_impact.inputs import Reader, read_document
 from fe_impact.output.files import atomic_path, write_csv
 
 __all__ = [
@@ -395,32 +395,22 @@ class Calibration(_Record):
     ``settings`` are the run's options (:class:`fe_impact.calibration.sweep.Settings`
     as a dict), ``wall_time_s`` the run's wall time [s]. The schema and the units
     are `SCHEMA` and `UNITS`; a file with another schema is refused.
-    ``status`` is ``"completed"``, or ``"stopped"`` for a run interrupted
-    (SIGINT/SIGTERM) before every case finished; ``missing`` lists the ids of
-    the cases it has no record for. Only a stopped run may have no case.
     """
 
-    TOP_KEYS: ClassVar[tuple[str, ...]] = ("schema", "fe_impact_version", "status", "missing",
-                                           "units", "settings", "wall_time_s", "notes",
-                                           "cases")
-    STATUSES: ClassVar[tuple[str, ...]] = ("completed", "stopped")
+    TOP_KEYS: ClassVar[tuple[str, ...]] = ("schema", "fe_impact_version", "units", "settings",
+                                           "wall_time_s", "notes", "cases")
 
     cases: tuple[CalibrationRecord, ...]
     settings: Mapping[str, Any] | None = None
     wall_time_s: float | None = None
     fe_impact_version: str | None = None
     notes: str | None = None
-    status: str = "completed"
-    missing: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "cases", tuple(self.cases))
-        object.__setattr__(self, "missing", tuple(self.missing))
-        check_choice("status", self.status, self.STATUSES, CalibrationError)
 
     def to_dict(self) -> dict[str, Any]:
         return {"schema": SCHEMA, "fe_impact_version": self.fe_impact_version,
-                "status": self.status, "missing": list(self.missing),
                 "units": dict(UNITS), "settings": _plain(self.settings),
                 "wall_time_s": _plain(self.wall_time_s), "notes": self.notes,
                 "cases": [c.to_dict() for c in self.cases]}
@@ -438,17 +428,9 @@ class Calibration(_Record):
         settings = None
         if data.get("settings") is not None:
             settings = dict(r.table(data, where, "settings"))
-        status = r.choice(data, where, "status", cls.STATUSES, default="completed")
-        missing = ()
-        if data.get("missing"):
-            missing = tuple(r.strings(data, where, "missing", what="case ids"))
-        if status == "stopped" and not data.get("cases"):
-            raise r.problem("status = 'stopped' and no case: the calibration was stopped "
-                            "before any case finished; run fe-impact calibrate again to "
-                            "finish it")
         cases = tuple(CalibrationRecord.from_dict(c, r, f"cases[{i}]", skip)
                       for i, c in enumerate(r.array(data, where, "cases", required=True)))
-        return cls(cases=cases, settings=settings, status=status, missing=missing,
+        return cls(cases=cases, settings=settings,
                    wall_time_s=r.number(data, where, "wall_time_s", low=0, null=True),
                    fe_impact_version=(None if data.get("fe_impact_version") is None
                                       else r.string(data, where, "fe_impact_version")),

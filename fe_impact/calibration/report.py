@@ -30,18 +30,14 @@ def write_calibration_report(out: Path, calibration: Calibration) -> Path:
     settings = calibration.settings or {}
     plots = []
     for name, fn in (("force_time.png", _plot_histories), ("parameters.png", _plot_parameters),
-                     ("stress.png", _plot_stress)) if cases else ():
+                     ("stress.png", _plot_stress)):
         try:
             if fn(out, cases, out / name):
                 plots.append(name)
         except Exception as exc:  # a missing plot must not lose the tables
             logger.warning("plot %s skipped: %s", name, exc)
-    lines = ["# fe-impact calibration", ""]
-    if calibration.status != "completed":
-        lines += [f"**Status: {calibration.status}** (interrupted): {len(cases)} case(s) "
-                  f"finished; missing: {', '.join(calibration.missing) or 'none'}. Run the "
-                  "same command again to finish (finished cases are kept).", ""]
-    lines += [f"Settings: level `{settings.get('level')}`, integrator "
+    lines = ["# fe-impact calibration", "",
+             f"Settings: level `{settings.get('level')}`, integrator "
              f"`{settings.get('integrator')}`, P{settings.get('order')}, initial gap "
              f"{_gap(settings.get('gap'))}. Wall time {_fmt(calibration.wall_time_s, '.0f')} s.",
              "",

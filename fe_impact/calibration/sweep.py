@@ -23,9 +23,10 @@ folder waits for the cases the first is computing and takes their results.
 Holding the lock, a case first deletes the temporary files that a killed
 run may have left in its folder. SIGINT (Ctrl-C) or SIGTERM stops the
 sweep: the running cases stop within a second or so (:data:`STOP_GRACE` at
-most), ``calibration.json`` is written with ``status: "stopped"`` and the
-finished cases, and the command ends with one line. The workers ignore both
-signals themselves; the parent stops them.
+most), ``summary.json`` is written with ``status: "stopped"``, the finished
+and the missing cases, and the command ends with one line; an earlier
+``calibration.json`` is left as it was. The workers ignore both signals
+themselves; the parent stops them.
 
 Impact speeds (the seed's eq. 4 and 5): in mesh, the seed's relative sliding
 speed ``v12 = sqrt((w_f r_f)^2 + (w_c r_c)^2) - sqrt((w_c r_c)^2 + (w_c r_c
@@ -101,6 +102,8 @@ MAX_GAP = 2e-6
 STOP_AFTER_SEPARATION = 0.25
 #: Nominal mesh load (N) at which the linearised mesh stiffness is reported.
 NOMINAL_LOAD = 100.0
+#: Schema of the run's summary.json (status, finished and missing cases).
+SUMMARY_SCHEMA = "fe-impact/calibration-run/1"
 #: After SIGINT/SIGTERM, wait at most this long [s] for the running cases to
 #: stop before the workers are closed regardless. A case checks every
 #: STOP_POLL s and stops at the next Python statement, which in a tooth
@@ -452,11 +455,14 @@ def finished_record(out: Path, case: ImpactCase, settings: Settings,
 def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,
               cache: Path, workers: int | None = None, scheduler: str | None = None,
               progress: Callable[[int, int, str], None] | None = None) -> Path:
-    """Run the sweep (resuming), then write calibration.json/.csv and the report.
+    """Run the sweep (resuming), then write calibration.json/.csv, the report and summary.json.
 
-    On SIGINT or SIGTERM (:class:`KeyboardInterrupt`) the files are written
-    with the cases finished so far and ``status: "stopped"`` (the others are
-    listed under ``missing``), and the interrupt is raised again.
+    ``summary.json`` says how the run ended (``status``), which cases are
+    finished and which are missing. On SIGINT or SIGTERM
+    (:class:`KeyboardInterrupt`) only it is written, with ``status:
+    "stopped"`` (calibration.json and the report need every case, and a
+    complete calibration.json from an earlier run stays), and the interrupt
+    is raised again.
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -495,18 +501,27 @@ def _held_elsewhere(folder: Path) -> bool:
 
 def _write_summary(out: Path, cases: list[ImpactCase], sweep: Sweep, settings: Settings,
                    wall: float, status: str) -> Path:
-    """calibration.json, calibration.csv and report.md of the finished cases."""
+    """summary.json and, for a completed run, calibration.json/.csv and report.md."""
     from fe_impact.calibration.report import write_calibration_report
+    from fe_impact.output.files import write_json
 
-    records = [sweep.done[c.id] for c in cases if c.id in sweep.done]
-    calibration = Calibration(cases=records, settings=asdict(settings), wall_time_s=wall,
-                              fe_impact_version=__version__, notes=NOTES, status=status,
-                              missing=tuple(c.id for c in cases if c.id not in sweep.done))
-    with ignore_signals():   # the three files belong together: a second Ctrl-C waits
-        path = write_calibration(out / "calibration.json", calibration)
-        write_calibration_csv(out / "calibration.csv", records)
-        write_calibration_report(out, calibration)
-    return path
+    summary = {"schema": SUMMARY_SCHEMA, "fe_impact_version": __version__, "status": status,
+               "finished": [c.id for c in cases if c.id in sweep.done],
+               "missing": [c.id for c in cases if c.id not in sweep.done],
+               "settings": asdict(settings), "wall_time_s": wall,
+               "calibration": "calibration.json" if status == "completed" else None}
+    with ignore_signals():   # the files belong together: a second Ctrl-C waits for them
+        path = None
+        if status == "completed":
+            records = [sweep.done[c.id] for c in cases]
+            calibration = Calibration(cases=records, settings=asdict(settings),
+                                      wall_time_s=wall, fe_impact_version=__version__,
+                                      notes=NOTES)
+            path = write_calibration(out / "calibration.json", calibration)
+            write_calibration_csv(out / "calibration.csv", records)
+            write_calibration_report(out, calibration)
+        summary_path = write_json(out / "summary.json", summary)
+    return path or summary_path
 
 
 class CaseStopped(CalibrationError):

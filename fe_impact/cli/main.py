@@ -62,8 +62,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as exc:
         if args.debug:
             raise
-        print(f"fe-impact: stopped ({getattr(exc, 'name', 'SIGINT')}); finished results are "
-              "kept, rerun to continue", file=sys.stderr)
+        print(f"fe-impact: interrupted ({getattr(exc, 'name', 'SIGINT')}); finished results "
+              "are kept, rerun to continue", file=sys.stderr)
         return exit_status(exc)
 
 

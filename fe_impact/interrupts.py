@@ -12,16 +12,23 @@ summary then works for both.
 while a signal is ignored keeps ignoring it (POSIX keeps ``SIG_IGN`` across
 ``fork`` and ``exec``), so Ctrl-C in a terminal, which signals the whole
 process group, reaches only the parent, which stops the workers itself.
+
+:func:`native_handlers_kept` is for libraries that reset signal handlers
+behind Python's back: ``gmsh.initialize`` sets SIGTERM and SIGPIPE to their
+defaults, after which a SIGTERM killed the process at once (and a worker
+that should ignore it), leaving temporary files.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import signal
 import threading
 from collections.abc import Callable, Iterator
 
-__all__ = ["SIGNALS", "Interrupted", "exit_status", "handle_signals", "ignore_signals"]
+__all__ = ["SIGNALS", "Interrupted", "exit_status", "handle_signals", "ignore_signals",
+           "native_handlers_kept"]
 
 #: The signals that stop a run.
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -91,3 +98,38 @@ def ignore_signals() -> Iterator[None]:
     finally:
         for s, h in old.items():
             signal.signal(s, h)
+
+
+#: Bytes kept for a C ``struct sigaction``: more than any libc's (152 on Linux x86-64).
+_SIGACTION_BYTES = 1024
+
+
+def _sigaction():
+    """The C library's ``sigaction``, or None (not a POSIX C library)."""
+    try:
+        return ctypes.CDLL(None).sigaction
+    except (OSError, AttributeError, TypeError):
+        return None
+
+
+@contextlib.contextmanager
+def native_handlers_kept(signals=(signal.SIGINT, signal.SIGTERM, signal.SIGPIPE)
+                         ) -> Iterator[None]:
+    """Put back, at the end of the block, the C-level dispositions of ``signals``.
+
+    The ``struct sigaction`` is copied as opaque bytes (read with
+    ``sigaction(sig, NULL, old)``, written back with ``sigaction(sig, old,
+    NULL)``), so its layout does not matter. Works from any thread.
+    """
+    sigaction = _sigaction()
+    saved = {}
+    if sigaction is not None:
+        for s in signals:
+            old = ctypes.create_string_buffer(_SIGACTION_BYTES)
+            if sigaction(int(s), None, old) == 0:
+                saved[s] = old
+    try:
+        yield
+    finally:
+        for s, old in saved.items():
+            sigaction(int(s), old, None)

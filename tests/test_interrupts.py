@@ -24,7 +24,6 @@ from fe_impact.cli.main import main
 from fe_impact.output.files import is_temporary
 from tests.test_bad_inputs import sdof
 
-pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
 SIGNALS = [signal.SIGINT, signal.SIGTERM]
 
@@ -90,6 +89,7 @@ def check_stopped(rc: int, err: str, sig: int) -> None:
                              "rerun to continue"], err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: signal.Signals(s).name)
 def test_solve_stops_cleanly_and_reruns(tmp_path, sig):
     # The two-block SDOF over 20,000 Newmark steps (10 s or so), a frame every 200.
@@ -115,6 +115,7 @@ def test_solve_stops_cleanly_and_reruns(tmp_path, sig):
     assert leftovers(out) == []
 
 
+@pytest.mark.slow
 def test_calibrate_stops_cleanly_and_resumes(tmp_path):
     """SIGINT, then SIGTERM, while the FE impact writes its frames; then a rerun that
     finishes on the cached mesh and removes a leftover of a killed run."""
@@ -160,3 +161,34 @@ def test_calibrate_stops_cleanly_and_resumes(tmp_path):
         strict(path)
     record = calibration["cases"][0]
     assert math.isfinite(record["impact"]["k"]) and record["fe"]["peak_force"] > 0
+
+
+GMSH_THEN_SIGTERM = """
+import os, signal, sys, time
+from fe_impact.interrupts import Interrupted, handle_signals
+from fe_impact.meshing.session import gmsh_session
+with handle_signals():
+    with gmsh_session("t"):
+        pass
+    try:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5)
+    except Interrupted as exc:
+        print("handled", exc.name)
+signal.signal(signal.SIGTERM, signal.SIG_IGN)     # as in a calibration worker
+with gmsh_session("t"):
+    pass
+os.kill(os.getpid(), signal.SIGTERM)
+time.sleep(0.2)
+print("ignored")
+"""
+
+
+def test_a_gmsh_session_keeps_the_signal_handlers():
+    """gmsh.initialize sets SIGTERM to its default at the C level: a SIGTERM then killed
+    the process outright (no summary, temporary files left), and a worker that ignores
+    it. Both dispositions must survive a session."""
+    done = subprocess.run([sys.executable, "-c", GMSH_THEN_SIGTERM], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, (done.returncode, done.stderr)
+    assert done.stdout.split() == ["handled", "SIGTERM", "ignored"]

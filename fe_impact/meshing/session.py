@@ -30,13 +30,17 @@ def gmsh_session(name: str = "fe_impact", verbose: bool = False) -> Iterator[obj
     """
     import gmsh
 
-    gmsh.initialize(interruptible=False)
+    from fe_impact.interrupts import native_handlers_kept
+
+    with native_handlers_kept():   # gmsh resets SIGTERM and SIGPIPE to their defaults
+        gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 1 if verbose else 0)
         gmsh.model.add(name)
         yield gmsh.model
     finally:
-        gmsh.finalize()
+        with native_handlers_kept():
+            gmsh.finalize()
 
 
 def write_msh(path: str | Path) -> Path:

@@ -77,9 +77,13 @@ C0 = math.sqrt(E / RHO)
 #: period by ~0.1%. 1% leaves room for the contact switches and catches a
 #: solver error of a few per cent.
 SPECIMEN_TOLERANCE = 0.01
-#: FE against Hertz (two half-spaces): the finite specimen is 1-3% stiffer
-#: (the far-field share hertz_static measures) plus the mesh's own error.
-HERTZ_TOLERANCE = 0.05
+#: FE against Hertz (two half-spaces): the finite specimen is stiffer. The
+#: share of the approach that is not Hertz's grows with the load to about 3%
+#: at 3 m/s (the far-field share hertz_static measures), which raises the
+#: force at a given energy by up to 1.5 times that (F ~ delta^1.5): 4.5%;
+#: with the 1% allowed for the solver, 6%. The specimen check above is the
+#: sharp one.
+HERTZ_TOLERANCE = 0.06
 #: Energy of the Newmark runs (average acceleration conserves it up to the
 #: contact switches) and of the explicit run (central differences conserve a
 #: shadow energy within O(omega^2 dt^2) of it).

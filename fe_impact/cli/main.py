@@ -119,8 +119,11 @@ def _parser() -> argparse.ArgumentParser:
         description="Mesh the tooth pair of each stage, run FE impacts at the impact speeds "
                     "of the operating speeds (seed eq. 4 in mesh, eq. 5 for a ratio switch), "
                     "fit the ADAMS IMPACT parameters and write calibration.json/.csv, "
-                    "report.md, plots and a PVD series per impact. Finished cases are kept; "
-                    "rerunning resumes.")
+                    "report.md, plots and a PVD series per impact, and summary.json (status, "
+                    "finished and missing cases). Finished cases are kept; rerunning resumes. "
+                    "A second run on the same --out waits for the cases the first is "
+                    "computing. Ctrl-C or SIGTERM stops the cases and writes summary.json "
+                    "with status \"stopped\".")
     c.add_argument("gearset", nargs="?", type=Path,
                    help="gear-set TOML (default: the built-in seed set)")
     c.add_argument("--out", type=Path, default=Path("out/calibration"),

@@ -8,11 +8,12 @@ scalar DOF ``s`` and component ``c``.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
+from fe_impact.fe.assembly import element_data, mass_matrix, stiffness_matrix
 from fe_impact.fe.case import MaterialSpec
 from fe_impact.fe.mesh import FEMesh
 
@@ -42,6 +43,7 @@ class ElasticModel:
     K: sp.csr_matrix
     materials: tuple[MaterialSpec, ...]
     material: np.ndarray
+    elements: object = field(default=None, repr=False)   # fe.assembly.ElementData
 
     @property
     def n_dofs(self) -> int:
@@ -75,22 +77,35 @@ def build_model(mesh: FEMesh, materials: tuple[MaterialSpec, ...]) -> ElasticMod
 
     elem = ElementTetP2() if mesh.order == 2 else ElementTetP1()
     # Stiffness integrands are polynomials of degree 2(p-1): exact for affine elements.
-    basis = Basis(mesh.skfem_mesh, ElementVector(elem), intorder=max(2 * (mesh.order - 1), 1))
+    intorder = max(2 * (mesh.order - 1), 1)
+    basis = Basis(mesh.skfem_mesh, ElementVector(elem), intorder=intorder)
     mat = element_materials(mesh, materials)
     if np.any(mat < 0):
         raise ValueError("some elements have no material")
-    K = assemble_stiffness(basis, mat, materials)
+    elements = element_data(basis)
+    lam_mu = _lame(materials)[mat]
+    K = stiffness_matrix(elements, lam_mu[:, 0], lam_mu[:, 1], intorder)
     logger.info("assembled K: %d DOFs, %d nonzeros", K.shape[0], K.nnz)
-    return ElasticModel(mesh, basis, K, materials, mat)
+    return ElasticModel(mesh, basis, K, materials, mat, elements)
+
+
+def _lame(materials) -> np.ndarray:
+    """(lambda, mu) of each material (Pa), shape (n_materials, 2)."""
+    return np.array([lame_from_youngpoisson(m.youngs_modulus, m.poisson_ratio)
+                     for m in materials])
 
 
 def assemble_stiffness(basis, mat: np.ndarray, materials) -> sp.csr_matrix:
-    """Stiffness matrix for per-element materials."""
+    """Stiffness matrix for per-element materials by scikit-fem's ``asm``.
+
+    The reference for :func:`fe_impact.fe.assembly.stiffness_matrix`, which
+    :func:`build_model` uses (the same matrix to round-off, about six times
+    faster).
+    """
     from skfem import BilinearForm, asm
     from skfem.helpers import ddot, sym_grad, trace
 
-    lam_mu = np.array([lame_from_youngpoisson(m.youngs_modulus, m.poisson_ratio)
-                       for m in materials])
+    lam_mu = _lame(materials)
     nqp = basis.X.shape[1]
     lam = np.repeat(lam_mu[mat, 0][:, None], nqp, axis=1)
     mu = np.repeat(lam_mu[mat, 1][:, None], nqp, axis=1)
@@ -120,6 +135,12 @@ def von_mises(model: ElasticModel, u: np.ndarray) -> np.ndarray:
 
 def assemble_mass(model: ElasticModel) -> sp.csr_matrix:
     """Consistent mass matrix ``int rho u . v`` (kg), exact for affine elements."""
+    elements = model.elements if model.elements is not None else element_data(model.basis)
+    return mass_matrix(elements, model.element_field("density"), 2 * model.mesh.order)
+
+
+def assemble_mass_skfem(model: ElasticModel) -> sp.csr_matrix:
+    """:func:`assemble_mass` by scikit-fem's ``asm`` (its reference, about six times slower)."""
     from skfem import Basis, BilinearForm, ElementTetP1, ElementTetP2, ElementVector, asm
     from skfem.helpers import dot
 

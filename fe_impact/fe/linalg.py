@@ -14,6 +14,7 @@ Two tools, both on Intel MKL PARDISO (shipped by the ``pypardiso`` wheel):
 from __future__ import annotations
 
 import ctypes
+import functools
 import logging
 
 import numpy as np
@@ -30,8 +31,10 @@ _PARDISO_ERRORS = {
 }
 
 
+@functools.cache
 def _mkl_pardiso():
-    """The MKL ``pardiso`` entry point, found the way pypardiso finds it."""
+    """The MKL ``pardiso`` entry point, found the way pypardiso finds it (once: the
+    search takes 0.1-0.3 s, and every factorisation asked for it)."""
     from pypardiso.pardiso_wrapper import PyPardisoSolver
 
     fn = PyPardisoSolver().libmkl.pardiso

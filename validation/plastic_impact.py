@@ -194,7 +194,7 @@ reference here. The seed's eq. 14, e = 1 - 0.035 ln(j) j^0.1645, has the
 form of that fit but constants that fit no single material: for this steel
 (S_y/E* = 0.0072) JGM's factor is 0.0361 (S_y/E')^-0.114 = 0.063 and its
 exponent 9.5 S_y/E' = 0.069, while 0.035 would need S_y/E' = 1.3 and 0.1645
-S_y/E' = 0.017; it also has j where JGM have V* - 1 in the power. So eq. 14
+would need 0.017; it also has j where JGM have V* - 1 in the power. So eq. 14
 loses only 60-75% of JGM's energy share and lies 2-9% above it at 2-30 V_y.
 The remaining FE-JGM differences (a few per cent either way) are of the size
 of JGM's own fitting scatter and of the definition of V_y (1.6 Y here, JGM's

@@ -10,7 +10,8 @@ the same run, never an absolute time (the machine is shared).
    that at least 50 steps fall within the contact; wall time from reading
    the case to the last step (a mature open-source FE code needs about
    150 s CPU for this size with 31 implicit steps). Target: a step at most
-   4 solves with the same factorisation, timed in the same run.
+   20 solves with the same factorisation, timed in the same run (the
+   issue's 15 s for the run).
 2. Explicit: the average time of one central-difference step (stiffness
    product, contact forces, history) over 2000 steps of the same model,
    against the memory-bandwidth bound of the stiffness product measured in
@@ -62,9 +63,10 @@ EXPLICIT_OVER_BOUND = 1.5
 PLASTIC_OVER_ELASTIC = 2.0
 #: a Newmark step against one solve with the same factorisation (the step
 #: is that solve plus the contact LCP on the condensed zone and the energy
-#: products; the issue's 15 s for ~80 steps and ~3 s of set-up on an 18k-DOF
-#: model allows about 4 solves' worth per step).
-NEWMARK_OVER_SOLVE = 4.0
+#: products). The issue's 15 s for the whole run, less the ~4 s of set-up,
+#: over its 78 steps is 140 ms a step, 22 solves of 6.2 ms (measured
+#: unloaded at 18.8k DOF): at most 20.
+NEWMARK_OVER_SOLVE = 20.0
 
 
 #: The timings are the process's CPU time: the machine is shared, and waiting

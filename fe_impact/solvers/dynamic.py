@@ -122,6 +122,7 @@ class _RunLog:
     """What a run records: every step's history row, the output steps, the counters."""
 
     separation: SeparationWatch
+    frame_stride: int = 1           # fields at every frame_stride-th output time
     rows: dict[str, list[float]] = field(
         default_factory=lambda: {k: [] for k in HISTORY_KEYS})
     output_index: list[int] = field(default_factory=list)
@@ -225,18 +226,22 @@ class DynamicSolver:
     # -- integration ---------------------------------------------------------------
     def run(self, frame_hook: Callable[[Frame], None] | None = None,
             progress: Callable[[float], None] | None = None,
-            step_hook: Callable[[ti.State, dict[str, float]], object] | None = None
-            ) -> DynamicResult:
+            step_hook: Callable[[ti.State, dict[str, float]], object] | None = None,
+            frame_stride: int = 1) -> DynamicResult:
         """Integrate over the case's duration.
 
-        ``frame_hook(frame)`` receives the fields at every output time (and at
-        t = 0); ``progress(fraction)`` is called now and then;
+        ``frame_hook(frame)`` receives the fields at every ``frame_stride``-th
+        output time (and at t = 0 and the last step); the output history keeps
+        every output time. ``progress(fraction)`` is called now and then;
         ``step_hook(state, row)`` sees every step (the integrator's
         :class:`~fe_impact.solvers.integrators.State` and its history row)
         and ends the run by returning a true value.
         """
+        if frame_stride < 1:
+            raise ValueError(f"frame_stride = {frame_stride}: must be at least 1")
         t0 = time.perf_counter()
-        self.log = _RunLog(SeparationWatch(self.case.analysis.stop_after_separation))
+        self.log = _RunLog(SeparationWatch(self.case.analysis.stop_after_separation),
+                           frame_stride)
         try:
             # Steps are many small vector operations: OpenBLAS threads waking for each
             # dot product cost more than the product (6x slower steps measured on 2
@@ -318,7 +323,9 @@ class DynamicSolver:
             log.output_index.append(len(log.rows["time"]) - 1)
             log.next_output += a.output_interval or a.duration / 100.0
             log.frames.append(t)
-            if frame_hook is not None:
+            last = s.n == self.n_steps or stop is not None
+            if frame_hook is not None and ((len(log.frames) - 1) % log.frame_stride == 0
+                                           or last):
                 frame_hook(self._frame(t, s))
             if progress is not None:
                 progress(min(t / a.duration, 1.0))

@@ -251,7 +251,7 @@ class FEMeasurements(_Record):
 @dataclass(frozen=True, kw_only=True)
 class FitQuality(_Record):
     """How well the fitted law reproduces the FE impact
-    (:class:`fe_impact.calibration.fitting.ImpactFit` without the parameters).
+    (:class:`fe_impact.calibration.impact_fit.ImpactFit` without the parameters).
 
     Relative errors of the one-DOF model against the FE; ``start`` is the
     initial guess ``(k, exponent, cmax, d)``; ``wall_time`` in s.
@@ -274,7 +274,7 @@ class FitQuality(_Record):
 @dataclass(frozen=True, kw_only=True)
 class ClosedForm(_Record):
     """The seed's closed-form IMPACT parameters (eq. 12, 13, 16, 17) at this impact
-    (:class:`fe_impact.calibration.fitting.ClosedFormParameters`)."""
+    (:class:`fe_impact.calibration.closed_form.ClosedFormParameters`)."""
 
     k: float = _number()
     exponent: float = _number()

@@ -1,5 +1,9 @@
-"""Small-strain linear elasticity on P1/P2 tetrahedra with scikit-fem.
+"""Small-strain linear elasticity on P1/P2 tetrahedra.
 
+scikit-fem gives the basis (quadrature, isoparametric map, DOF numbering);
+the stiffness and mass are assembled by the compiled element loops of
+:mod:`fe_impact.fe.assembly` (scikit-fem's ``asm`` is kept as their
+reference: :func:`assemble_stiffness`, :func:`assemble_mass_skfem`).
 Materials enter as per-element Lamé fields, so a multi-material model is
 assembled in one pass. DOFs are scikit-fem's: vector DOF ``3 * s + c`` for
 scalar DOF ``s`` and component ``c``.

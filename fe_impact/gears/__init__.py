@@ -12,7 +12,7 @@ First stage of the data flow (gear set -> tooth surfaces -> mesh ...):
   Hertz ellipse (``GearPair``, ``ContactPoint``, ``contact_ellipse``);
 - :mod:`~fe_impact.gears.pairanalysis`: one tooth pair set up for an impact,
   before meshing: TCA contact, reduced masses, Hertz impact, initial
-  velocities (``PairSpec``, ``PairAnalysis``, ``analyse_pair``);
+  velocities (``PairSpec``, ``PairAnalysis``, ``analyse_pair``).
 
 The geometry modules work on plain numbers and do not import the gear-set
 module; :class:`GearSet` builds their objects (``pinion_tooth()``,

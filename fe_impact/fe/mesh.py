@@ -20,7 +20,6 @@ logger = logging.getLogger(__name__)
 
 UNITS = {"m": 1.0, "mm": 1e-3}
 _VOLUME_TYPES = {"tetra": 1, "tetra10": 2}
-_SURFACE_TYPES = {"triangle": 1, "triangle6": 2}
 
 
 @dataclass(frozen=True, eq=False)

@@ -130,7 +130,8 @@ class DynamicWriter:
                       "residual_indentation: the approach at which the force falls to zero "
                       "on unloading (permanent dent of both sides; 0 when no point yielded). "
                       "energy_error = "
-                      "max |E(t) - E(0)| / E(0), E = kinetic + strain + penalty energy."),
+                      "max |E(t) - E(0)| / E(0), E = kinetic + strain + penalty energy (+ plastic "
+                      "work when a material yields)."),
             **result.measurements,
             "model": result.info,
             "timings_s": result.timings,

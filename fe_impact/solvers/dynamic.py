@@ -96,6 +96,13 @@ class Frame:
 
 @dataclass
 class DynamicResult:
+    """A run's histories, measurements and model data.
+
+    ``frames`` lists every output time (s), the times of ``output_history``;
+    ``frame_hook`` received the fields at every ``frame_stride``-th of them
+    (and the last), so with a stride above 1 there are fewer VTU frames.
+    """
+
     history: dict[str, np.ndarray]     # every step
     output_history: dict[str, np.ndarray]  # at the output interval
     measurements: dict

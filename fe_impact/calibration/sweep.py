@@ -310,7 +310,8 @@ def _prepared_case(pair, settings: Settings) -> Case:
     """The tooth pair's impact case with this run's integrator and calibration controls.
 
     Sets the contact search distance (where the case leaves it automatic),
-    FRAMES_PER_CONTACT output frames, ``stop_after_separation`` (unless set)
+    FRAMES_PER_CONTACT output times per contact time (history rows; the run
+    writes fields at every VTU_FRAME_STRIDE-th), ``stop_after_separation`` (unless set)
     and (Newmark, automatic step) a step of t_c / STEPS_PER_CONTACT, with
     t_c the Hertz contact time. The flanks are nearly flat along the
     ellipse's major axis (relative radius about 1 m), so a search distance of

@@ -215,7 +215,9 @@ def _plot_stress(out: Path, cases: tuple[CalibrationRecord, ...], path: Path) ->
     s = _history(out, c)
     if s is None or not s["fields"]["frames"]:
         return False
-    times = np.asarray(s["history"]["time"])
+    # The frame nearest the peak: the fields are written at every few output
+    # times only (sweep.VTU_FRAME_STRIDE), so index the frames by their own times.
+    times = np.asarray(s["fields"].get("frame_times") or s["history"]["time"])
     k = int(np.argmin(np.abs(times - s["time_of_peak_force"])))
     k = min(k, len(s["fields"]["frames"]) - 1)
     grid = pv.read(out / "cases" / c.id / "fe" / s["fields"]["frames"][k])

@@ -136,7 +136,8 @@ class DynamicWriter:
             "model": result.info,
             "timings_s": result.timings,
             "history": {k: hist[k] for k in keys},
-            "fields": {"series": "impact.pvd", "frames": [f for _, f in self.frames]},
+            "fields": {"series": "impact.pvd", "frames": [f for _, f in self.frames],
+                       "frame_times": [t for t, _ in self.frames]},
             "plots": plots,
         }
         return write_json(self.out / "summary.json", summary)

@@ -13,7 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from validation.hertz_static import CASE_TEMPLATE, DISPLACEMENTS, write_case
+from fe_impact.fe.casefile import write_case as write_case_file
+from validation.hertz_static import DISPLACEMENTS, write_case
+from validation.impact_cases import sphere_block_case
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
 
@@ -68,9 +70,8 @@ def hertz_case(folder: Path, committed: str, h_contact: float, order: int = 2) -
     if not source.is_file():
         return write_case(folder, h_contact, order=order)
     shutil.copyfile(source, folder / "sphere_block.msh")
-    case = folder / "case.toml"
-    case.write_text(CASE_TEMPLATE.format(mesh="sphere_block.msh", values=list(DISPLACEMENTS)))
-    return case
+    return write_case_file(sphere_block_case(folder / "sphere_block.msh", DISPLACEMENTS),
+                           folder / "case.toml")
 
 
 @pytest.fixture(scope="session")

@@ -17,10 +17,107 @@ import pytest
 
 from fe_impact.cli.main import main
 from fe_impact.gears.gearset import _default_candidates
-from validation.hertz_static import CASE_TEMPLATE, DISPLACEMENTS
-from validation.impact_cases import _MATERIAL, SDOF
+from validation.hertz_static import DISPLACEMENTS
+from validation.impact_cases import NU, RHO, E
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"
+
+# Case files as text, for the reader's tests: these files are broken on purpose
+# by editing the text (the package writes cases with fe_impact.fe.casefile).
+_MATERIAL = f"""\
+[[materials]]
+volumes = {{volumes}}
+youngs_modulus = {E}
+poisson_ratio = {NU}
+density = {RHO:g}
+"""
+
+#: The quarter sphere-on-block specimen: mesh, material, contact and supports; the
+#: static and the impact cases add their loading to it.
+SPECIMEN = """\
+[mesh]
+file = "{mesh}"
+unit = "m"
+
+""" + _MATERIAL.format(volumes='["sphere", "block"]') + """
+[[contacts]]
+slave = "sphere_contact"
+master = "block_contact"
+penalty = "auto"
+
+[[supports]]
+surface = "block_bottom"
+fix = ["z"]
+[[supports]]
+surface = "sym_x"
+fix = ["x"]
+[[supports]]
+surface = "sym_y"
+fix = ["y"]
+"""
+
+SPHERE_BLOCK = SPECIMEN + """
+[[initial_velocities]]
+volumes = ["sphere"]
+value = [0.0, 0.0, {v}]
+{rigid}
+[analysis]
+type = "dynamic"
+integrator = "{integrator}"
+duration = {duration}
+time_step = {time_step}
+output_interval = {output}
+"""
+
+RIGID = """
+[[rigid_bodies]]
+surface = "sphere_equator"
+motion = "translation"
+direction = [0.0, 0.0, 1.0]
+inertia = {inertia}
+initial_velocity = {v}
+"""
+
+
+
+SDOF = """\
+[mesh]
+file = "{mesh}"
+unit = "m"
+
+{material}
+[[contacts]]
+slave = "upper_bottom"
+master = "lower_top"
+penalty = {penalty}
+
+[[supports]]
+surface = "lower_all"
+fix = ["x", "y", "z"]
+
+[[rigid_bodies]]
+surface = "upper_all"
+motion = "translation"
+direction = [0.0, 0.0, 1.0]
+inertia = {mass}
+initial_velocity = {v}
+
+[analysis]
+type = "dynamic"
+integrator = "{integrator}"
+duration = {duration}
+time_step = {time_step}
+{extra}
+"""
+
+
+CASE_TEMPLATE = SPECIMEN + """
+[[displacements]]
+surface = "sphere_equator"
+component = "z"
+values = {values}
+"""
+
 SEED = next(p for p in _default_candidates() if p.is_file()).read_text()
 STATIC = CASE_TEMPLATE.format(mesh=MESHES / "hertz_coarse.msh", values=list(DISPLACEMENTS))
 # The two-block SDOF (tests/test_dynamic.py): a 1 mm cube with 10 g on a 1e12 N/m

@@ -14,12 +14,12 @@ from fe_impact.solvers.static import StaticSolver
 
 
 def mutate(case, tmp_path, old, new):
-    """Copy the case with ``old`` replaced by ``new``; the mesh path made absolute."""
-    text = case.read_text()
-    if "[analysis]" not in text:
-        text += "\n[analysis]\n"
-    text = text.replace('file = "sphere_block.msh"',
-                        f'file = "{case.parent / "sphere_block.msh"}"')
+    """The static Hertz case as text (on the committed coarse mesh) with ``old``
+    replaced by ``new``: a case file broken on purpose. ``case`` is unused (the
+    text is the reader tests' template, tests/test_bad_inputs.py)."""
+    from tests.test_bad_inputs import STATIC
+
+    text = STATIC + "\n[analysis]\n"
     assert old in text, old
     path = tmp_path / "bad.toml"
     path.write_text(text.replace(old, new))

@@ -53,12 +53,13 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from fe_impact.fe.case import MULTIPLIERS
+from fe_impact.fe.casefile import write_case as write_case_file
 from fe_impact.fe.mesh import load_mesh
 from fe_impact.output.files import write_csv, write_json
 from fe_impact.physics import hertz
 from fe_impact.solvers.static import StaticSolver
 from validation import checks as ck
-from validation.impact_cases import NU, SPECIMEN, E, R, sphere_block_case
+from validation.impact_cases import NU, E, R, sphere_block_case
 from validation.specimens import SphereBlockSpec, build_sphere_block
 
 logger = logging.getLogger(__name__)
@@ -70,13 +71,6 @@ LEVELS = {"coarse": 0.2e-3, "medium": 0.1e-3, "fine": 0.05e-3, "finest": 0.035e-
 QUICK_LEVELS = ("medium", "fine")
 SYMMETRY = 4.0  # quarter model
 DEPTH = 2.0e-3  # axis points for the local approach: 4 contact radii at full load
-
-CASE_TEMPLATE = SPECIMEN + """
-[[displacements]]
-surface = "sphere_equator"
-component = "z"
-values = {values}
-"""
 
 
 @dataclass(frozen=True)
@@ -118,13 +112,9 @@ def write_case(folder: Path, h_contact: float, order: int = 2,
     The study itself builds the case in memory (:func:`run_level`); the
     file serves the tests of the case-file path.
     """
-    specimen_mesh(folder, h_contact, order)
-    case = folder / "case.toml"
-    text = CASE_TEMPLATE.format(mesh="sphere_block.msh", values=list(displacements))
-    if multiplier != "linear":
-        text = text.replace('penalty = "auto"', f'penalty = "auto"\nmultiplier = "{multiplier}"')
-    case.write_text(text)
-    return case
+    case = sphere_block_case(specimen_mesh(folder, h_contact, order), displacements)
+    case = replace(case, contacts=(replace(case.contacts[0], multiplier=multiplier),))
+    return write_case_file(case, folder / "case.toml")
 
 
 def axis_point(solver: StaticSolver, volume: str, z: float) -> int:

@@ -106,8 +106,9 @@ def tooth_impact(level: str, out: Path, frames: bool = True) -> dict:
     from fe_impact.calibration.sweep import (
         GAP_FRACTION,
         MAX_GAP,
+        VTU_FRAME_STRIDE,
         Settings,
-        _prepared_case,
+        calibration_case,
         measure_and_fit,
         plan_cases,
     )
@@ -134,7 +135,7 @@ def tooth_impact(level: str, out: Path, frames: bool = True) -> dict:
                               settings.order, gap, case.impact_speed, Path(tmp) / "mesh")
         rss_mesh = _rss_mb()
         w, c = time.perf_counter(), time.process_time()
-        fe_case = _prepared_case(pair, settings)
+        fe_case = calibration_case(pair, settings)
         solver = DynamicSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit))
         setup_wall, setup_cpu = time.perf_counter() - w, time.process_time() - c
         parts = ("assembly", "contact_setup", "factorisation", "condensation")
@@ -154,7 +155,7 @@ def tooth_impact(level: str, out: Path, frames: bool = True) -> dict:
                     writer.frame(f)
 
         w, c = time.perf_counter(), time.process_time()
-        result = solver.run(frame_hook=frame)
+        result = solver.run(frame_hook=frame, frame_stride=VTU_FRAME_STRIDE)
         with frame_time("frames"):
             writer.finish(result)
         run_wall, run_cpu = time.perf_counter() - w, time.process_time() - c
@@ -179,7 +180,7 @@ def tooth_impact(level: str, out: Path, frames: bool = True) -> dict:
         "mesh_retries": retries.count,
         "stretch_factor": pair.stats.element_sizes.get("factor"),
         "steps": steps,
-        "frames": len(result.frames) if frames else 0,
+        "frames": len(writer.frames),
         "contact_zone_nodes": result.info["contact_zone_nodes"],
         "projections": result.info["projections"],
         "zone_growths": result.info["zone_growths"],

@@ -43,9 +43,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from fe_impact.atomic import atomic_path, write_csv
 from fe_impact.errors import CalibrationError
 from fe_impact.inputs import Reader, read_document
-from fe_impact.output.files import atomic_path, write_csv
 
 __all__ = [
     "CSV_COLUMNS",

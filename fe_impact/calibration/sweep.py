@@ -277,7 +277,7 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
                           settings.order, gap, case.impact_speed, mesh_dir, reuse=True)
         timings["mesh"] = time.perf_counter() - t
         t = time.perf_counter()
-        fe_case = _prepared_case(pair, settings)
+        fe_case = calibration_case(pair, settings)
         solver = DynamicSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit))
         timings["fe_setup"] = time.perf_counter() - t
         writer = DynamicWriter(folder / "fe", fe_case, solver.mesh, solver.model.material)
@@ -306,7 +306,7 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     return record
 
 
-def _prepared_case(pair, settings: Settings) -> Case:
+def calibration_case(pair, settings: Settings) -> Case:
     """The tooth pair's impact case with this run's integrator and calibration controls.
 
     Sets the contact search distance (where the case leaves it automatic),

@@ -20,11 +20,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import tempfile
 import tomllib
 from collections.abc import Iterable
 from pathlib import Path
 
+from fe_impact.atomic import atomic_path
 from fe_impact.errors import CaseError
 from fe_impact.fe.case import (
     COMPONENTS,
@@ -203,16 +203,6 @@ def _check_round_trip(case: Case, text: str, path: Path) -> None:
 
 
 def _write_atomic(path: Path, text: str) -> None:
-    """Write to a temporary file next to ``path`` and rename it (no half-written files)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; case files are meant to be shared
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    """Write ``text`` to ``path`` so that it appears whole (no half-written file)."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)

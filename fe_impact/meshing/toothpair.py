@@ -343,8 +343,8 @@ def build_pair(
         For invalid options (the message names the option and what is
         allowed) and meshes that cannot be made.
     """
+    from fe_impact.atomic import atomic_folder, write_json
     from fe_impact.fe.casefile import write_case
-    from fe_impact.output.files import atomic_folder, write_json
 
     started = time.perf_counter()
     try:

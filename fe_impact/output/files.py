@@ -13,19 +13,23 @@ any work starts.
 from __future__ import annotations
 
 import contextlib
-import csv
 import fcntl
-import json
 import os
 import re
 import shutil
-import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from fe_impact.atomic import (  # noqa: F401 - re-exported: the result writers' API
+    atomic_folder,
+    atomic_path,
+    standard_json,
+    write_csv,
+    write_json,
+)
 from fe_impact.errors import FeImpactError
 from fe_impact.fe.mesh import FEMesh
 
@@ -108,83 +112,6 @@ def folder_lock(folder: str | Path, wait: bool = True) -> Iterator[bool]:
         yield True
     finally:
         os.close(fd)   # releases the lock
-
-
-@contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; rename it to ``path`` on success."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)   # mkstemp makes 0600; results are meant to be shared
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-
-
-@contextlib.contextmanager
-def atomic_folder(folder: str | Path, stem: str = "build") -> Iterator[Path]:
-    """Yield a new private folder inside ``folder`` (``.{stem}-XXXXXXXX``), removed at the end.
-
-    Files made there and moved into ``folder`` with :func:`os.replace`
-    appear whole under their real names, and scratch files made there are
-    the process's own.
-    """
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{stem}-", dir=folder))
-    try:
-        yield tmp
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-
-def standard_json(obj):
-    """``obj`` with NumPy values made plain and every NaN or infinity made ``None``.
-
-    JSON has no NaN or Infinity: Python writes them, but strict readers
-    (JavaScript's ``JSON.parse``, most non-Python libraries) reject the file.
-    A quantity that has no finite value is written as ``null``.
-    """
-    if isinstance(obj, dict):
-        return {str(k): standard_json(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [standard_json(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return standard_json(obj.tolist())
-    if isinstance(obj, bool | np.bool_):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, float | np.floating):
-        return float(obj) if np.isfinite(obj) else None
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
-
-
-def write_json(path: str | Path, data: dict) -> Path:
-    """Write ``data`` as indented, standard JSON (no NaN/Infinity: see
-    :func:`standard_json`), atomically."""
-    text = json.dumps(standard_json(data), indent=2, allow_nan=False)
-    with atomic_path(path) as tmp:
-        tmp.write_text(text + "\n")
-    return Path(path)
-
-
-def write_csv(path: str | Path, header: Sequence[str], rows: Sequence[Sequence]) -> Path:
-    """Write a CSV table with a header row, atomically."""
-    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        w.writerows(rows)
-    return Path(path)
 
 
 def write_vtu(path: str | Path, mesh: FEMesh, point_data: dict | None = None,

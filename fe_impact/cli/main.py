@@ -282,7 +282,7 @@ def _checked_dynamic(case, max_frames: int):
                        "and fewer over the contact: an impact needs about %d or more over "
                        "the contact", where, a.time_step, max(1, round(a.duration / a.time_step)),
                        a.duration, MIN_STEPS_PER_CONTACT)
-    interval = a.output_interval or a.duration / 100.0
+    interval = a.output_step
     frames = math.floor(a.duration / interval * (1 + 1e-9)) + 1
     if frames <= max_frames:
         return case

@@ -21,12 +21,13 @@ from pathlib import Path
 import numpy as np
 
 from fe_impact.errors import MeshError
+from fe_impact.gears.pairanalysis import LEVEL_NAMES
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["register", "run", "write_picture"]
 
-LEVEL_CHOICES = ("coarse", "default", "fine")
+LEVEL_CHOICES = LEVEL_NAMES
 
 
 def register(subparsers) -> argparse.ArgumentParser:

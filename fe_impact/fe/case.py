@@ -187,6 +187,11 @@ class AnalysisSpec:
     def dynamic(self) -> bool:
         return self.type == "dynamic"
 
+    @property
+    def output_step(self) -> float:
+        """The output interval in s: ``output_interval``, or a hundredth of the duration."""
+        return self.output_interval or self.duration / 100.0
+
 
 @dataclass(frozen=True)
 class Case:

@@ -328,7 +328,7 @@ class DynamicSolver:
             stop = Stop.HOOK
         if t >= log.next_output - 0.5 * self.dt or s.n == self.n_steps or stop is not None:
             log.output_index.append(len(log.rows["time"]) - 1)
-            log.next_output += a.output_interval or a.duration / 100.0
+            log.next_output += a.output_step
             log.frames.append(t)
             last = s.n == self.n_steps or stop is not None
             if frame_hook is not None and ((len(log.frames) - 1) % log.frame_stride == 0

@@ -88,7 +88,7 @@ def time_step(case: Case, dt_stable: float | None) -> float:
     steps per output interval.
     """
     a = case.analysis
-    out = a.output_interval or a.duration / 100.0
+    out = a.output_step
     if dt_stable is not None:
         if a.time_step is not None:
             if a.time_step > dt_stable:

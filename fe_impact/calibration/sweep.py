@@ -72,6 +72,7 @@ from fe_impact.calibration.records import (  # noqa: F401 (KINDS, UNITS: importa
     write_record,
 )
 from fe_impact.errors import CalibrationError
+from fe_impact.fe.case import INTEGRATORS
 from fe_impact.gears.pairanalysis import LEVEL_NAMES
 from fe_impact.inputs import Reader, read_document
 from fe_impact.interrupts import Interrupted, handle_signals, ignore_signals
@@ -85,7 +86,6 @@ logger = logging.getLogger(__name__)
 
 OPERATING_SPEEDS_RPM = (100.0, 300.0, 1000.0)
 LEVELS = LEVEL_NAMES
-INTEGRATORS = ("newmark", "explicit")
 #: Newmark steps per (Hertz-estimated) contact time in the tooth impacts.
 STEPS_PER_CONTACT = 60
 #: Output-history samples per (Hertz-estimated) contact time: the force and

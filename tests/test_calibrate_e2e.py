@@ -37,7 +37,8 @@ def test_calibration_outputs(calibrated):
     # The fitted law reproduces the FE history it was fitted to (relative RMS of force).
     assert case["fit_quality"]["residual_force_rms"] < 0.05
     assert law["k"] > 0 and tca_mass > 0
-    # eq. 15 for 20CrMnTi is 0.0866 m/s (DESIGN.md section 4: "about 0.09 m/s");
+    # eq. 15 for 20CrMnTi is 0.0866 m/s (docs/references.md, "Hertz impact, wave loss
+    # and yield onset");
     # at 0.05 m/s the seed's eq. 14 says elastic, like the FE.
     models = case["restitution_models"]
     assert models["v_y_eq15"] == pytest.approx(0.0866, rel=1e-3)

@@ -259,7 +259,8 @@ def test_hysteresis_chis_against_the_phase_plane_relation():
     assert list(chis) == [
         "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier", "zhiying-qishao"
     ]
-    # chi(0.7) of each model's formula (DESIGN.md section 5) evaluated by hand, 10 digits.
+    # chi(0.7) of each model's formula (docs/references.md, "Lumped impact laws"),
+    # evaluated by hand, 10 digits.
     by_hand = {"hunt-crossley": 0.45, "lankarani-nikravesh": 0.3825,
                "flores": 0.6857142857, "gonthier": 0.7285714286,
                "zhiying-qishao": 0.6969604411}
@@ -270,7 +271,7 @@ def test_hysteresis_chis_against_the_phase_plane_relation():
         chi, e = entry.chi, entry.restitution
         assert -chi * e - math.log1p(-chi * e) == pytest.approx(chi - math.log1p(chi),
                                                                abs=1e-8)
-    # DESIGN.md section 5 quotes them to three digits at target e = 0.7.
+    # docs/references.md ("Lumped impact laws") gives them at target e = 0.7.
     produced = {m: round(e.restitution, 3) for m, e in chis.items()}
     assert produced == {
         "hunt-crossley": 0.768,
@@ -283,7 +284,8 @@ def test_hysteresis_chis_against_the_phase_plane_relation():
 
 # -- closed forms -------------------------------------------------------------------------
 def test_closed_form_parameters_design_checks():
-    # DESIGN.md section 6: R = 10 mm, m = 0.5 kg, v = 0.1 m/s -> 11.04 um, 566 N, 325 us.
+    # docs/references.md ("Hertz impact"): R = 10 mm, m = 0.5 kg, v = 0.1 m/s
+    # -> 11.04 um, 566 N, 325 us.
     p = fitting.closed_form_parameters(0.01, E_STAR, 0.5, 0.1, 0.8)
     assert p.k == pytest.approx(4 / 3 * 115.66e9 * 0.1, rel=1e-4)  # 1.5421e10 N/m^1.5
     assert p.exponent == 1.5

@@ -5,7 +5,7 @@ import pytest
 
 from fe_impact.physics import hertz
 
-Y_STEEL = 835e6  # 20CrMnTi, DESIGN section 2
+Y_STEEL = 835e6  # 20CrMnTi (docs/references.md, material of the default gear set)
 NU_STEEL = 0.289
 E_STAR = 115.66e9  # two 20CrMnTi bodies
 

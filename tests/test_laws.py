@@ -17,16 +17,17 @@ MASS = 0.5
 
 MODELS = ["hunt-crossley", "lankarani-nikravesh", "flores", "gonthier", "zhiying-qishao"]
 TARGETS = [0.3, 0.5, 0.7, 0.9]
-# DESIGN section 5: restitution each model produces for the target e (three digits);
-# docs/references.md gives them from the exact phase-plane relation below.
-DESIGN_TABLE = {
+# Restitution each model produces for the target e, to three digits as usually quoted;
+# docs/references.md ("Lumped impact laws") gives them from the exact phase-plane relation.
+THREE_DIGIT_TABLE = {
     "hunt-crossley": [0.581, 0.663, 0.768, 0.909],
     "lankarani-nikravesh": [0.684, 0.725, 0.796, 0.913],
     "flores": [0.256, 0.470, 0.683, 0.894],
     "gonthier": [0.304, 0.488, 0.670, 0.876],
     "zhiying-qishao": [0.327, 0.483, 0.680, 0.896],
 }
-# chi(e) of each model evaluated by hand from its paper's formula (DESIGN section 5),
+# chi(e) of each model evaluated by hand from its paper's formula
+# (docs/references.md, "Lumped impact laws"),
 # at e = 0.7: 3(0.3)/2; 3(0.51)/4; 8(0.3)/(5*0.7); 0.51/0.7; 3(0.51) exp(0.6)/4.
 CHI_AT_07 = {"hunt-crossley": 0.45, "lankarani-nikravesh": 0.3825,
              "flores": 0.6857142857, "gonthier": 0.7285714286, "zhiying-qishao": 0.6969604411}
@@ -188,13 +189,13 @@ def test_hysteresis_factors_are_the_published_formulas():
 
 @pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("index", range(len(TARGETS)))
-def test_restitution_table_of_design(model, index):
+def test_restitution_table_of_the_hysteresis_models(model, index):
     # The 1-DOF integration (DOP853, rtol 1e-11) against the exact phase-plane relation:
-    # they agree to ~1e-11, checked at 1e-8. DESIGN's three-digit table is that relation
+    # they agree to ~1e-11, checked at 1e-8. The three-digit table is that relation
     # rounded: within half a unit of the third digit.
     exact = exact_restitution(laws.hysteresis_factor(model, TARGETS[index]))
     assert laws.restitution_of(model, TARGETS[index]) == pytest.approx(exact, abs=1e-8)
-    assert abs(DESIGN_TABLE[model][index] - exact) <= 5e-4 + 1e-12
+    assert abs(THREE_DIGIT_TABLE[model][index] - exact) <= 5e-4 + 1e-12
 
 
 @pytest.mark.parametrize("exponent", [1.0, 1.5, 2.5])
@@ -222,7 +223,8 @@ def test_undamped_law_reproduces_hertz_impact(kind, speed):
     assert run.delta_max == pytest.approx(reference.delta_max, rel=1e-4)
     assert run.contact_time == pytest.approx(reference.contact_time, rel=1e-4)
     assert run.separation_time == pytest.approx(run.contact_time, rel=1e-8)
-    # DESIGN section 6 quotes the same impact (R = 10 mm, m = 0.5 kg): 11.04 um, 566 N,
+    # docs/references.md ("Hertz impact") quotes the same impact (R = 10 mm,
+    # m = 0.5 kg): 11.04 um, 566 N,
     # 325 us at 0.1 m/s; 69.7 um, 8970 N, 205 us at 1 m/s (half a unit of the last digit).
     quoted = {0.1: (11.04e-6, 0.005e-6, 566.0, 0.5, 325e-6, 0.5e-6),
               1.0: (69.7e-6, 0.05e-6, 8970.0, 5.0, 205e-6, 0.5e-6)}[speed]
@@ -287,7 +289,7 @@ def test_eq13_cmax_in_the_impact_form_loses_too_much(d_fraction, design_e):
     delta_max = seed.max_approach(MASS, speed, K)
     cmax = seed.damping(K, 0.7, speed, delta_max)
     law = laws.ImpactLaw(k=K, exponent=1.5, cmax=cmax, d=d_fraction * delta_max)
-    # DESIGN gives two digits; measured 0.6103 and 0.3364.
+    # docs/references.md ("Lumped impact laws") gives two digits; measured 0.6103 and 0.3364.
     assert laws.simulate_impact(law, MASS, speed).restitution == pytest.approx(design_e, abs=5e-3)
 
 
@@ -310,7 +312,8 @@ def test_eq16_is_the_energy_balance_of_a_hertz_impact():
 
 
 def test_eq17_is_the_hertz_approach():
-    # DESIGN section 6: R = 10 mm, P = 1000 N -> 16.141 um; and delta = a^2 / R with
+    # docs/references.md ("Hertz contact"): R = 10 mm, P = 1000 N -> 16.141 um;
+    # and delta = a^2 / R with
     # Johnson's contact radius a = (3PR/(4E*))^(1/3) (another algebraic form: 1e-13).
     depth = seed.penetration_depth(1000.0, R, 115.66e9)
     assert depth == pytest.approx(16.141e-6, abs=0.0005e-6)

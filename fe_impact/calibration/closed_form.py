@@ -30,7 +30,7 @@ __all__ = [
 ]
 
 #: The five hysteresis-damping models of `fe_impact.physics.laws.CHI_MODELS` (without
-#: the undamped ``"hertz"`` entry), in the order of DESIGN.md section 5.
+#: the undamped ``"hertz"`` entry), in the order of docs/references.md ("Lumped impact laws").
 HYSTERESIS_MODELS: tuple[str, ...] = tuple(m for m in laws.CHI_MODELS if m != "hertz")
 
 

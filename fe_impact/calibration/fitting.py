@@ -1,10 +1,10 @@
 """Fitting of lumped contact laws to an FE tooth impact: the calibration step.
 
-An FE single-tooth impact (DESIGN.md section 4) gives a history: time ``t``,
+An FE single-tooth impact gives a history: time ``t``,
 total normal contact force ``F(t)``, approach ``delta(t)``, together with the
 effective mass ``m``, the impact speed ``v`` and the measured restitution
 ``e``. The calibration turns it into the parameters of the lumped laws of
-`fe_impact.physics.laws` (DESIGN.md section 5). This module gathers the
+`fe_impact.physics.laws`. This module gathers the
 public names of the modules that do it, in the order of the data flow:
 
 - `fe_impact.calibration.history`: the history checked, first touch and end

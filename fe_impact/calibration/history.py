@@ -1,6 +1,6 @@
 """An FE impact history made ready for the calibration fits, and the checks of its inputs.
 
-An FE single-tooth impact (DESIGN.md section 4) records time ``t``, total
+An FE single-tooth impact records time ``t``, total
 normal contact force ``F(t)`` and approach ``delta(t)``. `prepare_history`
 checks them, finds first touch and the end of the contact, and resamples
 force and approach on the common normalised time that

@@ -1,6 +1,6 @@
 """Joint fit of the ADAMS ``IMPACT`` law ``(k, exponent, cmax, d)`` to an FE tooth impact.
 
-An FE single-tooth impact (DESIGN.md section 4) gives a history (time,
+An FE single-tooth impact gives a history (time,
 total normal contact force, approach) with the effective mass ``m``, the
 impact speed ``v`` and the measured restitution ``e``. `fit_impact_law`
 finds the IMPACT law whose one-degree-of-freedom impact

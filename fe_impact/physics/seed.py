@@ -49,7 +49,7 @@ def stiffness(R: float, E_star: float) -> float:
     """Seed eq. 12: ``K_cf = (4/3) E* R^0.5`` [N/m^1.5] (`hertz.sphere_stiffness`).
 
     The seed writes E* in a form that is not the effective modulus; this is
-    Johnson's ``1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2`` (DESIGN.md section 6).
+    Johnson's ``1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2`` (Johnson 1985, section 4.2).
     """
     return hertz.sphere_stiffness(R, E_star)
 

@@ -200,8 +200,8 @@ def contact_radii(gearset: GearSet, stage_index: int) -> tuple[float, float]:
     ``r_p sin(alpha0)``, against the face gear, which is flat like a rack.
     Lengthwise: the curvature mismatch from the shaper, about
     ``(1/r_p - 1/r_s) sin^2(psi_c) / sin(alpha0)`` with
-    ``tan(psi_c) = (N_s / N_2) cos(alpha0)`` (DESIGN.md section 3, an
-    estimate), plus the pinion's parabolic lengthwise crowning
+    ``tan(psi_c) = (N_s / N_2) cos(alpha0)`` (an estimate; Litvin,
+    NASA/CR-2000-209909), plus the pinion's parabolic lengthwise crowning
     ``delta_l (2u/b)^2``, curvature ``8 delta_l / b^2``.
     """
     p, stage = gearset.pinion, gearset.stages[stage_index]

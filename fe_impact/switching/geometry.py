@@ -2,7 +2,7 @@
 
 A face gear meshing with a spur pinion behaves, at each radius ``L`` of its
 face, like a rack whose pressure angle ``alpha_L`` satisfies
-``cos(alpha_L) = r_2 cos(alpha0) / L`` (DESIGN.md section 3; Litvin,
+``cos(alpha_L) = r_2 cos(alpha0) / L`` (Litvin,
 NASA/CR-2000-209909, section 1.5). The face-gear point at ``L`` moves at
 ``omega_2 L`` along the pinion's transverse plane, and its speed along the
 contact normal is ``omega_2 L cos(alpha_L) = omega_2 r_2 cos(alpha0)``, the

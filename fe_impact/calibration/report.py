@@ -20,7 +20,10 @@ def _fmt(v, spec=".4g", scale=1.0) -> str:
 
 def _gap(gap: float | None) -> str:
     if gap is None:
-        return "half the Hertz approach, at most 2 um (per case in calibration.json)"
+        from fe_impact.calibration.sweep import GAP_FRACTION, MAX_GAP
+
+        return (f"{GAP_FRACTION:g} x the Hertz approach, at most {MAX_GAP * 1e6:g} um "
+                "(per case in calibration.json)")
     return f"{gap * 1e6:g} um"
 
 

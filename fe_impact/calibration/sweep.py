@@ -91,7 +91,7 @@ STEPS_PER_CONTACT = 60
 #: Output-history samples per (Hertz-estimated) contact time: the force and
 #: approach histories of summary.json, history.csv and the report's plots.
 #: The measurements and the fit read every step's history, not these samples.
-FRAMES_PER_CONTACT = 20
+HISTORY_PER_CONTACT = 20
 #: ParaView frames: the fields at every VTU_FRAME_STRIDE-th output time, about
 #: 8 a case (approach, loading, peak, unloading, separation). Each frame of a
 #: 120k-DOF tooth pair costs about 0.3 s of CPU (stresses and a compressed
@@ -311,7 +311,7 @@ def calibration_case(pair, settings: Settings) -> Case:
     """The tooth pair's impact case with this run's integrator and calibration controls.
 
     Sets the contact search distance (where the case leaves it automatic),
-    FRAMES_PER_CONTACT output times per contact time (history rows; the run
+    HISTORY_PER_CONTACT output times per contact time (history rows; the run
     writes fields at every VTU_FRAME_STRIDE-th), ``stop_after_separation`` (unless set)
     and (Newmark, automatic step) a step of t_c / STEPS_PER_CONTACT, with
     t_c the Hertz contact time. The flanks are nearly flat along the
@@ -331,7 +331,7 @@ def calibration_case(pair, settings: Settings) -> Case:
     contacts = tuple(c if c.search_distance is not None else replace(c, search_distance=reach)
                      for c in case.contacts)
     a = replace(case.analysis, integrator=settings.integrator,
-                output_interval=t_c / FRAMES_PER_CONTACT)
+                output_interval=t_c / HISTORY_PER_CONTACT)
     if a.stop_after_separation is None:
         a = replace(a, stop_after_separation=STOP_AFTER_SEPARATION)
     if settings.integrator == "newmark" and a.time_step is None:

@@ -202,24 +202,21 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
-def _int_list(text: str) -> list[int]:
-    try:
-        values = [int(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: need comma-separated integers") from None
-    if not values:
-        raise argparse.ArgumentTypeError(f"{text!r}: need at least one integer")
-    return values
+def _list_of(cast, plural: str, singular: str):
+    """An argparse type: comma-separated values of ``cast``, at least one."""
+    def parse(text: str) -> list:
+        try:
+            values = [cast(x) for x in text.split(",") if x.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r}: need comma-separated {plural}") from None
+        if not values:
+            raise argparse.ArgumentTypeError(f"{text!r}: need at least one {singular}")
+        return values
+    return parse
 
 
-def _float_list(text: str) -> list[float]:
-    try:
-        values = [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: need comma-separated numbers") from None
-    if not values:
-        raise argparse.ArgumentTypeError(f"{text!r}: need at least one number")
-    return values
+_int_list = _list_of(int, "integers", "integer")
+_float_list = _list_of(float, "numbers", "number")
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:

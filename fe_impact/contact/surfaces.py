@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 from scipy.spatial import cKDTree
 
 from fe_impact.errors import MeshError
@@ -236,40 +237,113 @@ def project(points: np.ndarray, master: ContactSurface, x: np.ndarray,
             faces: np.ndarray, k: int = 8, iterations: int = 6) -> Projection:
     """Project points on the master faces ``faces`` of the configuration ``x``.
 
-    The ``k`` faces with the nearest centroids are tried; the closest
-    projection falling inside a face wins. Points with no such projection
-    (beyond the master's edge) are marked invalid.
+    The ``k`` faces with the nearest centroids are tried, each by
+    ``iterations`` Gauss-Newton steps on its reference coordinates from the
+    centroid; the closest projection falling inside a face wins. Points with
+    no such projection (beyond the master's edge) are marked invalid. The
+    loop over points and faces is compiled (:func:`_project_kernel`).
     """
     k = int(min(k, len(faces)))
     cent = x[master.faces[faces, :3]].mean(axis=1)
     _, cand = cKDTree(cent).query(points, k=k)
-    cand = cand.reshape(len(points), k)
-    fidx = faces[cand]  # (n, k)
-    P = np.repeat(points[:, None, :], k, axis=1)
-    xi = np.full(fidx.shape, 1.0 / 3.0)
-    eta = np.full(fidx.shape, 1.0 / 3.0)
-    for _ in range(iterations):
-        pos, t1, t2, _ = master.geometry(x, xi, eta, master.faces[fidx])
-        r = P - pos
-        a11, a12, a22 = (np.einsum("...i,...i", t1, t1), np.einsum("...i,...i", t1, t2),
-                         np.einsum("...i,...i", t2, t2))
-        b1, b2 = np.einsum("...i,...i", t1, r), np.einsum("...i,...i", t2, r)
-        det = a11 * a22 - a12 ** 2
-        xi = xi + (a22 * b1 - a12 * b2) / det
-        eta = eta + (a11 * b2 - a12 * b1) / det
-    pos, t1, t2, _ = master.geometry(x, xi, eta, master.faces[fidx])
-    inside = (xi >= -_INSIDE_TOL) & (eta >= -_INSIDE_TOL) & (xi + eta <= 1 + _INSIDE_TOL)
-    dist = np.linalg.norm(P - pos, axis=-1)
-    dist[~inside] = np.inf
-    best = np.argmin(dist, axis=1)
-    rows = np.arange(len(points))
-    nrm = np.cross(t1[rows, best], t2[rows, best])
-    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
-    point = pos[rows, best]
-    gap = np.einsum("ij,ij->i", nrm, points - point)
-    valid = np.isfinite(dist[rows, best])
-    gap[~valid] = np.inf
-    return Projection(valid, fidx[rows, best], xi[rows, best], eta[rows, best], point, nrm, gap)
+    fidx = np.ascontiguousarray(faces[cand.reshape(len(points), k)], dtype=np.int64)
+    best, xi, eta, point, nrm, gap = _project_kernel(
+        np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(x, dtype=float),
+        np.ascontiguousarray(master.faces, dtype=np.int64), fidx, iterations, _INSIDE_TOL)
+    valid = best >= 0
+    face = np.where(valid, fidx[np.arange(len(points)), np.maximum(best, 0)], fidx[:, 0])
+    return Projection(valid, face, xi, eta, point, nrm, gap)
+
+
+@njit(cache=True)
+def _shape(xi, eta, nn, N, dxi, deta):
+    """Fill the shape functions of a 3- or 6-node triangle and their derivatives."""
+    L0 = 1.0 - xi - eta
+    if nn == 3:
+        N[0], N[1], N[2] = L0, xi, eta
+        dxi[0], dxi[1], dxi[2] = -1.0, 1.0, 0.0
+        deta[0], deta[1], deta[2] = -1.0, 0.0, 1.0
+        return
+    N[0], N[1], N[2] = L0 * (2 * L0 - 1), xi * (2 * xi - 1), eta * (2 * eta - 1)
+    N[3], N[4], N[5] = 4 * L0 * xi, 4 * xi * eta, 4 * eta * L0
+    dxi[0], dxi[1], dxi[2] = -(4 * L0 - 1), 4 * xi - 1, 0.0
+    dxi[3], dxi[4], dxi[5] = 4 * (L0 - xi), 4 * eta, -4 * eta
+    deta[0], deta[1], deta[2] = -(4 * L0 - 1), 0.0, 4 * eta - 1
+    deta[3], deta[4], deta[5] = -4 * xi, 4 * xi, 4 * (L0 - eta)
+
+
+@njit(cache=True)
+def _project_kernel(points, x, mfaces, fidx, iterations, tol):
+    """Closest in-face projection of each point over its candidate faces.
+
+    Returns the winning candidate's column (-1: none inside), reference
+    coordinates, point, unit normal ``t1 x t2`` and gap (+inf if none).
+    """
+    n, k = fidx.shape
+    nn = mfaces.shape[1]
+    best = -np.ones(n, dtype=np.int64)
+    xi_o = np.empty(n)
+    eta_o = np.empty(n)
+    pt_o = np.zeros((n, 3))
+    nrm_o = np.zeros((n, 3))
+    gap_o = np.full(n, np.inf)
+    N = np.empty(nn)
+    dxi = np.empty(nn)
+    deta = np.empty(nn)
+    pos = np.empty(3)
+    t1 = np.empty(3)
+    t2 = np.empty(3)
+    for i in range(n):
+        dbest = np.inf
+        xi_b, eta_b = 1.0 / 3.0, 1.0 / 3.0
+        for c in range(k):
+            f = fidx[i, c]
+            xi, eta = 1.0 / 3.0, 1.0 / 3.0
+            for it in range(iterations + 1):
+                _shape(xi, eta, nn, N, dxi, deta)
+                for d in range(3):
+                    pos[d] = 0.0
+                    t1[d] = 0.0
+                    t2[d] = 0.0
+                    for a in range(nn):
+                        xa = x[mfaces[f, a], d]
+                        pos[d] += N[a] * xa
+                        t1[d] += dxi[a] * xa
+                        t2[d] += deta[a] * xa
+                if it == iterations:
+                    break
+                a11 = t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]
+                a12 = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]
+                a22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2]
+                b1 = 0.0
+                b2 = 0.0
+                for d in range(3):
+                    r = points[i, d] - pos[d]
+                    b1 += t1[d] * r
+                    b2 += t2[d] * r
+                det = a11 * a22 - a12 * a12
+                xi, eta = xi + (a22 * b1 - a12 * b2) / det, eta + (a11 * b2 - a12 * b1) / det
+            if xi < -tol or eta < -tol or xi + eta > 1.0 + tol:
+                continue
+            dist = 0.0
+            for d in range(3):
+                dist += (points[i, d] - pos[d]) ** 2
+            if dist < dbest:
+                dbest = dist
+                best[i] = c
+                xi_b, eta_b = xi, eta
+                nx = t1[1] * t2[2] - t1[2] * t2[1]
+                ny = t1[2] * t2[0] - t1[0] * t2[2]
+                nz = t1[0] * t2[1] - t1[1] * t2[0]
+                s = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
+                nrm_o[i, 0], nrm_o[i, 1], nrm_o[i, 2] = nx * s, ny * s, nz * s
+                g = 0.0
+                for d in range(3):
+                    pt_o[i, d] = pos[d]
+                    g += nrm_o[i, d] * (points[i, d] - pos[d])
+                gap_o[i] = g
+        xi_o[i], eta_o[i] = xi_b, eta_b
+    return best, xi_o, eta_o, pt_o, nrm_o, gap_o
 
 
 @dataclass(frozen=True, eq=False)

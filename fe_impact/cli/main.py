@@ -147,7 +147,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 #: Modules that add their own subcommands with ``register(subparsers)``.
-_COMMAND_MODULES = ("fe_impact.cli.mesh", "fe_impact.cli.switching")
+_COMMAND_MODULES = ("fe_impact.cli.mesh", "fe_impact.cli.switching", "fe_impact.cli.geometry")
 
 
 def _configure_logging(verbose: int) -> None:

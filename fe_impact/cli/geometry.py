@@ -1,0 +1,217 @@
+"""``fe-impact geometry``: the checks of a gear set before any finite-element work.
+
+::
+
+    fe-impact geometry [GEARSET] [--torque NM] [--json FILE]
+
+Prints one column per face-gear stage: the face-width limits (undercut,
+conjugate tip, pointing) and the chosen radii, the path of contact in pinion
+roll angle and the contact ratio, the Hertz contact at the pitch point under
+the nominal load, and the rotor masses reduced to the contact normal
+(:func:`fe_impact.gears.report.stage_geometry`). ``--json`` writes the same
+numbers in SI units. `register` adds the subcommand; bad input raises
+`fe_impact.errors.FeImpactError` subclasses (the CLI prints them as one line).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from fe_impact.errors import CaseError, GeometryError
+
+__all__ = ["JSON_SCHEMA", "TABLE", "format_table", "register", "run"]
+
+#: ``schema`` of the file ``--json`` writes.
+JSON_SCHEMA = "fe-impact/geometry/1"
+
+_DEG = 180.0 / math.pi
+
+#: Rows of the printed table, by section: (key, label with unit, scale from SI,
+#: format). A key ``name[i]`` takes item ``i`` of a list; strings print as they are.
+TABLE: dict[str, tuple[tuple[str, str, float, str], ...]] = {
+    "face_width": (
+        ("pitch_radius_m", "pitch radius r_2 [mm]", 1e3, ".3f"),
+        ("inner_undercut_limit_m", "inner limit: undercut [mm]", 1e3, ".3f"),
+        ("inner_conjugate_limit_m", "inner limit: conjugate tip [mm]", 1e3, ".3f"),
+        ("outer_pointing_limit_m", "outer limit: pointing [mm]", 1e3, ".3f"),
+        ("inner_undercut_u_m", "undercut limit, shaper axis u_s [mm]", 1e3, ".3f"),
+        ("inner_conjugate_u_m", "conjugate-tip limit, u_s [mm]", 1e3, ".3f"),
+        ("radius_at_top_land_min_m", "radius of a 0.2 mm top land [mm]", 1e3, ".3f"),
+        ("inner_radius_m", "inner radius, chosen [mm]", 1e3, ".3f"),
+        ("outer_radius_m", "outer radius, chosen [mm]", 1e3, ".3f"),
+        ("face_width_m", "face width [mm]", 1e3, ".3f"),
+        ("inner_margin_m", "inner radius - inner limit [mm]", 1e3, ".3f"),
+        ("outer_margin_m", "pointing limit - outer radius [mm]", 1e3, ".3f"),
+        ("top_land_at_outer_radius_m", "top land at outer radius [mm]", 1e3, ".3f"),
+        ("clearance_to_next_ring_m", "radial clearance to next ring [mm]", 1e3, ".3f"),
+    ),
+    "path_of_contact": (
+        ("first_roll_rad", "first point of contact [deg]", _DEG, "+.4f"),
+        ("first_limit", "  limited by", 1.0, "s"),
+        ("last_roll_rad", "last point of contact [deg]", _DEG, "+.4f"),
+        ("last_limit", "  limited by", 1.0, "s"),
+        ("path_length_rad", "path length [deg]", _DEG, ".4f"),
+        ("angular_pitch_rad", "angular pitch 360/N_p [deg]", _DEG, ".4f"),
+        ("contact_ratio", "contact ratio [-]", 1.0, ".4f"),
+    ),
+    "pitch_point": (
+        ("pinion_curvatures_1_m[0]", "pinion curvature k_1 [1/m]", 1.0, ".4g"),
+        ("pinion_curvatures_1_m[1]", "pinion curvature k_2 [1/m]", 1.0, ".4g"),
+        ("face_curvatures_1_m[0]", "face-gear curvature k_1 [1/m]", 1.0, ".4g"),
+        ("face_curvatures_1_m[1]", "face-gear curvature k_2 [1/m]", 1.0, ".4g"),
+        ("relative_curvatures_1_m[0]", "relative curvature 2A (min) [1/m]", 1.0, ".4g"),
+        ("relative_curvatures_1_m[1]", "relative curvature 2B (max) [1/m]", 1.0, ".4g"),
+        ("relative_radii_m[0]", "relative radius R_x (major axis) [mm]", 1e3, ".4g"),
+        ("relative_radii_m[1]", "relative radius R_y (minor axis) [mm]", 1e3, ".4g"),
+        ("equivalent_radius_m", "equivalent radius R_eq [mm]", 1e3, ".4g"),
+        ("effective_modulus_Pa", "E* [GPa]", 1e-9, ".5g"),
+        ("load_torque_Nm", "load torque on the output [N m]", 1.0, ".4g"),
+        ("normal_force_N", "normal force per mesh [N]", 1.0, ".4g"),
+        ("a_m", "Hertz semi-axis a [mm]", 1e3, ".4g"),
+        ("b_m", "Hertz semi-axis b [mm]", 1e3, ".4g"),
+        ("max_pressure_Pa", "max pressure p0 [MPa]", 1e-6, ".4g"),
+        ("approach_m", "approach delta [um]", 1e6, ".4g"),
+    ),
+    "masses": (
+        ("pinion_inertia_kg_m2", "pinion inertia I_1 [kg m^2]", 1.0, ".4g"),
+        ("face_inertia_kg_m2", "face-gear inertia I_2 [kg m^2]", 1.0, ".4g"),
+        ("pinion_lever_m", "pinion lever l_1 [mm]", 1e3, ".4g"),
+        ("face_lever_m", "face-gear lever l_2 [mm]", 1e3, ".4g"),
+        ("pinion_mass_kg", "pinion mass I_1/l_1^2 [kg]", 1.0, ".4g"),
+        ("face_mass_kg", "face-gear mass I_2/l_2^2 [kg]", 1.0, ".4g"),
+        ("effective_mass_kg", "effective mass [kg]", 1.0, ".4g"),
+    ),
+}
+
+_TITLES = {
+    "face_width": "face width",
+    "path_of_contact": "path of contact (pinion roll angle from the pitch point)",
+    "pitch_point": "Hertz contact at the pitch point (roll angle 0), nominal load",
+    "masses": "rotor masses reduced to the contact normal at the pitch point",
+}
+
+
+def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the ``geometry`` subcommand to ``subparsers``; returns its parser."""
+    p = subparsers.add_parser(
+        "geometry", help="face-width limits, path of contact, Hertz and masses per stage",
+        description="What to check before any finite-element work, per face-gear stage: "
+                    "face-width limits by undercut, conjugate tip and pointing with the chosen "
+                    "radii; the path of contact in pinion roll angle and the contact ratio "
+                    "(tooth contact analysis); at the pitch point the curvatures, E*, the "
+                    "Hertz ellipse, pressure and approach under the nominal load; the rotor "
+                    "masses reduced to the contact normal. One column per stage.")
+    p.add_argument("gearset", nargs="?", type=Path, default=None,
+                   help="gear-set TOML file (default: the built-in seed set)")
+    p.add_argument("--torque", type=float, default=None, metavar="NM",
+                   help="load torque on the output [N m] for the Hertz numbers (default: the "
+                        "largest load of the seed presets, 1 N m)")
+    p.add_argument("--json", type=Path, default=None, metavar="FILE",
+                   help="also write the numbers to FILE as JSON, in SI units")
+    p.set_defaults(func=run)
+    return p
+
+
+def _check(args: argparse.Namespace) -> None:
+    """Options and the output file, before any computation."""
+    from fe_impact.output.files import check_output_dir
+
+    if args.torque is not None and not (math.isfinite(args.torque) and args.torque > 0.0):
+        raise CaseError(f"--torque {args.torque:g} N m: must be a number > 0")
+    if args.json is not None:
+        if args.json.is_dir():
+            raise CaseError(f"--json {args.json}: is a folder; give a file name "
+                            "(e.g. geometry.json)")
+        check_output_dir(args.json.resolve().parent, f"--json {args.json}: folder")
+
+
+def _load(path: Path | None):
+    """The gear set at ``path``, or the built-in seed set; errors name GEARSET."""
+    from fe_impact.gears import default_gearset, load_gearset
+
+    if path is None:
+        return default_gearset()
+    if path.is_dir():
+        raise GeometryError(f"GEARSET {path}: is a folder; give a gear-set TOML file, or "
+                            "none for the built-in seed set")
+    if not path.exists():
+        raise GeometryError(f"GEARSET {path}: no such file; give a gear-set TOML file, or "
+                            "none for the built-in seed set")
+    try:
+        return load_gearset(path)
+    except GeometryError as exc:
+        raise GeometryError(f"GEARSET {exc}") from exc
+
+
+def _cell(row: dict, section: str, key: str, scale: float, spec: str) -> str:
+    name, _, item = key.partition("[")
+    value = row[section][name]
+    if item:
+        value = value[int(item.rstrip("]"))]
+    if value is None:
+        return "-"
+    if isinstance(value, str):
+        return value
+    return format(float(value) * scale, spec)
+
+
+def format_table(rows: list[dict]) -> str:
+    """The aligned table of :func:`fe_impact.gears.report.stage_geometry`'s rows:
+    one column per stage, a titled block per section, units in the labels."""
+    lines = [("", [f"stage {r['stage']}" for r in rows]),
+             ("face-gear teeth / shaper teeth", [f"{r['teeth']} / {r['shaper_teeth']}"
+                                                 for r in rows])]
+    for section, entries in TABLE.items():
+        lines.append((None, [_TITLES[section]]))
+        lines += [(label, [_cell(r, section, key, scale, spec) for r in rows])
+                  for key, label, scale, spec in entries]
+    width = max(len(label) for label, _ in lines if label is not None)
+    column = max(len(v) for label, values in lines if label is not None for v in values)
+    out = []
+    for label, values in lines:
+        if label is None:
+            out.append(f"\n{values[0]}:")
+        else:
+            out.append(f"{label:<{width}}" + "".join(f"  {v:>{column}}" for v in values))
+    return "\n".join(out)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``fe-impact geometry``; returns the exit status."""
+    from fe_impact.atomic import write_json
+    from fe_impact.gears.report import TOP_LAND_MIN, seed_load_torque, stage_geometry
+
+    _check(args)
+    gearset = _load(args.gearset)
+    default = args.torque is None
+    torque = seed_load_torque() if default else args.torque
+    source = ("the largest load of the seed presets\n(table4, variable-load; --torque "
+              "changes it)" if default else "from --torque")
+    rows = stage_geometry(gearset, torque)
+    print(f"{gearset.name}: {len(rows)} stage(s), pinion {gearset.pinion.teeth} teeth, "
+          f"module {gearset.module * 1e3:g} mm, {gearset.n_pinions} pinion(s)")
+    print(format_table(rows))
+    inner = "conjugate-tip" if gearset.inner_limit == "conjugate" else "undercut"
+    print(f"\nInner radius margins use the {inner} limit (face_gear.inner_limit). Top land: "
+          f"arc width\nat the tip plane; the seed file takes the outer radii where it is "
+          f"{TOP_LAND_MIN * 1e3:g} mm.\nRoll angles: pinion rotation from the pitch-point "
+          "position; first and last in the order\na driving pinion meets them.\n"
+          f"Load: {torque:g} N m on the output, {source}: each of the "
+          f"{gearset.n_pinions} meshes carries\nF = T / (n_pinions l_2).")
+    if args.json is not None:
+        write_json(args.json, {
+            "schema": JSON_SCHEMA,
+            "gearset": gearset.name,
+            "gearset_file": None if args.gearset is None else str(args.gearset),
+            "n_pinions": gearset.n_pinions,
+            "pinion_teeth": gearset.pinion.teeth,
+            "module_m": gearset.module,
+            "inner_limit_rule": gearset.inner_limit,
+            "load_torque_Nm": torque,
+            "load_torque_source": "seed presets (largest load)" if default else "--torque",
+            "stages": rows,
+        })
+        print(f"wrote {args.json}")
+    return 0

@@ -1,0 +1,319 @@
+"""What a gear engineer checks before any finite-element work, per face-gear stage.
+
+:func:`stage_geometry` gathers, for each stage of a gear set, in SI units:
+
+- the usable face width: inner limits by undercut and by the conjugate tip,
+  outer limit by pointing (:func:`~fe_impact.gears.facegear.face_gear_limits`),
+  the chosen radii and their margins, the top land at the outer radius and
+  the radius where the top land is :data:`TOP_LAND_MIN` (the seed file's rule
+  for the outer radii);
+- the path of contact in pinion roll angle: the roll angles where the TCA
+  contact (:class:`~fe_impact.gears.tca.GearPair`) leaves the working flanks
+  (:attr:`~fe_impact.gears.tca.ContactPoint.on_flank`, the test that makes
+  :func:`~fe_impact.gears.pairanalysis.analyse_pair` refuse a roll angle),
+  which limit ends it at each side, and the contact ratio: the path's length
+  in roll angle over the angular pitch ``2 pi / N_p``;
+- the Hertz contact at the pitch point (roll angle 0) under a nominal load
+  (:func:`~fe_impact.gears.pairanalysis.analyse_stage_pair`): principal and
+  relative curvatures, equivalent radius, ``E*``, ellipse semi-axes, peak
+  pressure and approach;
+- the rotor inertias reduced to the contact normal there
+  (:class:`~fe_impact.gears.pairanalysis.ReducedMasses`).
+
+Nominal load: a torque on the output (all rings sit on it), shared by the
+``n_pinions`` meshes of the engaged ring, gives each the normal force
+``F = T / (n_pinions |l_2|)`` with ``l_2`` the face gear's lever arm about
+its axis at the contact (``r_2 cos(alpha0)`` at the pitch point; the
+torsional model's ``base_levers``, :mod:`fe_impact.switching.model`). The
+default torque is the largest load of the seed presets
+(:func:`seed_load_torque`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+from fe_impact.errors import GeometryError
+from fe_impact.gears.facegear import FaceGearTooth
+from fe_impact.gears.gearset import GearSet
+from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
+from fe_impact.gears.tca import MAX_ROLL_STEP, ContactPoint, GearPair, contact_ellipse
+
+__all__ = [
+    "ROLL_TOLERANCE",
+    "TOP_LAND_MIN",
+    "contact_path_ends",
+    "radius_at_top_land",
+    "seed_load_torque",
+    "stage_geometry",
+    "top_land",
+]
+
+#: Top-land width [m] the seed file's outer radii are chosen at (seed.toml: "outer
+#: = radius where the top land is 0.2 mm ... rounded down to 0.5 mm").
+TOP_LAND_MIN = 0.2e-3
+#: Width [rad] of the bracket the ends of the path of contact are bisected to
+#: (3e-12 m along the line of action of a 30 mm pinion).
+ROLL_TOLERANCE = 1e-10
+#: Farthest roll angle [rad] searched for the end of the working flanks (the
+#: roll angles a tooth pair is built for, :class:`~fe_impact.gears.pairanalysis.PairSpec`).
+MAX_ROLL = math.radians(60.0)
+
+
+# -- face width ------------------------------------------------------------------------
+def top_land(tooth: FaceGearTooth, radius: float) -> float:
+    """Top-land width [m] of the face-gear tooth at ``radius`` (arc at the tip plane).
+
+    ``2 L psi`` with ``psi`` the half angle of the top land
+    (:meth:`~fe_impact.gears.facegear.FaceGearTooth.top_land_half_angle`);
+    negative beyond the pointing limit.
+    """
+    return float(2.0 * radius * tooth.top_land_half_angle(radius))
+
+
+def radius_at_top_land(tooth: FaceGearTooth, width: float, outer: float) -> float | None:
+    """Radius [m] between ``r_2`` and the pointing limit ``outer`` where the top land is
+    ``width``; None if it is narrower than that already at the pitch radius (a small
+    module)."""
+    r_2 = tooth.pitch_radius
+    if top_land(tooth, r_2) < width:
+        return None
+    return float(brentq(lambda r: top_land(tooth, r) - width, r_2, outer, xtol=1e-12))
+
+
+def _face_width(gearset: GearSet, index: int) -> dict:
+    stage, limits = gearset.stages[index], gearset.stage_limits(index)
+    tooth = gearset.face_gear_tooth(index)
+    inner_limit = limits.inner(gearset.inner_limit)
+    outward = [s.inner_radius - stage.outer_radius for s in gearset.stages
+               if s.inner_radius >= stage.outer_radius]
+    return {
+        "pitch_radius_m": limits.pitch_radius,
+        "inner_undercut_limit_m": limits.inner_undercut,
+        "inner_conjugate_limit_m": limits.inner_conjugate,
+        "outer_pointing_limit_m": limits.outer_pointing,
+        "inner_undercut_u_m": limits.inner_undercut_u,
+        "inner_conjugate_u_m": limits.inner_conjugate_u,
+        "fractions_of_pitch_radius": limits.fractions(),
+        "inner_limit_rule": gearset.inner_limit,
+        "inner_radius_m": stage.inner_radius,
+        "outer_radius_m": stage.outer_radius,
+        "face_width_m": stage.face_width,
+        "inner_margin_m": stage.inner_radius - inner_limit,
+        "outer_margin_m": limits.outer_pointing - stage.outer_radius,
+        "top_land_at_outer_radius_m": top_land(tooth, stage.outer_radius),
+        "top_land_min_m": TOP_LAND_MIN,
+        "radius_at_top_land_min_m": radius_at_top_land(tooth, TOP_LAND_MIN,
+                                                       limits.outer_pointing),
+        "clearance_to_next_ring_m": min(outward) if outward else None,
+    }
+
+
+# -- path of contact ---------------------------------------------------------------------
+def _unknowns(contact: ContactPoint) -> np.ndarray:
+    """TCA unknowns ``(u, theta, L, h, TE)`` of a solved contact (a Newton start)."""
+    return np.array([*contact.pinion_parameters, *contact.face_parameters,
+                     contact.transmission_error])
+
+
+def _contact_or_none(pair: GearPair, roll: float, near: ContactPoint) -> ContactPoint | None:
+    """The contact at ``roll`` started from ``near``; None where the geometry has none
+    (below the pinion base circle, or Newton lost: both lie off the working flanks)."""
+    try:
+        return pair.contact(roll, guess=_unknowns(near))
+    except GeometryError:
+        return None
+
+
+def _flank_margins(pair: GearPair, contact: ContactPoint) -> dict[str, float]:
+    """Distance [m] of the contact to each limit of the working flanks (>= 0 inside).
+
+    The same limits as :meth:`~fe_impact.gears.tca.GearPair._on_flank`, as lengths:
+    pinion radii for the involute's roll parameter, axial and radial positions
+    and heights for the rest.
+    """
+    p, f = pair.pinion, pair.face
+    u, theta = contact.pinion_parameters
+    radius, height = contact.face_parameters
+    r = p.base_radius * math.hypot(1.0, theta)
+    low, high = f.height_range(radius)
+    return {
+        "pinion tip": p.base_radius * math.hypot(1.0, p.theta_tip) - r,
+        "pinion form circle": r - p.form_radius,
+        "pinion face end": 0.5 * p.face_width - abs(u),
+        "face inner end": radius - f.face_inner,
+        "face outer end": f.face_outer - radius,
+        "face-gear tip": high - height,
+        "face-gear fillet": height - low,
+    }
+
+
+def _flank_end(pair: GearPair, start: ContactPoint,
+               direction: int) -> tuple[ContactPoint, dict[str, float]]:
+    """Last on-flank contact from ``start`` turning the pinion in ``direction`` (+1/-1),
+    within :data:`ROLL_TOLERANCE`, and its distances to the limits of the flanks (the
+    smallest names the limit that ends them there)."""
+    inside, outside = start, None
+    while outside is None:   # steps of MAX_ROLL_STEP keep Newton in its basin
+        roll = inside.roll_angle + direction * MAX_ROLL_STEP
+        if abs(roll) > MAX_ROLL:
+            raise GeometryError(
+                f"the contact stays on the working flanks beyond a roll angle of "
+                f"{direction * math.degrees(MAX_ROLL):g} deg; check the gear set"
+            )
+        contact = _contact_or_none(pair, roll, inside)
+        if contact is not None and contact.on_flank:
+            inside = contact
+        else:
+            outside = roll
+    while abs(outside - inside.roll_angle) > ROLL_TOLERANCE:
+        roll = 0.5 * (inside.roll_angle + outside)
+        contact = _contact_or_none(pair, roll, inside)
+        if contact is not None and contact.on_flank:
+            inside = contact
+        else:
+            outside = roll
+    return inside, _flank_margins(pair, inside)
+
+
+def contact_path_ends(pair: GearPair, pitch: ContactPoint | None = None) -> dict:
+    """Ends of the path of contact of ``pair`` in pinion roll angle.
+
+    Parameters
+    ----------
+    pair : GearPair
+    pitch : ContactPoint, optional
+        The contact at roll angle 0 (solved here if not given); it must lie on
+        the working flanks.
+
+    Returns
+    -------
+    dict
+        ``first_roll_rad``/``last_roll_rad`` and ``first_limit``/``last_limit``:
+        the ends in the order a driving pinion meets them (it turns so that its
+        flank pushes the face gear's: opposite to the sign of its lever arm
+        about the contact normal, :func:`~fe_impact.gears.tca.effective_mass`),
+        and what ends the working flanks there; ``first_margins_m`` and
+        ``last_margins_m``: the distance [m] of that end to every limit of the
+        flanks (0 for the one that ends them); ``path_length_rad``;
+        ``angular_pitch_rad`` =
+        ``2 pi / N_p``; ``contact_ratio`` = path length / angular pitch.
+
+    Raises
+    ------
+    GeometryError
+        If the pitch-point contact is off the flanks or the flanks never end.
+    """
+    pitch = pair.contact(0.0) if pitch is None else pitch
+    if not pitch.on_flank:
+        raise GeometryError(
+            f"stage with {pair.face.teeth} teeth: the contact at the pitch point is off the "
+            "working flanks (face width or pinion face too narrow?)"
+        )
+    ends = {side: _flank_end(pair, pitch, side) for side in (1, -1)}
+    # the first point is on the side the driving pinion turns away from: sign(l_1)
+    lever = pair.effective_masses(pitch, 1.0, 1.0)["pinion_lever"]
+    first, last = (1, -1) if lever > 0.0 else (-1, 1)
+    pitch_angle = 2.0 * math.pi / pair.pinion.teeth
+    length = ends[1][0].roll_angle - ends[-1][0].roll_angle
+    (c_first, m_first), (c_last, m_last) = ends[first], ends[last]
+    return {
+        "first_roll_rad": c_first.roll_angle,
+        "first_limit": min(m_first, key=m_first.get),
+        "first_margins_m": m_first,
+        "last_roll_rad": c_last.roll_angle,
+        "last_limit": min(m_last, key=m_last.get),
+        "last_margins_m": m_last,
+        "path_length_rad": length,
+        "angular_pitch_rad": pitch_angle,
+        "contact_ratio": length / pitch_angle,
+    }
+
+
+# -- load and Hertz ----------------------------------------------------------------------
+def seed_load_torque() -> float:
+    """Largest load torque [N m] on the output among the seed presets (1 N m: the
+    seed's 1000 N mm, presets ``table4`` and ``variable-load``)."""
+    from fe_impact.switching.presets import PRESETS
+
+    return max(seg.load for preset in PRESETS.values() for case in preset.cases
+               for seg in case.schedule.segments)
+
+
+def _pitch_point(gearset: GearSet, number: int, torque: float) -> tuple[GearPair, dict]:
+    pair = GearPair.from_gearset(gearset, number)
+    contact = pair.contact(0.0)
+    if not contact.on_flank:
+        stage = gearset.stages[number - 1]
+        raise GeometryError(
+            f"stage {number} ({stage.teeth} teeth): the contact at the pitch point (face "
+            f"radius {contact.face_parameters[0] * 1e3:.3f} mm) is off the working flanks; "
+            f"the face spans {stage.inner_radius * 1e3:.3f} .. {stage.outer_radius * 1e3:.3f} "
+            "mm and must contain the pitch radius"
+        )
+    pair, analysis = analyse_stage_pair(gearset, PairSpec(stage=number, roll_angle_deg=0.0))
+    contact, masses = analysis.contact, analysis.masses
+    force = torque / (gearset.n_pinions * abs(masses.face_lever))
+    ellipse = contact_ellipse(contact.relative, force, analysis.effective_modulus)
+    hertz = {
+        "contact_point_m": contact.point.tolist(),
+        "pinion_curvatures_1_m": contact.pinion_curvature.kappa.tolist(),
+        "face_curvatures_1_m": contact.face_curvature.kappa.tolist(),
+        "relative_curvatures_1_m": [contact.relative.lambda_min, contact.relative.lambda_max],
+        "relative_radii_m": list(contact.relative.radii),
+        "equivalent_radius_m": analysis.equivalent_radius,
+        "effective_modulus_Pa": analysis.effective_modulus,
+        "load_torque_Nm": torque,
+        "normal_force_N": force,
+        "a_m": ellipse.a,
+        "b_m": ellipse.b,
+        "max_pressure_Pa": ellipse.p0,
+        "approach_m": ellipse.approach,
+    }
+    reduced = {
+        "pinion_inertia_kg_m2": gearset.pinion.inertia,
+        "face_inertia_kg_m2": gearset.stages[number - 1].inertia,
+        "pinion_mass_kg": masses.pinion_mass,
+        "pinion_lever_m": masses.pinion_lever,
+        "face_mass_kg": masses.face_mass,
+        "face_lever_m": masses.face_lever,
+        "effective_mass_kg": masses.effective_mass,
+    }
+    return pair, {"pitch_point": hertz, "masses": reduced, "_contact": contact}
+
+
+def stage_geometry(gearset: GearSet, torque: float | None = None) -> list[dict]:
+    """Pre-FE checks of every stage of ``gearset`` (module docstring), SI units.
+
+    Parameters
+    ----------
+    gearset : GearSet
+    torque : float, optional
+        Load torque on the output [N m], > 0; default :func:`seed_load_torque`.
+
+    Returns
+    -------
+    list of dict
+        One per stage, in order: ``stage``, ``teeth``, ``shaper_teeth`` and the
+        sections ``face_width``, ``path_of_contact``, ``pitch_point``,
+        ``masses`` (keys carry their units: ``_m``, ``_rad``, ``_Pa``, ``_N``,
+        ``_kg``, ``_Nm``, ``_1_m``).
+    """
+    torque = seed_load_torque() if torque is None else torque
+    if not (math.isfinite(torque) and torque > 0.0):
+        raise GeometryError(f"load torque = {torque!r} N m; must be a number > 0")
+    rows = []
+    for index, stage in enumerate(gearset.stages):
+        pair, pitch = _pitch_point(gearset, index + 1, torque)
+        rows.append({
+            "stage": index + 1,
+            "teeth": stage.teeth,
+            "shaper_teeth": stage.shaper_teeth,
+            "face_width": _face_width(gearset, index),
+            "path_of_contact": contact_path_ends(pair, pitch.pop("_contact")),
+            **pitch,
+        })
+    return rows

@@ -176,7 +176,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     print(f"{case.path.name}: setting up (mesh, assembly, factorisation)", flush=True)
     solver = StaticSolver(case, load_mesh(case.mesh_file, case.unit))
     info = (f"{solver.model.n_dofs} DOFs, P{solver.mesh.order}, "
-            f"{len(solver.zone_dofs)} contact-zone DOFs")
+            f"{solver.n_condensed} contact-zone coordinates")
     print(f"  {info} ({time.perf_counter() - t0:.1f} s)", flush=True)
 
     done = []

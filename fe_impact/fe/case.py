@@ -30,6 +30,17 @@ Example (all lengths in metres, stresses in Pa)::
     [analysis]
     type = "static"
 
+A static case may also hold a surface on a rigid body (a hub on its shaft)
+and prescribe its rotation (rad) or translation (m) at each load step, or the
+torque (N m) or force (N) it carries; the reaction along it is reported::
+
+    [[rigid_bodies]]
+    surface = "pinion_hub"
+    motion = "rotation"
+    direction = [0.0, 0.0, 1.0]     # rotation axis (or translation direction)
+    point = [0.0, 0.0, 0.0]         # a point on the axis, m
+    loads = [10.0, 20.0]            # N m per load step; or values = [...] in rad
+
 A transient impact (``type = "dynamic"``) replaces ``[[displacements]]`` by
 initial velocities and rigid bodies::
 
@@ -62,7 +73,7 @@ memory with :func:`dataclasses.replace`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -90,8 +101,13 @@ _TOP_KEYS = {"mesh", "materials", "contacts", "supports", "displacements", "anal
 #: Penalty: 1e8 x that of a 0.1 mm element of steel (E/h = 2e15 Pa/m);
 #: displacements: 1 m (a small-strain model); speeds: 1e4 m/s (or rad/s),
 #: above the speed of sound in steel; rigid-body inertia: 1e9 kg (kg m^2),
-#: a ship's propeller shaft is 1e5 kg m^2.
+#: a ship's propeller shaft is 1e5 kg m^2. Prescribed rotations of a static
+#: rigid body: 0.1 rad (the rigid-body map is a small rotation, exact to
+#: first order: at 0.1 rad the second-order error is 0.5% of the arc); loads:
+#: 1e9 N or N m.
 MAX_PENALTY = 1e23
+MAX_ROTATION = 0.1
+MAX_LOAD = 1e9
 MAX_INERTIA = 1e9
 MAX_DISPLACEMENT = 1.0
 MAX_SPEED = 1e4
@@ -152,7 +168,12 @@ class RigidBodySpec:
     ``translation``: the surface nodes move by ``q * direction``; ``rotation``:
     by ``theta * direction x (x - point)`` (small rotation about the axis
     through ``point``). ``inertia`` is a mass (kg) or a moment of inertia
-    (kg m^2) added to that of the tied nodes.
+    (kg m^2) added to that of the tied nodes (transient cases).
+
+    In a static case the body's coordinate is prescribed at each load step,
+    either directly (``values``: m or rad) or through the force or torque it
+    carries (``loads``: N or N m along/about ``direction``); exactly one of
+    the two is given.
     """
 
     surface: str
@@ -161,6 +182,12 @@ class RigidBodySpec:
     point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     inertia: float = 0.0
     initial_velocity: float = 0.0
+    values: tuple[float, ...] = ()     # static: coordinate per load step (m or rad)
+    loads: tuple[float, ...] = ()      # static: force or torque per load step (N, N m)
+
+    @property
+    def load_controlled(self) -> bool:
+        return bool(self.loads)
 
 
 @dataclass(frozen=True)
@@ -217,7 +244,9 @@ class Case:
 
     @property
     def n_steps(self) -> int:
-        return max((len(d.values) for d in self.displacements), default=1)
+        counts = [len(d.values) for d in self.displacements]
+        counts += [len(b.values or b.loads) for b in self.rigid_bodies if b.values or b.loads]
+        return max(counts, default=1)
 
     def check_groups(self, mesh: FEMesh) -> None:
         """Raise :class:`CaseError` if a case group is missing or of the wrong kind."""
@@ -279,10 +308,8 @@ def parse_case(data: dict[str, Any], path: Path) -> Case:
     if analysis.dynamic and data.get("displacements"):
         raise r.problem("[[displacements]] apply to static analysis; a dynamic case moves "
                         "the bodies with [[initial_velocities]] and [[rigid_bodies]]")
-    if not analysis.dynamic:
-        for key in ("initial_velocities", "rigid_bodies"):
-            if data.get(key):
-                raise r.problem(f"[[{key}]] needs [analysis] type = \"dynamic\"")
+    if not analysis.dynamic and data.get("initial_velocities"):
+        raise r.problem('[[initial_velocities]] needs [analysis] type = "dynamic"')
 
     def each(key: str, read, required: bool = False) -> tuple:
         return tuple(read(r, t, f"{key}[{i}]")
@@ -296,8 +323,33 @@ def parse_case(data: dict[str, Any], path: Path) -> Case:
         displacements=_displacements(r, r.array(data, "", "displacements")),
         analysis=analysis,
         initial_velocities=each("initial_velocities", _initial_velocity),
-        rigid_bodies=each("rigid_bodies", _rigid_body),
+        rigid_bodies=_rigid_bodies(r, r.array(data, "", "rigid_bodies"), analysis.dynamic,
+                                   _displacement_steps(data)),
     )
+
+
+def _displacement_steps(data: dict) -> int | None:
+    """Load steps of the (already checked) ``[[displacements]]``, if any."""
+    tables = data.get("displacements") or []
+    return len(tables[0]["values"]) if tables else None
+
+
+def _rigid_bodies(r: Reader, tables: list, dynamic: bool, steps: int | None
+                  ) -> tuple[RigidBodySpec, ...]:
+    bodies = tuple(_rigid_body(r, t, f"rigid_bodies[{i}]", dynamic)
+                   for i, t in enumerate(tables))
+    if dynamic:
+        return bodies
+    lengths = {len(b.values or b.loads) for b in bodies}
+    if steps is not None:
+        lengths.add(steps)
+    if len(lengths) > 1:
+        raise r.problem(f"[[rigid_bodies]] and [[displacements]] have different numbers of "
+                        f"values {sorted(lengths)}: every entry needs one value per load step")
+    if sum(b.load_controlled for b in bodies) > 1:
+        raise r.problem("more than one [[rigid_bodies]] entry has loads: at most one body "
+                        "can be load-controlled; prescribe the others' values")
+    return bodies
 
 
 def _material(r: Reader, t: dict, where: str) -> MaterialSpec:
@@ -328,21 +380,58 @@ def _initial_velocity(r: Reader, t: dict, where: str) -> InitialVelocitySpec:
     return InitialVelocitySpec(tuple(r.strings(t, where, "volumes")), value)
 
 
-def _rigid_body(r: Reader, t: dict, where: str) -> RigidBodySpec:
-    r.keys(t, where, {"surface", "motion", "direction", "point", "inertia",
-                      "initial_velocity"}, required={"surface", "motion", "direction"})
+def _rigid_body(r: Reader, t: dict, where: str, dynamic: bool = True) -> RigidBodySpec:
+    common = {"surface", "motion", "direction", "point"}
+    if dynamic:
+        r.keys(t, where, common | {"inertia", "initial_velocity"},
+               required={"surface", "motion", "direction"})
+    else:
+        dynamic_keys = sorted({"inertia", "initial_velocity"} & set(t))
+        if dynamic_keys:
+            raise r.problem(f'[{where}] {" and ".join(dynamic_keys)} need [analysis] type = '
+                            '"dynamic"; a static case prescribes the body\'s values or loads')
+        r.keys(t, where, common | {"values", "loads"},
+               required={"surface", "motion", "direction"})
     motion = r.choice(t, where, "motion", MOTIONS)
     d = r.vector(t, where, "direction", "")
     norm = math.sqrt(sum(c * c for c in d))
     if norm == 0.0:
         raise r.fail(where, "direction", t["direction"], "must be a non-zero vector")
     point = r.vector(t, where, "point", "m") if "point" in t else (0.0, 0.0, 0.0)
+    spec = RigidBodySpec(r.string(t, where, "surface"), motion,
+                         tuple(c / norm for c in d), point)
+    if not dynamic:
+        return _static_motion(r, t, where, spec)
     inertia = r.number(t, where, "inertia", low=0.0, high=MAX_INERTIA, default=0.0,
                        hint="(kg, or kg m^2 for a rotation)")
     v0 = r.number(t, where, "initial_velocity", low=-MAX_SPEED, high=MAX_SPEED, default=0.0,
                   hint="(m/s, or rad/s for a rotation)")
-    return RigidBodySpec(r.string(t, where, "surface"), motion,
-                         tuple(c / norm for c in d), point, inertia, v0)
+    return replace(spec, inertia=inertia, initial_velocity=v0)
+
+
+def _static_motion(r: Reader, t: dict, where: str, spec: RigidBodySpec) -> RigidBodySpec:
+    """``values`` (m or rad) or ``loads`` (N or N m) of a static case's rigid body."""
+    given = [k for k in ("values", "loads") if k in t]
+    if len(given) != 1:
+        raise r.problem(f"[{where}] needs exactly one of values (the body's "
+                        f"{'rotation, rad' if spec.motion == 'rotation' else 'displacement, m'} "
+                        f"per load step) and loads (its "
+                        f"{'torque, N m' if spec.motion == 'rotation' else 'force, N'}); "
+                        f"got {given or 'neither'}")
+    rotation = spec.motion == "rotation"
+    if "values" in t:
+        limit = MAX_ROTATION if rotation else MAX_DISPLACEMENT
+        values = r.numbers(t, where, "values", unit="(rad)" if rotation else "(m)")
+        if max(abs(v) for v in values) > limit:
+            raise r.fail(where, "values", t["values"],
+                         f"must be in [-{limit:g}, {limit:g}] "
+                         f"{'rad (small rotations)' if rotation else 'm (a small-strain model)'}")
+        return replace(spec, values=values)
+    loads = r.numbers(t, where, "loads", unit="(N m)" if rotation else "(N)")
+    if max(abs(v) for v in loads) > MAX_LOAD:
+        raise r.fail(where, "loads", t["loads"], f"must be in [-{MAX_LOAD:g}, {MAX_LOAD:g}] "
+                     f"{'N m' if rotation else 'N'}")
+    return replace(spec, loads=loads)
 
 
 def _contact(r: Reader, t: dict, where: str) -> ContactSpec:

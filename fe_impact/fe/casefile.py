@@ -88,7 +88,7 @@ def case_text(case: Case, folder: str | Path, header: str = "") -> str:
     for v in case.initial_velocities:
         lines += ["", "[[initial_velocities]]", *_initial_velocity(v)]
     for b in case.rigid_bodies:
-        lines += ["", "[[rigid_bodies]]", *_rigid_body(b)]
+        lines += ["", "[[rigid_bodies]]", *_rigid_body(b, case.analysis.dynamic)]
     lines += ["", "[analysis]", *_analysis(case.analysis), ""]
     return "\n".join(lines)
 
@@ -123,11 +123,14 @@ def _initial_velocity(v: InitialVelocitySpec) -> list[str]:
     return [f"volumes = {_strings(v.volumes)}", f"value = {_numbers(v.value)}"]
 
 
-def _rigid_body(b: RigidBodySpec) -> list[str]:
-    return [f"surface = {_string(b.surface)}", f"motion = {_string(b.motion)}",
-            f"direction = {_numbers(b.direction)}", f"point = {_numbers(b.point)}",
-            f"inertia = {_number(b.inertia)}",
-            f"initial_velocity = {_number(b.initial_velocity)}"]
+def _rigid_body(b: RigidBodySpec, dynamic: bool) -> list[str]:
+    lines = [f"surface = {_string(b.surface)}", f"motion = {_string(b.motion)}",
+             f"direction = {_numbers(b.direction)}", f"point = {_numbers(b.point)}"]
+    if not dynamic:
+        key, values = ("loads", b.loads) if b.load_controlled else ("values", b.values)
+        return lines + [f"{key} = {_numbers(values)}"]
+    return lines + [f"inertia = {_number(b.inertia)}",
+                    f"initial_velocity = {_number(b.initial_velocity)}"]
 
 
 def _analysis(a: AnalysisSpec) -> list[str]:

@@ -17,7 +17,7 @@ zone of the faces within a search distance of the master surface:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from fe_impact.contact.surfaces import ContactPair, GapState
 from fe_impact.contact.zone import ContactZone, face_size, reference_states
 from fe_impact.errors import CaseError, ContactError
 from fe_impact.fe.case import Case
-from fe_impact.fe.kinematics import surface_dofs
+from fe_impact.fe.kinematics import rigid_mode, surface_dofs
 from fe_impact.fe.mesh import FEMesh
 
 
@@ -36,13 +36,21 @@ class Prescribed:
     Attributes
     ----------
     fixed, free : ndarray of int
-        DOFs with a prescribed value (supports and ``[[displacements]]``) and the others.
+        DOFs with a prescribed value (supports, ``[[displacements]]`` and the
+        surfaces of ``[[rigid_bodies]]``) and the others.
     values : ndarray, shape (len(fixed), n_steps)
-        The prescribed values (m) at each load step.
+        The prescribed values (m) at each load step; a load-controlled rigid
+        body's DOFs are zero here, its motion is ``q * modes[k]``.
     free_index : ndarray, shape (n_dofs,)
         Position of each DOF in ``free``, -1 for prescribed DOFs.
     loaded : list of ndarray
         The DOFs of each ``[[displacements]]`` entry (their reactions are measured).
+    modes : list of ndarray, shape (len(fixed),)
+        Each rigid body's displacement per unit coordinate on the fixed DOFs
+        (zero off its surface); its reaction is ``modes[k] . f_fixed``.
+    coordinates : ndarray, shape (n_bodies, n_steps)
+        Each rigid body's prescribed coordinate (m or rad); NaN for a
+        load-controlled body, whose coordinate the solver finds.
     """
 
     fixed: np.ndarray
@@ -50,37 +58,70 @@ class Prescribed:
     values: np.ndarray
     free_index: np.ndarray
     loaded: list[np.ndarray]
+    modes: list[np.ndarray] = field(default_factory=list)
+    coordinates: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
 
     @classmethod
     def build(cls, case: Case, mesh: FEMesh, n_dofs: int) -> Prescribed:
         """Refuses two groups prescribing different values to a shared node."""
-        values = np.full((n_dofs, case.n_steps), np.nan)
+        n = case.n_steps
+        values = np.full((n_dofs, n), np.nan)
         owner: dict[int, str] = {}
         for s in case.supports:
             for c in s.fix:
-                _prescribe(case, mesh, values, owner, s.surface, c, np.zeros(case.n_steps))
+                _prescribe(case, values, owner, surface_dofs(mesh, s.surface, c), s.surface,
+                           np.zeros((1, n)), "xyz"[c])
         for d in case.displacements:
-            _prescribe(case, mesh, values, owner, d.surface, d.component, np.array(d.values))
+            _prescribe(case, values, owner, surface_dofs(mesh, d.surface, d.component),
+                       d.surface, np.array(d.values)[None, :], "xyz"[d.component])
+        body_modes, coords = [], np.full((len(case.rigid_bodies), n), np.nan)
+        for k, b in enumerate(case.rigid_bodies):
+            pts = mesh.surface_points(b.surface)
+            dofs = (3 * mesh.point_dof[pts][:, None] + np.arange(3)).ravel()
+            mode = rigid_mode(b, mesh.points[pts]).ravel()
+            if not b.load_controlled:
+                coords[k] = b.values
+            q = np.nan_to_num(coords[k])
+            _prescribe(case, values, owner, dofs, b.surface, mode[:, None] * q[None, :],
+                       "xyz", varies=b.load_controlled)
+            body_modes.append((dofs, mode))
         is_fixed = ~np.isnan(values[:, 0])
         fixed, free = np.flatnonzero(is_fixed), np.flatnonzero(~is_fixed)
         free_index = -np.ones(n_dofs, dtype=np.int64)
         free_index[free] = np.arange(len(free))
         loaded = [surface_dofs(mesh, d.surface, d.component) for d in case.displacements]
-        return cls(fixed, free, values[fixed], free_index, loaded)
+        modes = []
+        for dofs, mode in body_modes:
+            m = np.zeros(n_dofs)
+            m[dofs] = mode
+            modes.append(m[fixed])
+        return cls(fixed, free, values[fixed], free_index, loaded, modes, coords)
+
+    def field(self, step: int, q: np.ndarray | None = None) -> np.ndarray:
+        """Prescribed values at a load step, with the load-controlled coordinates ``q``."""
+        u = self.values[:, step].copy()
+        if q is not None:
+            for k in np.flatnonzero(np.isnan(self.coordinates[:, step])):
+                u += q[k] * self.modes[k]
+        return u
 
 
-def _prescribe(case: Case, mesh: FEMesh, values: np.ndarray, owner: dict[int, str],
-               surface: str, comp: int, vals: np.ndarray) -> None:
-    """Set ``values`` of one component of a surface, refusing a clash with an earlier group."""
-    dofs = surface_dofs(mesh, surface, comp)
+def _prescribe(case: Case, values: np.ndarray, owner: dict[int, str], dofs: np.ndarray,
+               surface: str, vals: np.ndarray, comps: str, varies: bool = False) -> None:
+    """Set ``values`` of some DOFs of a surface, refusing a clash with an earlier group.
+
+    ``vals``: (1 or len(dofs), n_steps). ``varies``: the values are not known
+    yet (a load-controlled body), so any earlier group on these DOFs clashes.
+    """
     known = ~np.isnan(values[dofs, 0])
-    clash = known & np.any(values[dofs] != vals[None, :], axis=1)
+    vals = np.broadcast_to(vals, (len(dofs), values.shape[1]))
+    clash = known & (varies | np.any(values[dofs] != vals, axis=1))
     if clash.any():
         other = owner[int(dofs[np.flatnonzero(clash)[0]])]
         raise CaseError(f"{case.path.name}: surface '{surface}' and '{other}' "
-                        f"prescribe different values to component {'xyz'[comp]} of "
-                        f"{int(clash.sum())} shared nodes")
-    values[dofs] = vals[None, :]
+                        f"prescribe different values to component(s) {comps} of "
+                        f"{int(clash.sum())} shared node DOFs")
+    values[dofs] = vals
     owner.update(dict.fromkeys(dofs.tolist(), surface))
 
 
@@ -88,13 +129,12 @@ def _prescribe(case: Case, mesh: FEMesh, values: np.ndarray, owner: dict[int, st
 ReachRule = Callable[[ContactPair, GapState], float]
 
 
-def displacement_reach(case: Case) -> ReachRule:
-    """Static rule: 1.25 x the largest prescribed displacement.
+def displacement_reach(reach: float) -> ReachRule:
+    """Static rule: 1.25 x the largest prescribed displacement ``reach`` (m).
 
     The approach cannot exceed the largest prescribed displacement; the zone
     grows by itself if a face outside it touches.
     """
-    reach = max((abs(v) for d in case.displacements for v in d.values), default=0.0)
     return lambda pair, state: 1.25 * reach
 
 

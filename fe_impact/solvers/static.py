@@ -1,25 +1,37 @@
-"""Displacement-controlled static contact between linear elastic bodies.
+"""Static contact between linear elastic bodies, by displacement or by load.
 
 The bodies are linear, only contact is nonlinear, and only a small patch of
 surface can touch. The solver therefore
 
-1. factorises the free-free stiffness once;
-2. condenses the stiffness onto the DOFs of the contact zone (the
-   candidate faces within the search distance) with a Schur complement,
-   giving the compliance ``G`` of those DOFs;
-3. per load step, solves the no-contact displacement ``u0``, then iterates
-   contact forces ``lambda`` on the small dense problem: gaps on the
-   deformed configuration, ``u_c = u0_c + G B^T lambda``, penalty law
-   ``lambda = eps w <-g>``, until the active set and the displacement
-   converge;
-4. recovers the full field with one more back-substitution, and checks the
-   whole slave surface: penetration outside the candidate zone enlarges the
-   zone and repeats the step.
+1. factorises the stiffness of the free DOFs once (supports, prescribed
+   displacements and the surfaces of rigid bodies are the prescribed DOFs);
+2. gives each node of the contact zone (the candidate faces within a
+   search distance) a normal/tangent frame and condenses the stiffness onto
+   the normal coordinates with a Schur complement: the compliance ``G`` of
+   one coordinate per zone node (:func:`~fe_impact.contact.linearised.zone_frames`,
+   as in the implicit transient step);
+3. per load step, solves the no-contact displacement ``u0``, then iterates:
+   project the zone's slave nodes on the deformed master (linearised gaps
+   ``h = g + B (u0 - u)``), solve the penalty contact forces ``lambda`` of
+   the small dense problem ``lambda = eps w <-(h + B G B^T lambda)>`` exactly
+   (:func:`~fe_impact.contact.lcp.solve_penalty_lcp`), and recover the
+   displacement ``u = u0 + K^-1 B^T lambda`` by one back-substitution, until
+   the active set and the displacement converge;
+4. checks the whole slave surface: faces outside the zone that come close
+   enlarge it (the condensation is redone) and the step continues.
+
+A rigid body whose ``loads`` are given (a torque on a hub) is solved for its
+coordinate ``q`` inside each projection: the contact-free displacement is
+``u0 + q w`` (``w`` the response to a unit coordinate), the reaction along
+the body is ``R0 + r q - (B w) . lambda``, and ``q`` is found on the small
+dense problem by a safeguarded secant (regula falsi) search: no extra
+back-substitution per trial.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -28,17 +40,25 @@ import numpy as np
 import scipy.sparse as sp
 
 from fe_impact.contact.lcp import solve_penalty_lcp
+from fe_impact.contact.linearised import ContactModel, zone_frames
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
-from fe_impact.contact.zone import contact_pairs
+from fe_impact.contact.zone import contact_pairs, face_size
 from fe_impact.errors import ContactError
 from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
-from fe_impact.fe.kinematics import point_dofs
+from fe_impact.fe.kinematics import Kinematics
 from fe_impact.fe.linalg import SPDSolver, condensed_compliance
 from fe_impact.fe.mesh import FEMesh
-from fe_impact.solvers.model import ContactSetup, Prescribed, displacement_reach
+from fe_impact.solvers.model import ContactSetup, Prescribed, displacement_reach, gap_reach
 
 logger = logging.getLogger(__name__)
+
+#: Enlargements of the contact zone allowed in one load step.
+MAX_ZONE_GROWTH = 8
+#: Iterations of the load-controlled coordinate per projection; the reaction
+#: is piecewise linear in it, so a safeguarded secant needs a handful.
+MAX_LOAD_ITERATIONS = 60
+
 
 @dataclass(frozen=True)
 class StepResult:
@@ -55,6 +75,10 @@ class StepResult:
     u: np.ndarray = field(repr=False)          # (n_points, 3)
     pressure: np.ndarray = field(repr=False)   # (n_points,)
     von_mises: np.ndarray = field(repr=False)  # (n_elements,)
+    #: Each rigid body's coordinate (m or rad) and the force or torque along
+    #: it (N or N m), in the case's order.
+    rigid_values: list[float] = field(default_factory=list)
+    rigid_reactions: list[float] = field(default_factory=list)
 
 
 @dataclass
@@ -67,12 +91,36 @@ class StaticResult:
     info: dict
 
 
+class _StaticContact(ContactModel):
+    """Linearised gaps of the free DOFs, on the configuration that includes the
+    prescribed displacement ``offset`` (all DOFs)."""
+
+    offset: np.ndarray | None = None
+
+    def point_values(self, z: np.ndarray) -> np.ndarray:
+        u = self.kin.T @ z
+        if self.offset is not None:
+            u = u + self.offset
+        return self.model.point_values(u)
+
+
+@dataclass
+class _Equilibrium:
+    """A converged contact state of one load step."""
+
+    z: np.ndarray          # free DOFs
+    lam: np.ndarray        # penalty forces on the contact model's rows
+    q: float               # the load-controlled coordinate (0 if none)
+    iterations: int
+    active_set_iterations: int
+
+
 class StaticSolver:
     """Set up once per case; :meth:`run` solves the load steps."""
 
     def __init__(self, case: Case, mesh: FEMesh) -> None:
         self.case = case
-        self.timings: dict[str, float] = {}
+        self.timings: dict[str, float] = {"condensation": 0.0}
         t = time.perf_counter()
         self.mesh = mesh
         case.check_groups(self.mesh)
@@ -86,116 +134,232 @@ class StaticSolver:
         K = self.model.K
         self.K_ff = K[free][:, free].tocsr()
         self.K_fd = K[free][:, fixed].tocsr()
+        self.K_d = K[fixed].tocsr()            # rows of the prescribed DOFs: reactions
         self.solver = SPDSolver(self.K_ff)
         self.timings["factorisation"] = time.perf_counter() - t
+        # The load-controlled body (at most one) and its unit response.
+        controlled = [k for k, b in enumerate(case.rigid_bodies) if b.load_controlled]
+        self.load_body = controlled[0] if controlled else None
+        self.w = None if self.load_body is None else self.solver.solve(
+            -(self.K_fd @ self.dofs.modes[self.load_body]))
+        n = self.model.n_dofs
+        T = sp.csr_matrix((np.ones(len(free)), (free, np.arange(len(free)))),
+                          shape=(n, len(free)))
+        self.kin = Kinematics(T, free, fixed, ())
         self.pairs = contact_pairs(case, self.mesh, self.model)
         self.node_areas = [nodal_areas(self.mesh, p.slave) for p in self.pairs]
-        t = time.perf_counter()
-        self.zone = ContactSetup.build(case, self.mesh, self.pairs,
-                                       displacement_reach(case)).zone
-        self.zone_dofs, self.G = self._condense()
-        self.timings["condensation"] = time.perf_counter() - t
+        self.zone = ContactSetup.build(case, self.mesh, self.pairs, self._reach_rule()).zone
+        self.contact = _StaticContact(self.mesh, self.model, self.kin, self.zone, 0.0)
+        self._condense()
 
-    def _condense(self) -> tuple[np.ndarray, np.ndarray]:
-        """The free DOFs of the contact zone and their compliance (Schur complement)."""
-        free = self.dofs.free_index[point_dofs(self.mesh, self.zone.points())]
-        zone_dofs = np.unique(free[free >= 0])
-        logger.info("contact zone: %d DOFs condensed", len(zone_dofs))
-        return zone_dofs, condensed_compliance(self.K_ff, zone_dofs)
+    def _reach_rule(self):
+        """Search distance: the largest prescribed displacement, or the gap and a face
+        when a load sets the motion (the zone then grows as the contact spreads)."""
+        if self.load_body is not None or not self.dofs.values.size:
+            return gap_reach(self.mesh)
+        return displacement_reach(float(np.abs(self.dofs.values).max()))
+
+    def _condense(self) -> None:
+        """Normal frames of the zone nodes and the compliance of those coordinates."""
+        t = time.perf_counter()
+        frames = zone_frames(self.mesh, self.kin, self.contact)
+        self.contact.set_projector(frames.projector)
+        K_rot = (frames.R.T @ self.K_ff @ frames.R).tocsr()
+        self.G = condensed_compliance(K_rot, frames.condensed)
+        self.R_c = frames.R[:, frames.condensed].tocsc()
+        self.n_condensed = len(frames.condensed)
+        logger.info("contact zone: %d coordinates condensed", self.n_condensed)
+        self.timings["condensation"] += time.perf_counter() - t
 
     # -- load steps -----------------------------------------------------------
     def run(self, step_hook: Callable[[int, StepResult], None] | None = None) -> StaticResult:
         """Solve every load step; ``step_hook(i, step)`` is called after each."""
         steps = []
-        t_contact = 0.0
+        t_steps = 0.0
         for i in range(self.case.n_steps):
             t = time.perf_counter()
+            cond0 = self.timings["condensation"]
             step = self.solve_step(i)
-            t_contact += time.perf_counter() - t
+            t_steps += time.perf_counter() - t - (self.timings["condensation"] - cond0)
             steps.append(step)
             if step_hook is not None:
                 step_hook(i, step)
-        self.timings["steps"] = t_contact
+        self.timings["steps"] = t_steps
         info = {"n_dofs": int(self.model.n_dofs), "n_free_dofs": int(len(self.dofs.free)),
-                "n_contact_dofs": int(len(self.zone_dofs)), "element_order": self.mesh.order,
+                "n_contact_dofs": int(self.n_condensed), "element_order": self.mesh.order,
                 "n_elements": int(len(self.mesh.cells)), "n_points": int(self.mesh.n_points),
                 "factor_nonzeros": self.solver.factor_nnz}
         return StaticResult(steps, self.mesh, self.model, [p.penalty for p in self.pairs],
                             dict(self.timings), info)
 
-    def _dirichlet(self, i: int) -> np.ndarray:
-        return self.dofs.values[:, i]
-
     def solve_step(self, i: int) -> StepResult:
-        u_d = self._dirichlet(i)
-        rhs0 = -(self.K_fd @ u_d)
+        u_d = self.dofs.field(i)
+        self.contact.offset = self._full(np.zeros(len(self.dofs.free)), u_d)
+        u0 = self.solver.solve(-(self.K_fd @ u_d))
+        load = None
+        if self.load_body is not None:
+            load = self.case.rigid_bodies[self.load_body].loads[i]
+        warm = getattr(self, "_last", None)
+        for _ in range(MAX_ZONE_GROWTH + 1):
+            eq = self._equilibrium(u0, u_d, load, warm)
+            u_full = self._full(eq.z, self._prescribed(u_d, eq.q))
+            if not self._grow_zone(u_full, eq.z):
+                self._last = eq
+                return self._step_result(i, u_full, eq)
+            warm = eq
+        raise ContactError(f"the contact zone grew {MAX_ZONE_GROWTH} times in load step "
+                           f"{i + 1}: set a [[contacts]] search_distance that covers the "
+                           "contact patch")
+
+    def _prescribed(self, u_d: np.ndarray, q: float) -> np.ndarray:
+        if self.load_body is None:
+            return u_d
+        return u_d + q * self.dofs.modes[self.load_body]
+
+    def _full(self, z: np.ndarray, u_d: np.ndarray) -> np.ndarray:
         u = np.zeros(self.model.n_dofs)
+        u[self.dofs.free] = z
         u[self.dofs.fixed] = u_d
-        u[self.dofs.free] = self.solver.solve(rhs0)
-        for _ in range(5):  # enlargements of the contact zone
-            u_c, lam, states, its, ai = self._contact_iterations(u)
-            u_full = self._recover(u_d, rhs0, states, lam)
-            if not self._grow_zone(u_full):
-                return self._step_result(i, u_full, states, lam, its, ai)
-        raise ContactError("the contact zone kept growing: set a larger "
-                           "[[contacts]] search_distance")
-
-    def _contact_iterations(self, u0: np.ndarray):
-        tol = self.case.analysis.tolerance
-        cdofs = self.dofs.free[self.zone_dofs]
-        u = u0.copy()
-        lam, active, total = None, None, 0
-        for it in range(1, self.case.analysis.max_iterations + 1):
-            states = self._gap_states(u)
-            B = sp.vstack([s.B for s in states]).tocsr()[:, cdofs]
-            gap = np.concatenate([s.gap for s in states])
-            eps_w = np.concatenate([p.penalty * s.weight for p, s in zip(self.pairs, states,
-                                                                         strict=True)])
-            ok = np.isfinite(gap)
-            h = np.where(ok, gap - B @ (u[cdofs] - u0[cdofs]), 0.0)
-            lam = np.zeros(len(gap))
-            lam[ok], n_as = solve_penalty_lcp(B[ok], self.G, h[ok], eps_w[ok],
-                                              None if active is None else active[ok])
-            total += n_as
-            u_new = u0[cdofs] + self.G @ (B.T @ lam)
-            change = np.abs(u_new - u[cdofs]).max(initial=0.0)
-            scale = np.abs(u_new - u0[cdofs]).max(initial=0.0)
-            new_active = lam > 0
-            u[cdofs] = u_new
-            if active is not None and np.array_equal(new_active, active) and \
-                    change <= tol * max(scale, 1e-30):
-                return u, lam, states, it, total
-            active = new_active
-        raise ContactError(f"contact did not converge in {self.case.analysis.max_iterations} "
-                           f"iterations (last displacement change {change:.3g} m); raise "
-                           "[analysis] max_iterations or check the penalty")
-
-    def _gap_states(self, u: np.ndarray):
-        return self.zone.gap_states(self.mesh, self.model.point_values(u))
-
-    def _recover(self, u_d, rhs0, states, lam) -> np.ndarray:
-        B = sp.vstack([s.B for s in states]).tocsr() if states else None
-        rhs = rhs0.copy()
-        if B is not None and B.shape[0]:
-            rhs += (B.T @ lam)[self.dofs.free]
-        u = np.zeros(self.model.n_dofs)
-        u[self.dofs.fixed] = u_d
-        u[self.dofs.free] = self.solver.solve(rhs)
         return u
 
-    def _grow_zone(self, u: np.ndarray) -> bool:
-        """Enlarge the zone if faces outside it penetrate; True if it grew."""
+    def _equilibrium(self, u0: np.ndarray, u_d: np.ndarray, load: float | None,
+                     warm: _Equilibrium | None) -> _Equilibrium:
+        """Iterate projections and contact forces to a converged contact state."""
+        a = self.case.analysis
+        c = self.contact
+        q = warm.q if warm is not None else 0.0
+        z = warm.z if warm is not None and len(warm.z) == len(u0) else u0
+        if load is not None:
+            reaction = self._reaction_model(u0, u_d)
+        active, total, change, scale = None, 0, math.inf, 0.0
+        history: list[float] = []
+        for it in range(1, a.max_iterations + 1):
+            self.contact.offset = self._full(np.zeros(len(u0)), self._prescribed(u_d, q))
+            c.update(z)
+            ok = c.active_rows
+            h = c.gaps(u0)
+            Bc = (c.B[ok] @ self.R_c).tocsr()
+            C = np.asarray(Bc @ (Bc @ self.G).T)
+            lam = np.zeros(len(h))
+            act = None if active is None or len(active) != len(h) else active[ok]
+            if load is None:
+                lam[ok], n_as = solve_penalty_lcp(None, None, h[ok], c.eps_w[ok], act, C=C)
+            else:
+                hw = (c.B @ self.w)[ok]
+                q, lam[ok], n_as = self._load_root(reaction, h[ok], hw, C, c.eps_w[ok], act,
+                                                   load, q)
+            total += n_as
+            base = u0 if load is None else u0 + q * self.w
+            z_new = base + self.solver.solve(c.BT @ lam)
+            zone = c.T_zone
+            change = float(np.abs(zone @ (z_new - z)).max(initial=0.0))
+            scale = float(np.abs(zone @ (z_new - base)).max(initial=0.0))
+            new_active = lam > 0
+            z = z_new
+            history.append(change)
+            if active is not None and np.array_equal(new_active, active) and \
+                    change <= a.tolerance * max(scale, 1e-30):
+                return _Equilibrium(z, lam, q, it, total)
+            active = new_active
+        raise ContactError(
+            f"contact did not converge in {a.max_iterations} iterations (last change of the "
+            f"zone's displacement {change:.3g} m, {change / max(scale, 1e-30):.2g} of the "
+            f"contact displacement {scale:.3g} m; tolerance {a.tolerance:g}): "
+            f"{_diagnosis(history, face_size(self.mesh, self.pairs[0].slave))}")
+
+    def _reaction_model(self, u0: np.ndarray, u_d: np.ndarray) -> tuple[float, float]:
+        """``(R0, r)``: the load-controlled body's reaction without contact at ``q = 0``,
+        and its growth per unit coordinate (zero for a body free but for its hub)."""
+        k = self.load_body
+        mode = self.dofs.modes[k]
+        r0 = float(mode @ (self.K_d @ self._full(u0, u_d)))
+        r = float(mode @ (self.K_d @ self._full(self.w, mode)))
+        return r0, r
+
+    def _load_root(self, reaction, h, hw, C, eps_w, active, load, q0):
+        """The coordinate ``q`` whose contact forces carry ``load``, and those forces.
+
+        The reaction ``R(q) = R0 + r q - hw . lambda(q)`` (``hw``: the gaps'
+        change per unit ``q``) never decreases with ``q``: it is the derivative
+        of a convex energy. From ``q0`` a first step from the stiffness there
+        (or to the first touch if nothing touches), doubled until the load is
+        bracketed; then regula falsi (Illinois variant) on the bracket.
+        """
+        r0, r = reaction
+        total = 0
+
+        def residual(q):
+            nonlocal total, active
+            lam, n = solve_penalty_lcp(None, None, h + q * hw, eps_w, active, C=C)
+            active = lam > 0
+            total += n
+            return r0 + r * q - float(hw @ lam) - load, lam
+
+        tol = 1e-9 * max(abs(load), 1e-12)
+        f0, lam0 = residual(q0)
+        if abs(f0) <= tol:
+            return q0, lam0, total
+        s = 1.0 if f0 < 0 else -1.0          # the way q must go
+        on = lam0 > 0
+        slope = r + (float(hw[on] @ np.linalg.solve(
+            C[np.ix_(on, on)] + np.diag(1.0 / eps_w[on]), hw[on])) if on.any() else 0.0)
+        if slope > 0.0:
+            d = -f0 / slope
+        else:   # nothing touches and the body is free: go to the first touch
+            closing = s * hw < 0
+            if not closing.any():
+                raise ContactError("the load-controlled rigid body does not move toward the "
+                                   "contact: check its direction and the sign of its loads")
+            d = s * 1.01 * float(np.min((h + q0 * hw)[closing] / (-s * hw[closing])))
+            d = d if d != 0.0 else s * 1e-12
+        a, fa = q0, f0
+        for _ in range(MAX_LOAD_ITERATIONS):
+            b = a + d
+            fb, lam = residual(b)
+            if abs(fb) <= tol:
+                return b, lam, total
+            if (fb < 0) != (f0 < 0):
+                break
+            a, fa, d = b, fb, 2.0 * d
+        else:
+            raise ContactError(f"no motion of the load-controlled rigid body carries a load "
+                               f"of {load:g}")
+        lo, f_lo, hi, f_hi = (a, fa, b, fb) if a < b else (b, fb, a, fa)
+        side = 0
+        for _ in range(MAX_LOAD_ITERATIONS):
+            q = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+            f, lam = residual(q)
+            if abs(f) <= tol or hi - lo <= 1e-13 * max(abs(hi), abs(lo)):
+                return q, lam, total
+            if f < 0:
+                lo, f_lo = q, f
+                if side == -1:
+                    f_hi *= 0.5
+                side = -1
+            else:
+                hi, f_hi = q, f
+                if side == 1:
+                    f_lo *= 0.5
+                side = 1
+        raise ContactError(f"the load-controlled rigid body's coordinate did not converge to "
+                           f"a load of {load:g} in {MAX_LOAD_ITERATIONS} iterations")
+
+    def _grow_zone(self, u: np.ndarray, z: np.ndarray) -> bool:
+        """Enlarge the zone if faces outside it penetrate; True if it grew (the zone
+        is then projected on the current configuration and condensed anew)."""
         if self.zone.grow(self.mesh, self.model.point_values(u)):
-            self.zone_dofs, self.G = self._condense()
+            self.contact.update(z)
+            self._condense()
             return True
         return False
 
-    def _step_result(self, i, u, states, lam, its, ai) -> StepResult:
+    def _step_result(self, i: int, u: np.ndarray, eq: _Equilibrium) -> StepResult:
+        c = self.contact
         forces, areas, pmax, pen = [], [], 0.0, 0.0
         pressure = np.zeros(self.mesh.n_points)
         start = 0
-        for pair, st, area in zip(self.pairs, states, self.node_areas, strict=True):
-            lk = lam[start:start + len(st.gap)]
+        for pair, st, area in zip(self.pairs, c.states, self.node_areas, strict=True):
+            lk = eq.lam[start:start + len(st.gap)]
             start += len(st.gap)
             p = np.where(lk > 0, lk / st.weight, 0.0)
             forces.append(float(lk.sum()))
@@ -209,7 +373,27 @@ class StaticSolver:
             pressure = np.maximum(pressure, p_nodes)
         Ku = self.model.K @ u
         reactions = [float(Ku[d].sum()) for d in self.dofs.loaded]
-        value = self.case.displacements[0].values[i] if self.case.displacements else 0.0
-        return StepResult(value, forces, areas, pmax, pen, its, ai, reactions,
-                          self.model.point_values(u), pressure, von_mises(self.model, u))
+        f_d = Ku[self.dofs.fixed]
+        rigid_reactions = [float(m @ f_d) for m in self.dofs.modes]
+        coords = self.dofs.coordinates[:, i].copy()
+        if self.load_body is not None:
+            coords[self.load_body] = eq.q
+        if self.case.displacements:
+            value = self.case.displacements[0].values[i]
+        else:
+            value = float(coords[0]) if len(coords) else 0.0
+        return StepResult(value, forces, areas, pmax, pen, eq.iterations,
+                          eq.active_set_iterations, reactions,
+                          self.model.point_values(u), pressure, von_mises(self.model, u),
+                          [float(v) for v in coords], rigid_reactions)
 
+
+def _diagnosis(history: list[float], face: float) -> str:
+    """What helps when the projection iteration does not converge."""
+    tail = history[-6:]
+    if len(tail) >= 4 and max(tail) < 0.02 * face and min(tail) > 0.3 * max(tail):
+        return ("the change stalls far below a face size (%.3g m) while the active set "
+                "flips at the patch edge: loosen [analysis] tolerance to about %.0e or "
+                "refine the contact faces" % (face, 2 * max(tail) / max(face, 1e-30)))
+    return ("raise [analysis] max_iterations, or apply the load in smaller steps "
+            "(more [[displacements]] values or loads)")

@@ -15,11 +15,19 @@ from pathlib import Path
 
 from numpy.typing import NDArray
 
-from fe_impact.fe.case import AnalysisSpec, Case, ContactSpec, MaterialSpec, RigidBodySpec
+from fe_impact.fe.case import (
+    AnalysisSpec,
+    Case,
+    ContactSpec,
+    MaterialSpec,
+    RigidBodySpec,
+    SupportSpec,
+)
 from fe_impact.gears.pairanalysis import PairAnalysis
 from fe_impact.gears.tca import GearPair
 
-__all__ = ["DURATION_FACTOR", "FRAMES_PER_CONTACT", "case_header", "impact_case"]
+__all__ = ["DURATION_FACTOR", "FRAMES_PER_CONTACT", "case_header", "impact_case",
+           "static_case"]
 
 #: Contact time multiple simulated (about 2.5 Hertz contact times).
 DURATION_FACTOR = 2.5
@@ -58,6 +66,32 @@ def impact_case(gearset, pair: GearPair, analysis: PairAnalysis, case_path: Path
         analysis=AnalysisSpec(type="dynamic", integrator="newmark",
                               duration=DURATION_FACTOR * t_c,
                               output_interval=t_c / FRAMES_PER_CONTACT),
+    )
+
+
+def static_case(gearset, pair: GearPair, analysis: PairAnalysis, case_path: Path,
+                mesh_path: Path, forces: tuple[float, ...]) -> Case:
+    """The quasi-static case on the pair's mesh: the pinion pressed on the face gear.
+
+    The face-gear hub is held; the pinion hub is tied to a rigid rotor loaded,
+    step by step, by the torque that balances a contact normal force
+    ``forces[i]`` (N) at the analysis' contact point: ``T = -F l_1`` with
+    ``l_1`` the pinion's signed lever arm (:class:`~fe_impact.gears.pairanalysis.ReducedMasses`;
+    the contact force on the pinion is ``+F n``, n out of the face gear).
+    """
+    mat = gearset.material
+    point, direction = pair.pinion_axis
+    lever = analysis.masses.pinion_lever
+    return Case(
+        path=case_path, mesh_file=mesh_path.resolve(), unit="mm",
+        materials=(MaterialSpec(("pinion", "face_gear"), float(mat.youngs_modulus),
+                                float(mat.poisson_ratio), float(mat.density)),),
+        contacts=(ContactSpec("pinion_flank", "face_flank"),),
+        supports=(SupportSpec("face_hub", (0, 1, 2)),),
+        rigid_bodies=(RigidBodySpec("pinion_hub", "rotation", direction=_floats(direction),
+                                    point=_floats(point),
+                                    loads=tuple(float(-f * lever) for f in forces)),),
+        analysis=AnalysisSpec(type="static"),
     )
 
 

@@ -83,7 +83,7 @@ class Prescribed:
                 coords[k] = b.values
             q = np.nan_to_num(coords[k])
             _prescribe(case, values, owner, dofs, b.surface, mode[:, None] * q[None, :],
-                       "xyz", varies=b.load_controlled)
+                       "xyz", varies=(mode != 0.0) if b.load_controlled else None)
             body_modes.append((dofs, mode))
         is_fixed = ~np.isnan(values[:, 0])
         fixed, free = np.flatnonzero(is_fixed), np.flatnonzero(~is_fixed)
@@ -107,15 +107,19 @@ class Prescribed:
 
 
 def _prescribe(case: Case, values: np.ndarray, owner: dict[int, str], dofs: np.ndarray,
-               surface: str, vals: np.ndarray, comps: str, varies: bool = False) -> None:
+               surface: str, vals: np.ndarray, comps: str,
+               varies: np.ndarray | None = None) -> None:
     """Set ``values`` of some DOFs of a surface, refusing a clash with an earlier group.
 
-    ``vals``: (1 or len(dofs), n_steps). ``varies``: the values are not known
-    yet (a load-controlled body), so any earlier group on these DOFs clashes.
+    ``vals``: (1 or len(dofs), n_steps). ``varies``: the DOFs whose values are
+    not known yet (those a load-controlled body moves): any earlier group
+    holding one of them clashes.
     """
     known = ~np.isnan(values[dofs, 0])
     vals = np.broadcast_to(vals, (len(dofs), values.shape[1]))
-    clash = known & (varies | np.any(values[dofs] != vals, axis=1))
+    clash = known & np.any(values[dofs] != vals, axis=1)
+    if varies is not None:
+        clash |= known & varies
     if clash.any():
         other = owner[int(dofs[np.flatnonzero(clash)[0]])]
         raise CaseError(f"{case.path.name}: surface '{surface}' and '{other}' "

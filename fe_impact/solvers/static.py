@@ -42,7 +42,7 @@ import scipy.sparse as sp
 from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.linearised import ContactModel, zone_frames
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
-from fe_impact.contact.zone import contact_pairs, face_size
+from fe_impact.contact.zone import ContactZone, contact_pairs, face_size
 from fe_impact.errors import ContactError
 from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
@@ -148,15 +148,23 @@ class StaticSolver:
         self.kin = Kinematics(T, free, fixed, ())
         self.pairs = contact_pairs(case, self.mesh, self.model)
         self.node_areas = [nodal_areas(self.mesh, p.slave) for p in self.pairs]
-        self.zone = ContactSetup.build(case, self.mesh, self.pairs, self._reach_rule()).zone
+        setup = ContactSetup.build(case, self.mesh, self.pairs, self._reach_rule())
+        self.zone, self.reference = setup.zone, setup.states
         self.contact = _StaticContact(self.mesh, self.model, self.kin, self.zone, 0.0)
         self._condense()
 
     def _reach_rule(self):
-        """Search distance: the largest prescribed displacement, or the gap and a face
-        when a load sets the motion (the zone then grows as the contact spreads)."""
+        """Search distance: the largest prescribed displacement; under a load, the
+        first touch (a hundredth of the smallest face beyond the smallest gap),
+        enlarged after the first load step to the patch of the largest load
+        (:meth:`_zone_for_largest_load`). On gear flanks the gap grows slowly
+        along the contact line, so a face's worth of gap would take in the
+        whole face width."""
         if self.load_body is not None or not self.dofs.values.size:
-            return gap_reach(self.mesh)
+            def first_touch(pair, state):
+                return gap_reach(self.mesh)(pair, state) - face_size(self.mesh, pair.slave) \
+                    + 0.01 * face_size(self.mesh, pair.slave, np.min)
+            return first_touch
         return displacement_reach(float(np.abs(self.dofs.values).max()))
 
     def _condense(self) -> None:
@@ -203,7 +211,7 @@ class StaticSolver:
         for _ in range(MAX_ZONE_GROWTH + 1):
             eq = self._equilibrium(u0, u_d, load, warm)
             u_full = self._full(eq.z, self._prescribed(u_d, eq.q))
-            if not self._grow_zone(u_full, eq.z):
+            if not (self._grow_zone(u_full, eq.z) or self._zone_for_largest_load(i, eq)):
                 self._last = eq
                 return self._step_result(i, u_full, eq)
             warm = eq
@@ -273,8 +281,12 @@ class StaticSolver:
         k = self.load_body
         mode = self.dofs.modes[k]
         r0 = float(mode @ (self.K_d @ self._full(u0, u_d)))
-        r = float(mode @ (self.K_d @ self._full(self.w, mode)))
-        return r0, r
+        unit = self._full(self.w, mode)
+        r = float(mode @ (self.K_d @ unit))
+        # A body free but for its hub has r = 0 up to the round-off of the
+        # stiffness of its tied surface alone (mode . K_dd . mode).
+        tied = float(mode @ (self.K_d @ self._full(np.zeros_like(self.w), mode)))
+        return r0, (r if r > 1e-9 * abs(tied) else 0.0)
 
     def _load_root(self, reaction, h, hw, C, eps_w, active, load, q0):
         """The coordinate ``q`` whose contact forces carry ``load``, and those forces.
@@ -352,6 +364,47 @@ class StaticSolver:
             self._condense()
             return True
         return False
+
+    def _zone_for_largest_load(self, i: int, eq: _Equilibrium) -> bool:
+        """Enlarge the zone once to the patch of the largest load; True if it grew.
+
+        Under a load-controlled body the zone starts at the first touch and
+        would grow face by face, each time condensed anew. After the first
+        step the patch is known: its edge lies where the undeformed gap is
+        ``s``, and a Hertzian patch's edge separation grows as ``F^(2/3)``
+        (semi-axes as ``F^(1/3)``), so the largest load ``F_max`` reaches
+        ``g_min + 1.5 (s - g_min) (F_max / F)^(2/3)``: the zone takes every
+        face below that, with half again as margin.
+        """
+        if self.load_body is None or i != 0 or getattr(self, "_sized", False):
+            return False
+        self._sized = True
+        loads = np.abs(self.case.rigid_bodies[self.load_body].loads)
+        if loads[0] <= 0.0 or not np.any(eq.lam > 0):
+            return False
+        scale = (loads.max() / loads[0]) ** (2.0 / 3.0)
+        distances, start = [], 0
+        for st, ref in zip(self.contact.states, self.reference, strict=True):
+            lam = eq.lam[start:start + len(st.gap)]
+            start += len(st.gap)
+            g0 = ref.gap[np.searchsorted(ref.nodes, st.nodes)]
+            on = lam > 0
+            g_min = float(np.min(ref.gap[np.isfinite(ref.gap)]))
+            edge = float(g0[on].max()) if on.any() else g_min
+            distances.append(g_min + 1.5 * max(edge - g_min, 0.0) * scale)
+        wanted = ContactZone.initial(self.mesh, self.pairs, distances, self.reference)
+        grew = False
+        for k in range(len(self.pairs)):
+            for faces, new in ((self.zone.slave_faces, wanted.slave_faces[k]),
+                               (self.zone.master_faces, wanted.master_faces[k])):
+                union = np.union1d(faces[k], new)
+                grew |= len(union) > len(faces[k])
+                faces[k] = union
+        if grew:
+            logger.info("contact zone sized for the largest load (%.3g)", loads.max())
+            self.contact.update(eq.z)
+            self._condense()
+        return grew
 
     def _step_result(self, i: int, u: np.ndarray, eq: _Equilibrium) -> StepResult:
         c = self.contact

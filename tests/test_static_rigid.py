@@ -1,0 +1,122 @@
+"""Static cases with rigid hubs: prescribed motion or load, and the reaction along it.
+
+The sphere-on-block specimen's flat equator face is tied to a rigid body
+translating along z. Independent truths: the sphere's equilibrium (the
+body's reaction balances the contact force on a flat master, whose normals
+are exactly z) and the inverse problem (loading the body with the reactions
+of prescribed motions gives those motions back).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from fe_impact.errors import CaseError, ContactError
+from fe_impact.fe.case import RigidBodySpec, load_case
+from fe_impact.fe.casefile import write_case
+from fe_impact.fe.mesh import load_mesh
+from fe_impact.solvers.static import StaticSolver
+from validation.hertz_static import DISPLACEMENTS
+
+Z = (0.0, 0.0, 1.0)
+
+
+@pytest.fixture(scope="module")
+def specimen(coarse_hertz_case):
+    case = load_case(coarse_hertz_case)
+    return replace(case, displacements=()), load_mesh(case.mesh_file, case.unit)
+
+
+def _body(**motion) -> RigidBodySpec:
+    return RigidBodySpec("sphere_equator", "translation", Z, **motion)
+
+
+@pytest.fixture(scope="module")
+def by_motion(specimen):
+    case, mesh = specimen
+    moved = replace(case, rigid_bodies=(_body(values=tuple(DISPLACEMENTS)),))
+    return StaticSolver(moved, mesh).run()
+
+
+def test_reaction_balances_contact_force(by_motion):
+    # The sphere is held only by the body (the symmetry planes carry no z
+    # force) and pushed by the contact. contact_force sums the forces along
+    # the deformed master normal, which tilts by up to delta/a ~ 0.05 rad at
+    # the contact edge: the z-resultant is smaller by 1 - cos(tilt), at most
+    # 1.3e-3 at the edge and ~1e-4 on average (as for [[displacements]] in
+    # tests/test_static_contact.py).
+    for step, d in zip(by_motion.steps, DISPLACEMENTS, strict=True):
+        assert step.rigid_values == [d]
+        f = step.contact_force[0]
+        assert f > 0
+        assert abs(step.rigid_reactions[0] + f) <= 1e-3 * f
+
+
+def test_load_control_recovers_the_motion(specimen, by_motion):
+    # Loading the body with the reactions of the prescribed motions must give
+    # the motions back. The load is met to 1e-9 (the reaction to 1e-8). The
+    # two runs grow different contact zones, whose normal frames are fixed at
+    # condensation: a frame tilted by t from the contact normal loses
+    # 1 - cos t of the force, t up to delta/a ~ 0.05 at the patch edge, so
+    # motion and force agree to ~1e-3 at worst (measured 2e-5).
+    case, mesh = specimen
+    loads = tuple(s.rigid_reactions[0] for s in by_motion.steps)
+    loaded = StaticSolver(replace(case, rigid_bodies=(_body(loads=loads),)), mesh).run()
+    for got, want in zip(loaded.steps, by_motion.steps, strict=True):
+        assert got.rigid_values[0] == pytest.approx(want.rigid_values[0], rel=1e-3)
+        assert got.contact_force[0] == pytest.approx(want.contact_force[0], rel=1e-3)
+        assert got.rigid_reactions[0] == pytest.approx(want.rigid_reactions[0], rel=1e-8)
+
+
+def test_case_file_round_trip(tmp_path, specimen):
+    case, _ = specimen
+    for body in (_body(values=(1e-6, 2e-6)), _body(loads=(-10.0, -20.0))):
+        path = write_case(replace(case, rigid_bodies=(body,), path=tmp_path / "c.toml"),
+                          tmp_path / "c.toml")
+        assert load_case(path).rigid_bodies == (body,)
+
+
+def test_a_load_pulling_away_is_refused(specimen):
+    case, mesh = specimen
+    with pytest.raises(ContactError, match="does not move toward the contact"):
+        StaticSolver(replace(case, rigid_bodies=(_body(loads=(10.0,)),)), mesh).run()
+
+
+V = f"values = [{1e-6!r}]"    # as write_case writes it
+BAD = [
+    (V, V + "\nloads = [1.0]", r"exactly one of values .* and loads"),
+    (V, "", r"exactly one of values .* and loads .*got neither"),
+    (V, "values = [1e-6, 2e-6]", r"different numbers of values"),
+    ('motion = "translation"', 'motion = "rotation"', None),
+    (V, V + "\ninertia = 1.0", r"inertia need \[analysis\] type = \"dynamic\""),
+]
+
+
+@pytest.mark.parametrize("old,new,pattern", BAD)
+def test_bad_static_rigid_bodies(tmp_path, specimen, old, new, pattern):
+    case, _ = specimen
+    text = (write_case(replace(case, rigid_bodies=(_body(values=(1e-6,)),),
+                               displacements=(), path=tmp_path / "ok.toml"),
+                       tmp_path / "ok.toml").read_text())
+    text = text.replace("[analysis]", '[[displacements]]\nsurface = "block_bottom"\n'
+                        'component = "x"\nvalues = [0.0]\n\n[analysis]')
+    assert old in text
+    bad = tmp_path / "bad.toml"
+    if pattern is None:   # a rotation of 1e-6 rad is fine; 0.2 rad is not small
+        bad.write_text(text.replace(old, new).replace(V, "values = [0.2]"))
+        pattern = r"values = \[0.2\]: must be in \[-0.1, 0.1\] rad"
+    else:
+        bad.write_text(text.replace(old, new))
+    with pytest.raises(CaseError, match=pattern):
+        load_case(bad)
+
+
+def test_two_load_controlled_bodies_are_refused(tmp_path, specimen):
+    case, _ = specimen
+    two = replace(case, path=tmp_path / "two.toml", rigid_bodies=(
+        _body(loads=(1.0,)), replace(_body(loads=(1.0,)), surface="block_bottom")))
+    with pytest.raises(CaseError, match="at most one body can be load-controlled"):
+        write_case(two, tmp_path / "two.toml")

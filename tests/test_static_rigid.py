@@ -120,3 +120,21 @@ def test_two_load_controlled_bodies_are_refused(tmp_path, specimen):
         _body(loads=(1.0,)), replace(_body(loads=(1.0,)), surface="block_bottom")))
     with pytest.raises(CaseError, match="at most one body can be load-controlled"):
         write_case(two, tmp_path / "two.toml")
+
+
+def test_solve_command_reports_the_body(tmp_path, specimen):
+    # The CLI on a load-controlled case: summary.json names the body and gives
+    # its coordinate and the load it carries (the case's load, to 1e-8).
+    import json
+
+    from fe_impact.cli.main import main
+
+    case, _ = specimen
+    path = write_case(replace(case, rigid_bodies=(_body(loads=(-20.0,)),),
+                              path=tmp_path / "c.toml"), tmp_path / "c.toml")
+    assert main(["solve", str(path), "--out", str(tmp_path / "out")]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    (body,) = summary["steps"][0]["rigid_bodies"]
+    assert body["surface"] == "sphere_equator" and body["motion"] == "translation"
+    assert body["reaction"] == pytest.approx(-20.0, rel=1e-8)
+    assert body["value"] < 0

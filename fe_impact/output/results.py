@@ -18,9 +18,9 @@ def _one_or_list(values: list[float]) -> float | list[float]:
     return values[0] if len(values) == 1 else values
 
 
-def step_record(step: StepResult) -> dict:
-    """The JSON record of one load step (SI units)."""
-    return {
+def step_record(step: StepResult, case: Case) -> dict:
+    """The JSON record of one load step (SI units); ``case`` names the rigid bodies."""
+    record = {
         "value": step.value,
         "contact_force": _one_or_list(step.contact_force),
         "contact_area": _one_or_list(step.contact_area),
@@ -30,6 +30,12 @@ def step_record(step: StepResult) -> dict:
         "iterations": step.iterations,
         "active_set_iterations": step.active_set_iterations,
     }
+    if step.rigid_values:
+        record["rigid_bodies"] = [
+            {"surface": b.surface, "motion": b.motion, "value": v, "reaction": r}
+            for b, v, r in zip(case.rigid_bodies, step.rigid_values, step.rigid_reactions,
+                               strict=True)]
+    return record
 
 
 def write_static_results(out: str | Path, case: Case, result: StaticResult,
@@ -57,14 +63,18 @@ def write_static_results(out: str | Path, case: Case, result: StaticResult,
         "case": str(case.path),
         "mesh": str(case.mesh_file),
         "units": {"value": "m", "contact_force": "N", "contact_area": "m^2",
-                  "max_pressure": "Pa", "max_penetration": "m", "reaction_force": "N"},
+                  "max_pressure": "Pa", "max_penetration": "m", "reaction_force": "N",
+                  "rigid_bodies": "value: m (translation) or rad (rotation); reaction: N or "
+                                  "N m along the direction / about the axis"},
         "notes": ("contact_force is the total normal force of each pair on the modelled "
                   "part (a symmetric model carries only its share); reaction_force is the "
-                  "summed reaction on each [[displacements]] surface along its component"),
+                  "summed reaction on each [[displacements]] surface along its component; "
+                  "rigid_bodies gives each rigid body's coordinate and the force or torque "
+                  "that holds it there"),
         "penalty": _one_or_list(result.penalties),
         "model": result.info,
         "timings_s": result.timings,
-        "steps": [step_record(s) for s in result.steps],
+        "steps": [step_record(s, case) for s in result.steps],
         "fields": {"series": "static.pvd", "frames": [f for _, f in frames]},
     }
     return write_json(out / "summary.json", summary)

@@ -244,12 +244,20 @@ def project(points: np.ndarray, master: ContactSurface, x: np.ndarray,
     loop over points and faces is compiled (:func:`_project_kernel`).
     """
     k = int(min(k, len(faces)))
-    cent = x[master.faces[faces, :3]].mean(axis=1)
-    _, cand = cKDTree(cent).query(points, k=k)
-    fidx = np.ascontiguousarray(faces[cand.reshape(len(points), k)], dtype=np.int64)
+    corners = x[master.faces[faces, :3]]
+    cent = corners.mean(axis=1)
+    # A face's points lie within twice its corners' reach of the centroid
+    # (curved 6-node faces bulge by less than that): faces whose centroid is
+    # farther than that beyond the best projection so far cannot win.
+    reach = 2.0 * np.linalg.norm(corners - cent[:, None, :], axis=2).max(axis=1)
+    dist, cand = cKDTree(cent).query(points, k=k)
+    cand = cand.reshape(len(points), k)
+    fidx = np.ascontiguousarray(faces[cand], dtype=np.int64)
     best, xi, eta, point, nrm, gap = _project_kernel(
         np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(x, dtype=float),
-        np.ascontiguousarray(master.faces, dtype=np.int64), fidx, iterations, _INSIDE_TOL)
+        np.ascontiguousarray(master.faces, dtype=np.int64), fidx,
+        np.ascontiguousarray(dist.reshape(len(points), k)), np.ascontiguousarray(reach[cand]),
+        iterations, _INSIDE_TOL)
     valid = best >= 0
     face = np.where(valid, fidx[np.arange(len(points)), np.maximum(best, 0)], fidx[:, 0])
     return Projection(valid, face, xi, eta, point, nrm, gap)
@@ -273,11 +281,15 @@ def _shape(xi, eta, nn, N, dxi, deta):
 
 
 @njit(cache=True)
-def _project_kernel(points, x, mfaces, fidx, iterations, tol):
+def _project_kernel(points, x, mfaces, fidx, cdist, reach, iterations, tol):
     """Closest in-face projection of each point over its candidate faces.
 
-    Returns the winning candidate's column (-1: none inside), reference
-    coordinates, point, unit normal ``t1 x t2`` and gap (+inf if none).
+    Candidates come nearest centroid first (``cdist``); one whose centroid
+    lies farther than its ``reach`` beyond the best distance found is
+    skipped. The Gauss-Newton iteration stops early once its step is below
+    1e-14 in reference coordinates. Returns the winning candidate's column
+    (-1: none inside), reference coordinates, point, unit normal ``t1 x t2``
+    and gap (+inf if none).
     """
     n, k = fidx.shape
     nn = mfaces.shape[1]
@@ -297,8 +309,11 @@ def _project_kernel(points, x, mfaces, fidx, iterations, tol):
         dbest = np.inf
         xi_b, eta_b = 1.0 / 3.0, 1.0 / 3.0
         for c in range(k):
+            if cdist[i, c] - reach[i, c] > np.sqrt(dbest):
+                continue
             f = fidx[i, c]
             xi, eta = 1.0 / 3.0, 1.0 / 3.0
+            last = False
             for it in range(iterations + 1):
                 _shape(xi, eta, nn, N, dxi, deta)
                 for d in range(3):
@@ -310,7 +325,7 @@ def _project_kernel(points, x, mfaces, fidx, iterations, tol):
                         pos[d] += N[a] * xa
                         t1[d] += dxi[a] * xa
                         t2[d] += deta[a] * xa
-                if it == iterations:
+                if it == iterations or last:
                     break
                 a11 = t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]
                 a12 = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]
@@ -322,7 +337,9 @@ def _project_kernel(points, x, mfaces, fidx, iterations, tol):
                     b1 += t1[d] * r
                     b2 += t2[d] * r
                 det = a11 * a22 - a12 * a12
-                xi, eta = xi + (a22 * b1 - a12 * b2) / det, eta + (a11 * b2 - a12 * b1) / det
+                dxi_, deta_ = (a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det
+                xi, eta = xi + dxi_, eta + deta_
+                last = abs(dxi_) + abs(deta_) < 1e-14
             if xi < -tol or eta < -tol or xi + eta > 1.0 + tol:
                 continue
             dist = 0.0

@@ -78,15 +78,24 @@ def static_case(gearset, pair: GearPair, analysis: PairAnalysis, case_path: Path
     ``forces[i]`` (N) at the analysis' contact point: ``T = -F l_1`` with
     ``l_1`` the pinion's signed lever arm (:class:`~fe_impact.gears.pairanalysis.ReducedMasses`;
     the contact force on the pinion is ``+F n``, n out of the face gear).
+
+    The contact zone is every face whose gap is below the initial gap plus
+    1.25 Hertz approaches at the largest force: on a Hertz patch the
+    undeformed separation never exceeds the approach (the elastic
+    displacement ``delta - h`` is positive inside it), and the solver grows
+    the zone if the patch spreads further (at the end of the face).
     """
     mat = gearset.material
     point, direction = pair.pinion_axis
     lever = analysis.masses.pinion_lever
+    design = analysis.design_ellipse
+    approach = design.approach * (max(forces) / design.force) ** (2.0 / 3.0)
     return Case(
         path=case_path, mesh_file=mesh_path.resolve(), unit="mm",
         materials=(MaterialSpec(("pinion", "face_gear"), float(mat.youngs_modulus),
                                 float(mat.poisson_ratio), float(mat.density)),),
-        contacts=(ContactSpec("pinion_flank", "face_flank"),),
+        contacts=(ContactSpec("pinion_flank", "face_flank",
+                              search_distance=analysis.gap + 1.25 * approach),),
         supports=(SupportSpec("face_hub", (0, 1, 2)),),
         rigid_bodies=(RigidBodySpec("pinion_hub", "rotation", direction=_floats(direction),
                                     point=_floats(point),

@@ -173,7 +173,9 @@ class StaticSolver:
         frames = zone_frames(self.mesh, self.kin, self.contact)
         self.contact.set_projector(frames.projector)
         K_rot = (frames.R.T @ self.K_ff @ frames.R).tocsr()
-        self.G = condensed_compliance(K_rot, frames.condensed)
+        G = condensed_compliance(K_rot, frames.condensed)
+        # Symmetric: the C-ordered view, so sparse @ G reads it without a copy.
+        self.G = G if G.flags.c_contiguous else G.T
         self.R_c = frames.R[:, frames.condensed].tocsc()
         self.n_condensed = len(frames.condensed)
         logger.info("contact zone: %d coordinates condensed", self.n_condensed)
@@ -244,18 +246,18 @@ class StaticSolver:
         for it in range(1, a.max_iterations + 1):
             self.contact.offset = self._full(np.zeros(len(u0)), self._prescribed(u_d, q))
             c.update(z)
-            ok = c.active_rows
             h = c.gaps(u0)
-            Bc = (c.B[ok] @ self.R_c).tocsr()
-            C = np.asarray(Bc @ (Bc @ self.G).T)
-            lam = np.zeros(len(h))
-            act = None if active is None or len(active) != len(h) else active[ok]
-            if load is None:
-                lam[ok], n_as = solve_penalty_lcp(None, None, h[ok], c.eps_w[ok], act, C=C)
-            else:
-                hw = (c.B @ self.w)[ok]
-                q, lam[ok], n_as = self._load_root(reaction, h[ok], hw, C, c.eps_w[ok], act,
-                                                   load, q)
+            hw = None if load is None else c.B @ self.w
+            rows = _RowCompliance((c.B @ self.R_c).tocsr(), self.G)
+            h_q = h if hw is None else h + q * hw
+            seed = h_q < 0
+            if active is not None and len(active) == len(h):
+                seed |= active
+            if hw is not None and not seed[c.active_rows].any():
+                # Nothing touches yet: start from the row nearest to touching.
+                seed[np.flatnonzero(c.active_rows)[np.argmin(h_q[c.active_rows])]] = True
+            lam, q, n_as = self._forces(rows, h, hw, c.eps_w, c.active_rows, seed, load,
+                                        reaction if load is not None else None, q)
             total += n_as
             base = u0 if load is None else u0 + q * self.w
             z_new = base + self.solver.solve(c.BT @ lam)
@@ -274,6 +276,34 @@ class StaticSolver:
             f"zone's displacement {change:.3g} m, {change / max(scale, 1e-30):.2g} of the "
             f"contact displacement {scale:.3g} m; tolerance {a.tolerance:g}): "
             f"{_diagnosis(history, face_size(self.mesh, self.pairs[0].slave))}")
+
+    def _forces(self, rows: _RowCompliance, h, hw, eps_w, valid, seed, load, reaction, q):
+        """Contact forces (and the load-controlled coordinate) of one projection.
+
+        Solved on a set of candidate rows, starting from ``seed`` (the rows
+        penetrating without contact forces, and the last active set); rows
+        outside it whose gap the forces would close are added and the solve
+        repeated, so only the rows near the patch enter the dense problem.
+        """
+        lam = np.zeros(len(h))
+        total = 0
+        cand = np.flatnonzero(seed & valid)
+        while True:
+            rows.include(cand)
+            R = rows.rows
+            C = rows.C
+            if load is None:
+                sub, n = solve_penalty_lcp(None, None, h[R], eps_w[R], None, C=C)
+            else:
+                q, sub, n = self._load_root(reaction, h[R], hw[R], C, eps_w[R], None, load, q)
+            total += n
+            lam[:] = 0.0
+            lam[R] = sub
+            w = h + (0.0 if hw is None else q * hw) + rows.gap_change(sub)
+            missed = np.flatnonzero(valid & (w < 0) & ~np.isin(np.arange(len(h)), R))
+            if len(missed) == 0:
+                return lam, q, total
+            cand = missed
 
     def _reaction_model(self, u0: np.ndarray, u_d: np.ndarray) -> tuple[float, float]:
         """``(R0, r)``: the load-controlled body's reaction without contact at ``q = 0``,
@@ -376,7 +406,8 @@ class StaticSolver:
         ``g_min + 1.5 (s - g_min) (F_max / F)^(2/3)``: the zone takes every
         face below that, with half again as margin.
         """
-        if self.load_body is None or i != 0 or getattr(self, "_sized", False):
+        if self.load_body is None or i != 0 or getattr(self, "_sized", False) or \
+                any(c.search_distance is not None for c in self.case.contacts):
             return False
         self._sized = True
         loads = np.abs(self.case.rigid_bodies[self.load_body].loads)
@@ -439,6 +470,36 @@ class StaticSolver:
                           eq.active_set_iterations, reactions,
                           self.model.point_values(u), pressure, von_mises(self.model, u),
                           [float(v) for v in coords], rigid_reactions)
+
+
+class _RowCompliance:
+    """The contact compliance ``C = B G B^T`` on a growing set of gap rows.
+
+    ``B``: the gap Jacobian in the condensed coordinates; only the rows
+    that can touch are formed (a dense row of ``B G`` costs a pass over ``G``).
+    """
+
+    def __init__(self, B: sp.csr_matrix, G: np.ndarray) -> None:
+        self.B, self.G = B, G
+        self.rows = np.zeros(0, dtype=np.int64)
+        self.BG = np.zeros((0, G.shape[0]))
+        self.C = np.zeros((0, 0))
+
+    def include(self, new: np.ndarray) -> None:
+        new = np.setdiff1d(new, self.rows)
+        if len(new) == 0:
+            return
+        BG_new = np.asarray(self.B[new] @ self.G)
+        cross = BG_new @ self.B[self.rows].T.toarray() if len(self.rows) else \
+            np.zeros((len(new), 0))
+        corner = BG_new @ self.B[new].T.toarray()
+        self.C = np.block([[self.C, cross.T], [cross, corner]])
+        self.rows = np.concatenate([self.rows, new])
+        self.BG = np.vstack([self.BG, BG_new])
+
+    def gap_change(self, lam: np.ndarray) -> np.ndarray:
+        """Change of every row's gap under forces ``lam`` on :attr:`rows`."""
+        return self.B @ (self.BG.T @ lam)
 
 
 def _diagnosis(history: list[float], face: float) -> str:

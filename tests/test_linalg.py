@@ -7,7 +7,14 @@ import pytest
 import scipy.sparse as sp
 
 from fe_impact.errors import SolverError
-from fe_impact.fe.linalg import SPDSolver, condensed_cholesky, condensed_compliance
+from fe_impact.fe.linalg import (
+    SPDSolver,
+    _mirror_lower,
+    condensed_cholesky,
+    condensed_compliance,
+    inverse_from_cholesky,
+    schur_cholesky,
+)
 
 
 def _spd(n: int = 60, seed: int = 0) -> sp.csr_matrix:
@@ -91,6 +98,58 @@ def test_condensation_edge_cases_and_errors():
     assert schur_only.schur.shape == (2, 2)
     with pytest.raises(RuntimeError, match="Schur"):
         schur_only.solve(np.ones(K.shape[0]))
+
+
+@pytest.mark.parametrize("dofs", [[0], [3, 17, 18, 40, 59], list(range(0, 60, 7))])
+def test_schur_factorisation_also_solves_the_full_system(dofs):
+    # keep_factor: the factorisation that returns the Schur complement (PARDISO
+    # iparm[35] = 2) solves K x = b as a plain one does, to round-off (TOL above)
+    K = _spd()
+    dense = K.toarray()
+    dofs = np.asarray(dofs)
+    rest = np.setdiff1d(np.arange(len(dense)), dofs)
+    schur = dense[np.ix_(dofs, dofs)] - dense[np.ix_(dofs, rest)] @ np.linalg.solve(
+        dense[np.ix_(rest, rest)], dense[np.ix_(rest, dofs)])
+    rng = np.random.default_rng(3)
+    b, B = rng.standard_normal(len(dense)), rng.standard_normal((len(dense), 4))
+    both = SPDSolver(K, schur_dofs=dofs, keep_factor=True)
+    plain = SPDSolver(K)
+    np.testing.assert_allclose(both.schur, schur, rtol=0, atol=TOL * np.abs(schur).max())
+    for rhs in (b, B):
+        x, x_plain = both.solve(rhs), plain.solve(rhs)
+        assert x.shape == rhs.shape
+        np.testing.assert_allclose(x, x_plain, rtol=0, atol=TOL * np.abs(x_plain).max())
+        np.testing.assert_allclose(x, np.linalg.solve(dense, rhs), rtol=0,
+                                   atol=TOL * np.abs(x_plain).max())
+    both.release()
+    with pytest.raises(RuntimeError, match="released"):
+        both.solve(b)
+    with pytest.raises(ValueError, match="schur_dofs is empty"):
+        SPDSolver(K, schur_dofs=np.array([], dtype=int), keep_factor=True)
+
+
+def test_cholesky_and_inverse_of_a_schur_complement():
+    # schur_cholesky factors in place (no copy of a C-ordered S); the inverse is
+    # exactly symmetric and equals numpy's inverse (condition < 10: TOL)
+    K = _spd().toarray()
+    S = K[:20, :20].copy()
+    L = schur_cholesky(S)
+    assert np.shares_memory(L, S)
+    np.testing.assert_allclose(L @ L.T, K[:20, :20], rtol=0, atol=TOL * np.abs(K).max())
+    G = inverse_from_cholesky(L)
+    assert G.flags.c_contiguous
+    np.testing.assert_array_equal(G, G.T)
+    np.testing.assert_allclose(G, np.linalg.inv(K[:20, :20]), rtol=0, atol=TOL)
+    with pytest.raises(SolverError, match="not positive definite"):
+        schur_cholesky(-np.eye(3))
+
+
+@pytest.mark.parametrize("n,block", [(1, 4), (10, 3), (17, 512), (40, 7)])
+def test_mirror_lower_copies_the_lower_triangle_exactly(n, block):
+    # the blocked in-place copy against the obvious tril(G) + tril(G, -1).T
+    G = np.random.default_rng(n).standard_normal((n, n))
+    expected = np.tril(G) + np.tril(G, -1).T
+    np.testing.assert_array_equal(_mirror_lower(G, block), expected)
 
 
 def test_singular_matrix_is_reported():

@@ -3,9 +3,11 @@
 An implicit step solves ``K_eff z = rhs + f B^T lambda`` (``f = 1 + alpha``
 for HHT-alpha) with the penalty forces ``lambda = eps w <-g(z)>`` on the
 linearised gaps of :class:`~fe_impact.contact.linearised.ContactModel`.
-``K_eff`` is factorised once; the Schur complement of ``K_eff`` on the zone
-nodes' normal coordinates gives the compliance ``G`` of those coordinates,
-so contact in each step is the small dense complementarity problem of
+One PARDISO factorisation of ``K_eff``, rotated into the zone nodes'
+normal/tangent frames, gives both the solves and the Schur complement on the
+zone nodes' normal coordinates (:class:`ZoneSolver`); its Cholesky factor
+gives the compliance of those coordinates (:class:`ZoneCompliance`), so
+contact in each step is the small dense complementarity problem of
 :func:`~fe_impact.contact.lcp.solve_penalty_lcp`, solved exactly (as in the
 static solver), plus one more back-substitution.
 """
@@ -19,15 +21,28 @@ from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import cho_factor, cho_solve
+from scipy.linalg import blas, cho_factor, cho_solve
 
 from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.linearised import ContactModel, ZoneFrames, zone_frames
 from fe_impact.fe.kinematics import Kinematics
-from fe_impact.fe.linalg import SPDSolver, condensed_compliance
+from fe_impact.fe.linalg import SPDSolver, inverse_from_cholesky, schur_cholesky
 from fe_impact.fe.mesh import FEMesh
 
 logger = logging.getLogger(__name__)
+
+#: Solves that go through the rotated Schur-complement factorisation before a
+#: plain factorisation of ``K_eff`` takes them over. A solve through the
+#: Schur factor costs more (its dense zone block, and the fill of ordering
+#: the zone last): +0.019 s a solve on a 116k-DOF tooth pair (5,042 zone
+#: coordinates), +0.0035 s at 41k DOF (2,468), +0.0012 s on an 16k-DOF
+#: sphere (899), against 4.6, 0.74 and 0.31 s for the plain factorisation:
+#: break-even after 240, 210 and 260 solves. A Newmark step makes one
+#: solve, one more in contact, and with plasticity a few per iteration once
+#: points yield (154 in the 90 steps of the default tooth impact, about
+#: 3,000 in the 78 of the yielding sphere impact of bench_dynamic). Taking
+#: over after the break-even costs at most about twice the better choice.
+SCHUR_SOLVES = 250
 
 
 class StepContact(NamedTuple):
@@ -38,6 +53,154 @@ class StepContact(NamedTuple):
     active: np.ndarray | None       # rows in compression (the next solve's warm start)
 
 
+def rotate(K: sp.csr_matrix, R: sp.csr_matrix) -> sp.csr_matrix:
+    """``R^T K R`` for a symmetric ``K`` and an ``R`` that is the identity but in a few rows.
+
+    With ``R = I + D``: ``K + K D + (K D)^T + D^T K D``, where ``D`` has
+    nonzero rows only at the zone nodes' coordinates (0.30 s on a 116k-DOF
+    tooth pair with 5,042 zone nodes, where the two products with ``R`` took
+    0.56 s).
+    """
+    D = (R - sp.identity(R.shape[0], format="csr")).tocsr()
+    D.eliminate_zeros()
+    rows = np.flatnonzero(np.diff(D.indptr))
+    D = D[rows]
+    KD = K[:, rows] @ D
+    return (K + KD + KD.T + D.T @ KD[rows]).tocsr()
+
+
+class ZoneSolver:
+    """Solves with ``K_eff``, and its Schur complement on the contact zone, from one factorisation.
+
+    :meth:`condense` factorises ``R^T K_eff R`` (``R`` the zone frames'
+    rotation) with the Schur complement on the zone's condensed coordinates
+    formed on the way and the factorisation kept
+    (:class:`~fe_impact.fe.linalg.SPDSolver` with ``keep_factor``), and
+    :meth:`solve` solves ``K_eff x = b`` as ``x = R (R^T K_eff R)^-1 R^T b``.
+    After ``schur_solves`` solves (see :data:`SCHUR_SOLVES`), a plain
+    factorisation of ``K_eff``, whose solves are cheaper, takes over and
+    later condensations only form the Schur complement; ``schur_solves = 0``
+    factorises plainly at once.
+
+    Parameters
+    ----------
+    K : csr_matrix
+        ``K_eff``, symmetric positive definite.
+    schur_solves : int
+        Solves through the Schur factorisation before the plain one.
+    """
+
+    def __init__(self, K: sp.csr_matrix, schur_solves: int = SCHUR_SOLVES) -> None:
+        if schur_solves < 0:
+            raise ValueError(f"schur_solves = {schur_solves}: must be at least 0")
+        self.K = K
+        self.n = K.shape[0]
+        self.schur_solves = schur_solves
+        self.solves = 0                      # right-hand sides solved so far
+        self.factor_seconds = 0.0            # wall time of the factorisations so far
+        self.factor_cpu_seconds = 0.0        # and their CPU time
+        self._R: sp.csr_matrix | None = None
+        self._RT: sp.csr_matrix | None = None
+        self._rotated: SPDSolver | None = None
+        self._plain: SPDSolver | None = None
+        if schur_solves == 0:
+            self._plain = self._factorise(lambda: SPDSolver(K))
+
+    def _factorise(self, make: Callable[[], SPDSolver]) -> SPDSolver:
+        t, c = time.perf_counter(), time.process_time()
+        solver = make()
+        self.factor_seconds += time.perf_counter() - t
+        self.factor_cpu_seconds += time.process_time() - c
+        return solver
+
+    def condense(self, R: sp.csr_matrix, dofs: np.ndarray) -> np.ndarray:
+        """Schur complement of ``R^T K_eff R`` on the sorted ``dofs`` (dense, overwritable).
+
+        Until the plain factorisation has taken over, the factorisation is
+        kept for :meth:`solve` (and the previous one released first).
+        """
+        if self._rotated is not None:
+            self._rotated.release()
+            self._rotated = self._R = self._RT = None
+        K_rot = rotate(self.K, R)
+        keep = self._plain is None
+        if len(dofs) == 0:
+            S = np.zeros((0, 0))
+            solver = self._factorise(lambda: SPDSolver(K_rot)) if keep else None
+        else:
+            solver = self._factorise(lambda: SPDSolver(K_rot, schur_dofs=dofs,
+                                                       keep_factor=keep))
+            S, solver.schur = solver.schur, None
+        if keep:
+            self._R, self._RT, self._rotated = R, R.T.tocsr(), solver
+        elif solver is not None:
+            solver.release()
+        return S
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """Solve ``K_eff x = b`` for one (n,) or several (n, k) right-hand sides."""
+        if self._plain is None and self._rotated is None:
+            raise RuntimeError("ZoneSolver.solve before condense()")
+        self.solves += 1 if b.ndim == 1 else b.shape[1]
+        if self._plain is None and self.solves > self.schur_solves:
+            self._switch_to_plain()
+        if self._plain is not None:
+            return self._plain.solve(b)
+        return self._R @ self._rotated.solve(self._RT @ b)
+
+    def _switch_to_plain(self) -> None:
+        t = time.perf_counter()
+        self._plain = self._factorise(lambda: SPDSolver(self.K))
+        self._rotated.release()
+        self._rotated = self._R = self._RT = None
+        logger.info("%d solves: a plain factorisation of the step matrix takes them over "
+                    "(%.3g s)", self.schur_solves, time.perf_counter() - t)
+
+    def release(self) -> None:
+        """Free PARDISO's memory."""
+        for solver in (self._rotated, self._plain):
+            if solver is not None:
+                solver.release()
+
+
+class ZoneCompliance:
+    """Products ``B S^-1 B^T`` with the zone's Schur complement ``S``, from its Cholesky factor.
+
+    ``W = L^-1 B^T`` (a triangular solve with one column per row of ``B``)
+    gives ``B S^-1 B^T = W^T W``. The inverse ``G = S^-1`` (LAPACK potri,
+    about the work of triangular solves with ``2 m / 3`` columns, ``m`` the
+    size of ``S``) is formed instead once the rows solved over the zone's
+    projections would exceed that, and used from then on (``B G B^T``, a
+    sparse-dense product): at most about twice the cheaper of the two.
+    Measured at ``m = 5,042`` on one core: potri and the symmetric copy
+    2.6 s, a solve with 468 rows 0.31 s.
+
+    Parameters
+    ----------
+    S : ndarray, shape (m, m)
+        The Schur complement (overwritten).
+    """
+
+    def __init__(self, S: np.ndarray) -> None:
+        self.size = S.shape[0]
+        self.L: np.ndarray | None = schur_cholesky(S)
+        self.G: np.ndarray | None = None
+        self.solved_rows = 0
+
+    def inner(self, Bc: sp.spmatrix) -> np.ndarray:
+        """``Bc S^-1 Bc^T`` for a sparse ``Bc`` of shape (k, m)."""
+        k = Bc.shape[0]
+        if k == 0 or self.size == 0:
+            return np.zeros((k, k))
+        if self.G is None and self.solved_rows + k > 2 * self.size / 3:
+            self.G, self.L = inverse_from_cholesky(self.L), None
+        if self.G is not None:
+            return np.asarray(Bc @ (Bc @ self.G).T)
+        self.solved_rows += k
+        W = blas.dtrsm(1.0, self.L, Bc.toarray().T, lower=1, overwrite_b=1)
+        return W.T @ W
+
+
 class CondensedContact:
     """Contact forces of ``K_eff z = rhs + f B^T lambda`` by the condensed LCP.
 
@@ -45,21 +208,29 @@ class CondensedContact:
     ----------
     K_eff : csr_matrix
         The step's effective stiffness in reduced coordinates.
-    solver : SPDSolver
-        Its factorisation.
     force_factor : float
         ``f``, the weight of the contact forces of the new step (``1 + alpha``).
+    schur_solves : int
+        See :class:`ZoneSolver`.
+
+    Attributes
+    ----------
+    solver : ZoneSolver
+        The solves with ``K_eff`` (the same object over the run, also after
+        the zone grew).
     """
 
     def __init__(self, mesh: FEMesh, kin: Kinematics, contact: ContactModel,
-                 K_eff: sp.csr_matrix, solver: SPDSolver, force_factor: float) -> None:
+                 K_eff: sp.csr_matrix, force_factor: float,
+                 schur_solves: int = SCHUR_SOLVES) -> None:
         self.mesh, self.kin, self.contact = mesh, kin, contact
-        self.K_eff, self.solver = K_eff, solver
+        self.K_eff = K_eff
+        self.solver = ZoneSolver(K_eff, schur_solves)
         self.force_factor = force_factor
-        self.seconds = 0.0                  # wall time of the condensations so far
-        self.cpu_seconds = 0.0              # and their CPU time
-        self.frames, self.G = self._condensation()
-        self._delassus = np.zeros((0, 0))   # f B G B^T of the current projection
+        self.seconds = 0.0                  # wall time of the condensations so far,
+        self.cpu_seconds = 0.0              # and their CPU time, without factorisations
+        self.frames, self.compliance = self._condensation()
+        self._delassus = np.zeros((0, 0))   # f B S^-1 B^T of the current projection
         self._delassus_at = -1              # the projection it belongs to
 
     @property
@@ -69,10 +240,10 @@ class CondensedContact:
 
     def condense(self) -> None:
         """Condense anew after the contact zone changed."""
-        self.frames, self.G = self._condensation()
+        self.frames, self.compliance = self._condensation()
         self._delassus_at = -1
 
-    def _condensation(self) -> tuple[ZoneFrames, np.ndarray]:
+    def _condensation(self) -> tuple[ZoneFrames, ZoneCompliance]:
         """Schur complement of ``K_eff`` on the zone nodes' normal coordinates.
 
         The gap Jacobian keeps only each zone node's normal component (see
@@ -85,25 +256,23 @@ class CondensedContact:
         has deformed by 5% of a face.
         """
         t, c = time.perf_counter(), time.process_time()
+        factor_t, factor_c = self.solver.factor_seconds, self.solver.factor_cpu_seconds
         frames = zone_frames(self.mesh, self.kin, self.contact)
         self.contact.set_projector(frames.projector)
-        K_rot = (frames.R.T @ self.K_eff @ frames.R).tocsr()
-        # The compliance G once per zone; after each projection B G B^T is then a
-        # sparse-dense product (a triangular solve with the Schur factor per
-        # projection cost 4.5 s on a 145k-DOF tooth pair, this 0.5 s).
-        G = condensed_compliance(K_rot, frames.condensed)
+        compliance = ZoneCompliance(self.solver.condense(frames.R, frames.condensed))
         logger.info("contact zone: %d reduced coordinates condensed", len(frames.condensed))
-        self.seconds += time.perf_counter() - t
-        self.cpu_seconds += time.process_time() - c
-        return frames, G
+        self.seconds += (time.perf_counter() - t
+                         - (self.solver.factor_seconds - factor_t))
+        self.cpu_seconds += (time.process_time() - c
+                             - (self.solver.factor_cpu_seconds - factor_c))
+        return frames, compliance
 
     def _delassus_matrix(self) -> np.ndarray:
-        """``f B G B^T`` on the rows with a gap, rebuilt after each projection."""
+        """``f B S^-1 B^T`` on the rows with a gap, rebuilt after each projection."""
         c = self.contact
         if self._delassus_at != c.n_projections:
             Bc = (c.B @ self.frames.R)[:, self.frames.condensed][c.active_rows].tocsr()
-            BG = Bc @ self.G
-            self._delassus = self.force_factor * np.asarray(Bc @ BG.T)
+            self._delassus = self.force_factor * self.compliance.inner(Bc)
             self._delassus_at = c.n_projections
         return self._delassus
 

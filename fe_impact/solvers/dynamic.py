@@ -59,7 +59,6 @@ from fe_impact.fe.elasticity import (
     von_mises,
 )
 from fe_impact.fe.kinematics import Kinematics
-from fe_impact.fe.linalg import SPDSolver
 from fe_impact.fe.mesh import FEMesh
 from fe_impact.solvers import integrators as ti
 from fe_impact.solvers.measurements import (
@@ -212,9 +211,9 @@ class DynamicSolver:
         if self.explicit:
             return ti.CentralDifference(self.dt, self.K, self.m), None
         nm = ti.Newmark(self.dt, self.K, self.M, self.case.analysis.hht_alpha)
-        K_eff = nm.effective_stiffness()
-        return nm, CondensedContact(self.mesh, self.kin, self.contact, K_eff, SPDSolver(K_eff),
-                                    nm.force_factor)
+        # One factorisation serves the solves and the condensation (see ZoneSolver).
+        return nm, CondensedContact(self.mesh, self.kin, self.contact,
+                                    nm.effective_stiffness(), nm.force_factor)
 
     @property
     def initial_gap(self) -> float:

@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from fe_impact.contact.condensed import ZoneSolver
 from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.linearised import ContactModel, zone_frames
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
@@ -47,7 +48,7 @@ from fe_impact.errors import ContactError
 from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
 from fe_impact.fe.kinematics import Kinematics
-from fe_impact.fe.linalg import SPDSolver, condensed_compliance
+from fe_impact.fe.linalg import inverse_from_cholesky, schur_cholesky
 from fe_impact.fe.mesh import FEMesh
 from fe_impact.solvers.model import ContactSetup, Prescribed, displacement_reach, gap_reach
 
@@ -130,28 +131,28 @@ class StaticSolver:
         self.timings["assembly"] = time.perf_counter() - t
         self.dofs = Prescribed.build(case, self.mesh, self.model.n_dofs)
         free, fixed = self.dofs.free, self.dofs.fixed
-        t = time.perf_counter()
         K = self.model.K
         self.K_ff = K[free][:, free].tocsr()
         self.K_fd = K[free][:, fixed].tocsr()
         self.K_d = K[fixed].tocsr()            # rows of the prescribed DOFs: reactions
-        self.solver = SPDSolver(self.K_ff)
-        self.timings["factorisation"] = time.perf_counter() - t
-        # The load-controlled body (at most one) and its unit response.
-        controlled = [k for k, b in enumerate(case.rigid_bodies) if b.load_controlled]
-        self.load_body = controlled[0] if controlled else None
-        self.w = None if self.load_body is None else self.solver.solve(
-            -(self.K_fd @ self.dofs.modes[self.load_body]))
+        # One factorisation of the free stiffness (in the zone frames) serves the
+        # solves and the condensation onto the zone (:class:`ZoneSolver`).
+        self.solver = ZoneSolver(self.K_ff)
         n = self.model.n_dofs
         T = sp.csr_matrix((np.ones(len(free)), (free, np.arange(len(free)))),
                           shape=(n, len(free)))
         self.kin = Kinematics(T, free, fixed, ())
+        controlled = [k for k, b in enumerate(case.rigid_bodies) if b.load_controlled]
+        self.load_body = controlled[0] if controlled else None
         self.pairs = contact_pairs(case, self.mesh, self.model)
         self.node_areas = [nodal_areas(self.mesh, p.slave) for p in self.pairs]
         setup = ContactSetup.build(case, self.mesh, self.pairs, self._reach_rule())
         self.zone, self.reference = setup.zone, setup.states
         self.contact = _StaticContact(self.mesh, self.model, self.kin, self.zone, 0.0)
         self._condense()
+        # The load-controlled body (at most one) and its unit response.
+        self.w = None if self.load_body is None else self.solver.solve(
+            -(self.K_fd @ self.dofs.modes[self.load_body]))
 
     def _reach_rule(self):
         """Search distance: the largest prescribed displacement; under a load, the
@@ -170,16 +171,17 @@ class StaticSolver:
     def _condense(self) -> None:
         """Normal frames of the zone nodes and the compliance of those coordinates."""
         t = time.perf_counter()
+        factor = self.solver.factor_seconds
         frames = zone_frames(self.mesh, self.kin, self.contact)
         self.contact.set_projector(frames.projector)
-        K_rot = (frames.R.T @ self.K_ff @ frames.R).tocsr()
-        G = condensed_compliance(K_rot, frames.condensed)
-        # Symmetric: the C-ordered view, so sparse @ G reads it without a copy.
-        self.G = G if G.flags.c_contiguous else G.T
+        S = self.solver.condense(frames.R, frames.condensed)
+        self.G = inverse_from_cholesky(schur_cholesky(S))
         self.R_c = frames.R[:, frames.condensed].tocsc()
         self.n_condensed = len(frames.condensed)
         logger.info("contact zone: %d coordinates condensed", self.n_condensed)
-        self.timings["condensation"] += time.perf_counter() - t
+        factorised = self.solver.factor_seconds - factor
+        self.timings["factorisation"] = self.timings.get("factorisation", 0.0) + factorised
+        self.timings["condensation"] += time.perf_counter() - t - factorised
 
     # -- load steps -----------------------------------------------------------
     def run(self, step_hook: Callable[[int, StepResult], None] | None = None) -> StaticResult:
@@ -197,8 +199,7 @@ class StaticSolver:
         self.timings["steps"] = t_steps
         info = {"n_dofs": int(self.model.n_dofs), "n_free_dofs": int(len(self.dofs.free)),
                 "n_contact_dofs": int(self.n_condensed), "element_order": self.mesh.order,
-                "n_elements": int(len(self.mesh.cells)), "n_points": int(self.mesh.n_points),
-                "factor_nonzeros": self.solver.factor_nnz}
+                "n_elements": int(len(self.mesh.cells)), "n_points": int(self.mesh.n_points)}
         return StaticResult(steps, self.mesh, self.model, [p.penalty for p in self.pairs],
                             dict(self.timings), info)
 

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
+from fe_impact.calibration import meshcycle
 from fe_impact.cli.main import main
 from fe_impact.gears import default_gearset
 from fe_impact.gears.pairanalysis import PairSpec, analyse_pair
@@ -16,15 +18,50 @@ from fe_impact.physics import hertz
 def calibrated(tmp_path_factory):
     out = tmp_path_factory.mktemp("calibration")
     argv = ["calibrate", "--stages", "1", "--impact-speeds", "0.05", "--level", "coarse",
-            "--workers", "1", "--out", str(out / "run"), "--cache", str(out / "cache")]
+            "--positions", "2", "--workers", "1", "--out", str(out / "run"), "--cache", str(out / "cache")]
     assert main(argv) == 0
     return out, argv
+
+
+def test_mesh_cycle_outputs(calibrated):
+    """The two path ends measured quasi-statically, their laws in calibration.json."""
+    out, _ = calibrated
+    run = out / "run"
+    law = json.loads((run / "calibration.json").read_text())["mesh_cycle"]["1"]
+    first, last = meshcycle.path_of_contact(default_gearset(), 1)
+    assert len(law["roll_angle_deg"]) == 2
+    # The ends are moved inward by END_INSET of the path (the exact ends are
+    # edges where the contact analysis has no contact point).
+    inset = meshcycle.END_INSET * abs(first - last)
+    assert sorted(law["roll_angle_deg"]) == pytest.approx(sorted([first - inset, last + inset]),
+                                                          abs=1e-9)
+    cycle = json.loads((run / "mesh_cycle.json").read_text())
+    for pos in cycle["positions"]:
+        f, d, h = (np.asarray(pos[k]) for k in ("forces", "approaches", "hertz_approaches"))
+        loaded = f >= meshcycle.FIT_MIN_FORCE
+        # The approach holds the teeth's bending besides the contact: the Hertz
+        # approach of the contact alone is a lower bound from 50 N up (below,
+        # the patch is narrower than an element and the FE is stiffer).
+        assert np.all(d[loaded] > h[loaded])
+        # The pinion's torque is carried by the contact alone: torque / lever
+        # = contact force, to the tilt of the normal over the patch (1e-3).
+        t = np.abs(np.asarray(pos["torques"]))
+        assert t / pos["lever"] == pytest.approx(f, rel=5e-3)
+        assert pos["fit_error"] < 0.05
+    # One mesh cycle: a roll of one angular pitch with two pairs over
+    # (contact ratio - 1) of it (1.7622 for the seed set, the geometry command).
+    for c in cycle["cycles"]:
+        two = np.mean(np.asarray(c["pairs"]) == 2)
+        assert two == pytest.approx(1.7622 - 1.0, abs=2.0 / len(c["pairs"]))
+    for name in ("mesh_cycle.csv", "contact_pattern.png", "stiffness_along_path.png",
+                 "transmission_error.png"):
+        assert (run / name).stat().st_size > 100, name
 
 
 def test_calibration_outputs(calibrated):
     out, _ = calibrated
     doc = json.loads((out / "run" / "calibration.json").read_text())
-    assert doc["schema"] == "fe-impact/calibration/1"
+    assert doc["schema"] == "fe-impact/calibration/2"
     (case,) = doc["cases"]
     fe, law, tca_mass = case["fe"], case["impact"], case["effective_mass"]
     # Elastic tooth impact below the yield speed: the FE restitution is close to 1
@@ -183,6 +220,7 @@ def test_ctrl_c_keeps_finished_cases_and_rerun_completes(calibrated, tmp_path):
 
     cache = calibrated[0] / "cache"          # the first case's mesh is already there
     argv = ["calibrate", "--stages", "1", "--impact-speeds", "0.05,0.08", "--level", "coarse",
+            "--no-mesh-cycle",
             "--workers", "1", "--out", str(tmp_path / "run"), "--cache", str(cache)]
     exe = Path(sys.executable).with_name("fe-impact")
     proc = subprocess.Popen([str(exe), *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -216,6 +254,7 @@ def test_ratio_switch_impact_yields(tmp_path):
     still close within 2% (measured 0.6%).
     """
     argv = ["calibrate", "--stages", "2", "--speeds", "1000", "--switch", "--level", "coarse",
+            "--no-mesh-cycle",
             "--workers", "2", "--out", str(tmp_path / "run"), "--cache", str(tmp_path / "c")]
     assert main(argv) == 0
     doc = json.loads((tmp_path / "run" / "calibration.json").read_text())

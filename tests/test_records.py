@@ -119,7 +119,7 @@ def test_calibration_file_round_trip(tmp_path):
     data = _strict(path.read_text())
     assert data["schema"] == SCHEMA and data["units"] == UNITS
     assert list(data) == ["schema", "fe_impact_version", "units", "settings", "wall_time_s",
-                          "notes", "cases"]
+                          "notes", "cases", "mesh_cycle"]
     assert read_calibration(path) == cal
 
 
@@ -205,7 +205,7 @@ def test_reading_rejects_a_bad_value_naming_the_key(tmp_path, change, message):
 
 @pytest.mark.parametrize(("mutate", "message"), [
     (lambda d: d.update(schema="fe-impact/calibration/0"),
-     "schema = 'fe-impact/calibration/0': expected 'fe-impact/calibration/1'"),
+     "schema = 'fe-impact/calibration/0': expected 'fe-impact/calibration/2' (or the older 'fe-impact/calibration/1')"),
     (lambda d: d.update(cases=[]), "cases = []: must be a non-empty list of objects"),
     (lambda d: d.update(extra=1), "unknown key(s) ['extra'] at the top level"),
 ])
@@ -216,4 +216,33 @@ def test_reading_rejects_a_bad_document(tmp_path, mutate, message):
     path.write_text(json.dumps(data))
     with pytest.raises(CalibrationError) as info:
         read_calibration(path)
+    assert message in str(info.value)
+
+
+LAW = {"roll_angle_deg": [-14.6, 2.1, 18.7], "k": [1.8e9, 8.5e9, 5.5e9],
+       "exponent": [1.26, 1.36, 1.37]}
+
+
+def test_the_position_law_is_read_and_the_older_schema_still_is(tmp_path):
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps({**_doc(), "mesh_cycle": {"1": LAW}}))
+    cal = read_calibration(path, law_only=True)
+    assert cal.schema == SCHEMA and cal.mesh_cycle["1"]["k"] == LAW["k"]
+    path.write_text(json.dumps({**_doc(), "schema": "fe-impact/calibration/1"}))
+    old = read_calibration(path, law_only=True)
+    assert old.schema == "fe-impact/calibration/1" and old.mesh_cycle is None
+
+
+@pytest.mark.parametrize(("law", "message"), [
+    ({**LAW, "k": [1.0, 2.0]}, "[mesh_cycle.1] k = [1.0, 2.0]: must be a list of three numbers"),
+    ({**LAW, "roll_angle_deg": [2.0, 1.0, 3.0]},
+     "[mesh_cycle.1] roll_angle_deg = [2.0, 1.0, 3.0]: must hold two or more rising angles"),
+    ({**LAW, "exponent": [1.0, 0.0, 1.0]},
+     "[mesh_cycle.1] exponent = [1.0, 0.0, 1.0]: must be positive"),
+])
+def test_a_bad_position_law_is_refused_naming_the_key(tmp_path, law, message):
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps({**_doc(), "mesh_cycle": {"1": law}}))
+    with pytest.raises(CalibrationError) as info:
+        read_calibration(path, law_only=True)
     assert message in str(info.value)

@@ -9,7 +9,7 @@ import pytest
 
 from fe_impact.cli.main import main
 
-ARGV = ["calibrate", "--stages", "1", "--speeds", "100", "--level", "coarse"]
+ARGV = ["calibrate", "--stages", "1", "--speeds", "100", "--level", "coarse", "--no-mesh-cycle"]
 
 
 def _cases(folder) -> dict:

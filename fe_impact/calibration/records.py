@@ -71,7 +71,9 @@ __all__ = [
     "write_record",
 ]
 
-SCHEMA = "fe-impact/calibration/1"
+SCHEMA = "fe-impact/calibration/2"
+#: The schema before the position-dependent law (``mesh_cycle``); still read.
+SCHEMA_V1 = "fe-impact/calibration/1"
 #: Impact kinds: tooth contact in mesh (seed eq. 4) and the first contact after
 #: a ratio switch into the stage (eq. 5); the order of the lumped model's tables.
 KINDS = ("mesh", "switch")
@@ -398,13 +400,19 @@ class Calibration(_Record):
     """
 
     TOP_KEYS: ClassVar[tuple[str, ...]] = ("schema", "fe_impact_version", "units", "settings",
-                                           "wall_time_s", "notes", "cases")
+                                           "wall_time_s", "notes", "cases", "mesh_cycle")
 
     cases: tuple[CalibrationRecord, ...]
     settings: Mapping[str, Any] | None = None
     wall_time_s: float | None = None
     fe_impact_version: str | None = None
     notes: str | None = None
+    #: The position-dependent pair law per stage (schema 2):
+    #: ``{"1": {"roll_angle_deg": [...], "k": [...], "exponent": [...], ...}}``
+    #: (:func:`fe_impact.calibration.meshcycle_report.position_law`); None in a
+    #: file without the mesh cycle.
+    mesh_cycle: Mapping[str, Any] | None = None
+    schema: str = SCHEMA
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "cases", tuple(self.cases))
@@ -413,7 +421,8 @@ class Calibration(_Record):
         return {"schema": SCHEMA, "fe_impact_version": self.fe_impact_version,
                 "units": dict(UNITS), "settings": _plain(self.settings),
                 "wall_time_s": _plain(self.wall_time_s), "notes": self.notes,
-                "cases": [c.to_dict() for c in self.cases]}
+                "cases": [c.to_dict() for c in self.cases],
+                "mesh_cycle": _plain(self.mesh_cycle)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], reader: Reader | None = None,
@@ -421,8 +430,9 @@ class Calibration(_Record):
         """Check and convert a calibration document; ``skip`` applies to every case."""
         r = reader or Reader(error=CalibrationError, syntax="json")
         r.keys(data, where, cls.TOP_KEYS, required=("schema", "cases"))
-        if data["schema"] != SCHEMA:
-            raise r.fail(where, "schema", data["schema"], f"expected {SCHEMA!r}")
+        if data["schema"] not in (SCHEMA, SCHEMA_V1):
+            raise r.fail(where, "schema", data["schema"], f"expected {SCHEMA!r} (or the "
+                         f"older {SCHEMA_V1!r})")
         if "units" in data:
             r.table(data, where, "units")
         settings = None
@@ -430,12 +440,38 @@ class Calibration(_Record):
             settings = dict(r.table(data, where, "settings"))
         cases = tuple(CalibrationRecord.from_dict(c, r, f"cases[{i}]", skip)
                       for i, c in enumerate(r.array(data, where, "cases", required=True)))
-        return cls(cases=cases, settings=settings,
+        return cls(cases=cases, settings=settings, schema=data["schema"],
+                   mesh_cycle=_mesh_cycle(r, data, where),
                    wall_time_s=r.number(data, where, "wall_time_s", low=0, null=True),
                    fe_impact_version=(None if data.get("fe_impact_version") is None
                                       else r.string(data, where, "fe_impact_version")),
                    notes=(None if data.get("notes") is None
                           else r.string(data, where, "notes", empty=True)))
+
+
+def _mesh_cycle(r: Reader, data: Mapping[str, Any], where: str) -> dict | None:
+    """Check the position-dependent law: per stage, two or more rising roll angles
+    with positive ``k`` and ``exponent`` of the same length."""
+    if data.get("mesh_cycle") is None:
+        return None
+    out = {}
+    for stage, law in r.table(data, where, "mesh_cycle").items():
+        w = f"{where}.mesh_cycle" if where else "mesh_cycle"
+        if not (stage.isdigit() and int(stage) >= 1):
+            raise r.fail(w, stage, "...", "stages are keyed by their number: 1, 2, ...")
+        if not isinstance(law, Mapping):
+            raise r.fail(w, stage, law, "must be an object with roll_angle_deg, k, exponent")
+        w = f"{w}.{stage}"
+        roll = r.numbers(law, w, "roll_angle_deg", unit="(deg)")
+        k = r.numbers(law, w, "k", size=len(roll))
+        e = r.numbers(law, w, "exponent", size=len(roll))
+        if len(roll) < 2 or np.any(np.diff(roll) <= 0):
+            raise r.fail(w, "roll_angle_deg", list(roll), "must hold two or more rising angles")
+        for key, values in (("k", k), ("exponent", e)):
+            if min(values) <= 0:
+                raise r.fail(w, key, list(values), "must be positive")
+        out[stage] = {**law, "roll_angle_deg": list(roll), "k": list(k), "exponent": list(e)}
+    return out
 
 
 # -- CSV ----------------------------------------------------------------------------------

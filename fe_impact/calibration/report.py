@@ -112,6 +112,10 @@ def write_calibration_report(out: Path, calibration: Calibration) -> Path:
                   f"{_fmt(calibration.wall_time_s, '.0f')} s (resumed cases cost nothing "
                   "the second time)."]
     lines += [""] + [f"![{p}]({p})" for p in plots] + [""]
+    if calibration.mesh_cycle:
+        from fe_impact.calibration.meshcycle_report import report_lines
+
+        lines += report_lines(calibration.mesh_cycle)
     path = out / "report.md"
     with atomic_path(path) as tmp:
         tmp.write_text("\n".join(lines))

@@ -71,6 +71,8 @@ from fe_impact.calibration.records import (  # noqa: F401 (KINDS, UNITS: importa
     write_calibration_csv,
     write_record,
 )
+from fe_impact.calibration import meshcycle
+from fe_impact.calibration.meshcycle import PositionCase
 from fe_impact.errors import CalibrationError
 from fe_impact.fe.case import INTEGRATORS
 from fe_impact.gears.pairanalysis import LEVEL_NAMES
@@ -233,9 +235,11 @@ def check_scheduler_address(address: str) -> str:
     return address
 
 
-def case_hash(case: ImpactCase, settings: Settings, gearset_text: str) -> str:
+def case_hash(case: ImpactCase | PositionCase, settings: Settings, gearset_text: str) -> str:
     """Resume key: the case, the run's settings, the gear set, the schema and the
     fe-impact version (a result from another version is computed again)."""
+    if isinstance(case, PositionCase):
+        return meshcycle.case_hash(case, settings.level, settings.order, gearset_text)
     blob = json.dumps([asdict(case), asdict(settings), gearset_text, SCHEMA, __version__],
                       sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
@@ -246,8 +250,12 @@ def case_hash(case: ImpactCase, settings: Settings, gearset_text: str) -> str:
 
 def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
              cache: str) -> CalibrationRecord:
-    """Mesh, solve and fit one impact; writes ``cases/<id>/result.json``; returns it."""
+    """Mesh, solve and fit one impact (or measure one mesh-cycle position); writes
+    ``cases/<id>/result.json``; returns it."""
     import tomllib
+
+    if isinstance(case, PositionCase):
+        return _run_position(case, settings, gearset_text, out, cache)
 
     from fe_impact.fe.linalg import limit_threads
     from fe_impact.fe.mesh import load_mesh
@@ -304,6 +312,17 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     record = replace(record, id=case.id, hash=key, timings_s=timings,
                      initial_gap=pair.analysis.gap, model=ModelInfo.from_info(result.info))
     write_record(folder / "result.json", record)
+    return record
+
+
+def _run_position(case: PositionCase, settings: Settings, gearset_text: str, out: str,
+                  cache: str) -> meshcycle.PositionRecord:
+    from fe_impact.output.files import write_json
+    from fe_impact.runtime import keep_freed_memory
+
+    keep_freed_memory()
+    record = meshcycle.run_position(case, settings.level, settings.order, gearset_text, cache)
+    write_json(Path(out) / "cases" / case.id / "result.json", record.to_dict())
     return record
 
 
@@ -455,6 +474,8 @@ def finished_record(out: Path, case: ImpactCase, settings: Settings,
         data = read_document(path, "calibration result", CalibrationError, "json")
         if data.get("hash") != case_hash(case, settings, gearset_text):
             return None   # another version, gear set or settings: computed again
+        if isinstance(case, PositionCase):
+            return meshcycle.PositionRecord.from_dict(data)
         return CalibrationRecord.from_dict(data, Reader(str(path), CalibrationError, "json"))
     except CalibrationError as exc:   # cut short or edited: computed again
         logger.warning("%s; case %s is computed again", exc, case.id)
@@ -494,7 +515,7 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
         except KeyboardInterrupt as exc:
             stopped = exc
     path = _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
-                          "stopped" if stopped is not None else "completed")
+                          "stopped" if stopped is not None else "completed", gearset_text)
     if stopped is not None:
         raise stopped
     return path
@@ -508,8 +529,8 @@ def _held_elsewhere(folder: Path) -> bool:
         return not held
 
 
-def _write_summary(out: Path, cases: list[ImpactCase], sweep: Sweep, settings: Settings,
-                   wall: float, status: str) -> Path:
+def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Sweep,
+                   settings: Settings, wall: float, status: str, gearset_text: str) -> Path:
     """summary.json and, for a completed run, calibration.json/.csv and report.md."""
     from fe_impact.calibration.report import write_calibration_report
     from fe_impact.output.files import write_json
@@ -522,10 +543,16 @@ def _write_summary(out: Path, cases: list[ImpactCase], sweep: Sweep, settings: S
     with ignore_signals():   # the files belong together: a second Ctrl-C waits for them
         path = None
         if status == "completed":
-            records = [sweep.done[c.id] for c in cases]
+            records = [sweep.done[c.id] for c in cases if isinstance(c, ImpactCase)]
+            positions = [sweep.done[c.id] for c in cases if isinstance(c, PositionCase)]
+            cycle = None
+            if positions:
+                from fe_impact.calibration.meshcycle_report import write_mesh_cycle
+
+                cycle = write_mesh_cycle(out, positions, gearset_text)
             calibration = Calibration(cases=records, settings=asdict(settings),
                                       wall_time_s=wall, fe_impact_version=__version__,
-                                      notes=NOTES)
+                                      notes=NOTES, mesh_cycle=cycle)
             path = write_calibration(out / "calibration.json", calibration)
             write_calibration_csv(out / "calibration.csv", records)
             write_calibration_report(out, calibration)
@@ -558,9 +585,11 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
         cluster, client = _local_cluster(workers or max(1, min(len(todo), _cores())))
     stop_name = f"fe-impact-stop-{uuid.uuid4().hex}"
     try:
-        # Largest models first (bigger face gears, then slower impacts: finer
-        # meshes), so the last case to finish is a small one.
-        order = sorted(todo, key=lambda c: (-c.face_teeth, c.impact_speed))
+        # Largest models first (impacts before the quasi-static positions, bigger
+        # face gears, then slower impacts: finer meshes), so the last case to
+        # finish is a small one.
+        order = sorted(todo, key=lambda c: (isinstance(c, PositionCase), -c.face_teeth,
+                                            c.impact_speed))
         futures = {client.submit(run_locked_case, c, settings, gearset_text, str(out),
                                  str(cache), stop_name,
                                  key=f"fe-impact-{c.id}-{case_hash(c, settings, gearset_text)}",

@@ -134,6 +134,12 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--impact-speeds", type=_float_list, help="impact speeds in m/s instead")
     c.add_argument("--switch", action="store_true",
                    help="also ratio-switch impacts into stages 2.. (eq. 5)")
+    c.add_argument("--positions", type=_positions, default=None, metavar="N|DEG,...",
+                   help="mesh cycle: quasi-static single-pair load-approach curves at N "
+                        "positions along the path of contact (default 9, ends included) or "
+                        "at the given pinion roll angles (deg, comma-separated)")
+    c.add_argument("--no-mesh-cycle", action="store_true",
+                   help="impacts only: no single-pair curves along the path of contact")
     c.add_argument("--level", default="default", help="mesh level: coarse, default or fine")
     c.add_argument("--integrator", default="newmark", help="newmark or explicit")
     c.add_argument("--workers", type=int, help="local Dask workers (default: one per core)")
@@ -216,6 +222,14 @@ def _list_of(cast, plural: str, singular: str):
 
 
 _int_list = _list_of(int, "integers", "integer")
+
+
+def _positions(text: str) -> int | list[float]:
+    """``--positions``: a count (an integer) or roll angles (comma-separated numbers)."""
+    if "," not in text and text.strip().lstrip("+").isdigit():
+        return int(text)
+    return _float_list(text)
+
 _float_list = _list_of(float, "numbers", "number")
 
 
@@ -248,8 +262,16 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             encoding="utf-8-sig")
     settings = Settings(level=args.level, integrator=args.integrator)
     cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)
-    print(f"calibrating {len(cases)} impacts ({settings.level} meshes, {settings.integrator}) "
-          f"-> {args.out}", flush=True)
+    n_impacts = len(cases)
+    if args.no_mesh_cycle and args.positions is not None:
+        raise CalibrationError("--positions and --no-mesh-cycle: give one or the other")
+    if not args.no_mesh_cycle:
+        from fe_impact.calibration.meshcycle import DEFAULT_POSITIONS, plan_positions
+
+        cases += plan_positions(gearset, args.stages, args.positions if args.positions
+                                is not None else DEFAULT_POSITIONS)
+    print(f"calibrating {n_impacts} impacts and {len(cases) - n_impacts} mesh-cycle positions "
+          f"({settings.level} meshes, {settings.integrator}) -> {args.out}", flush=True)
     bar = tqdm(total=len(cases), desc="  cases", unit="case")
 
     def progress(done: int, total: int, last: str) -> None:

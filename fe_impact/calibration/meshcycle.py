@@ -1,0 +1,434 @@
+"""The mesh cycle: single-pair load-approach along the path of contact, loaded TE and
+mesh stiffness.
+
+A tooth pair's contact travels along the path of contact over one angular
+pitch and more (contact ratio 1.76 for the seed set). At positions from the
+first to the last point of contact, :func:`run_position` presses the pinion
+tooth on the face-gear tooth quasi-statically (FE, :func:`~fe_impact.meshing.paircase.static_case`:
+the face-gear hub held, the pinion hub loaded by the torque of each normal
+force) and measures the approach against the force. The approach is the
+closing displacement that the pinion's rotation ``q`` makes along the
+contact normal at the contact point of the tooth contact analysis, minus the
+gap the pair was built with: ``delta = -q l_1 - g`` (``l_1`` the pinion's
+signed lever arm there). It holds the bending of both teeth and the contact,
+so ``F(delta)`` is the single-pair compliance that the lumped model's pair
+law stands for. Each position's curve is fitted by ``F = K delta^e`` over
+the forces from :data:`FIT_MIN_FORCE` up, where impacts load the teeth
+(:func:`fit_power_law`); below, bending (linear) and Hertz (power 3/2) mix
+and no single power holds, so the nominal load's stiffness is read from the
+FE points themselves.
+
+:func:`mesh_cycle` then shares a pinion torque between the pairs in contact
+at each roll angle (pairs one angular pitch apart, unmodified flanks: no
+unloaded transmission error), all at the one pinion rotation: the loaded
+transmission error and the mesh stiffness over one mesh cycle.
+
+SI units throughout; roll angles in degrees where named so.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import time
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+
+from fe_impact import __version__
+from fe_impact.errors import CalibrationError
+
+logger = logging.getLogger(__name__)
+
+SCHEMA = "fe-impact/mesh-cycle/1"
+#: Positions along the path of contact by default (ends included).
+DEFAULT_POSITIONS = 9
+#: The end positions are moved inward by this fraction of the path: at the
+#: exact ends the contact leaves the working flanks (tip edge, form circle),
+#: where the tooth contact analysis has no contact point.
+END_INSET = 1e-3
+#: Initial gap of the static pair (m): the approach is measured from first
+#: touch, so any small gap serves; it keeps the meshes apart.
+PAIR_GAP = 1e-6
+#: Forces of the load-approach curves besides the nominal one (N): 50 N up
+#: to above the largest calibrated impact force of the default calibration
+#: (820 N).
+CURVE_FORCES = (50.0, 100.0, 200.0, 500.0, 1000.0)
+#: Smallest force of the power-law fit (N).
+FIT_MIN_FORCE = 50.0
+
+
+@dataclass(frozen=True)
+class PositionCase:
+    """One position of the mesh cycle: a quasi-static load-approach curve."""
+
+    stage: int
+    face_teeth: int
+    roll_angle_deg: float
+    forces: tuple[float, ...]           # normal forces of the load steps, N
+    end: str = ""                       # "first" / "last" for the path's ends
+
+    @property
+    def id(self) -> str:
+        return f"stage{self.stage}_roll{self.roll_angle_deg:+.3f}deg".replace(".", "p")
+
+    @property
+    def impact_speed(self) -> float:   # the sweep orders cases by size, then speed
+        return 0.0
+
+
+@dataclass(frozen=True)
+class PositionRecord:
+    """What :func:`run_position` measured at one position (SI units)."""
+
+    id: str
+    stage: int
+    roll_angle_deg: float
+    end: str
+    forces: list[float]            # FE contact force per load step, N
+    approaches: list[float]        # m, from first touch
+    torques: list[float]           # pinion torque, N m
+    rotations: list[float]         # pinion rotation, rad
+    contact_areas: list[float]     # m^2
+    max_pressures: list[float]     # Pa
+    hertz_approaches: list[float]  # Hertz (contact alone) approach at each force, m
+    stiffness: float               # K of F = K delta^e (forces >= FIT_MIN_FORCE), N/m^e
+    exponent: float
+    fit_error: float               # largest relative force error of the fit
+    nominal_force: float           # N (the smallest force of the curve)
+    nominal_stiffness: float       # secant F/delta at the nominal force, N/m
+    lever: float                   # |pinion lever arm| at the contact point, m
+    edge: str                      # "" or which flank edge the pressure reaches
+    ellipse_outline: list[list[float]]   # Hertz ellipse at the largest force, (L, y) m
+    footprint: list[list[float]]   # pressured slave nodes at the largest force: L, y, p
+    flank_edges: list[list[float]]  # face-flank boundary segments: L0, y0, L1, y1
+    n_dofs: int
+    hash: str = ""
+    timings_s: dict = field(default_factory=dict)
+
+    def approach_at(self, force: float) -> float:
+        """Approach (m) of the fitted law at ``force``."""
+        return (force / self.stiffness) ** (1.0 / self.exponent)
+
+    def tangent_stiffness(self, force: float) -> float:
+        """``dF/d delta`` (N/m) of the fitted law at ``force``."""
+        return self.exponent * force / self.approach_at(force)
+
+    def to_dict(self) -> dict:
+        return {"schema": SCHEMA, "fe_impact_version": __version__, **asdict(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> PositionRecord:
+        names = {f.name for f in fields(cls)}
+        missing = names - set(data) - {"hash", "timings_s"}
+        if data.get("schema") != SCHEMA or missing:
+            raise CalibrationError(f"not a {SCHEMA} record (missing {sorted(missing)})")
+        return cls(**{k: v for k, v in data.items() if k in names})
+
+
+# -- planning ----------------------------------------------------------------------------
+def path_of_contact(gearset, stage: int) -> tuple[float, float]:
+    """First and last point of contact of a stage, pinion roll angle in degrees."""
+    from fe_impact.gears.report import contact_path_ends
+    from fe_impact.gears.tca import GearPair
+
+    ends = contact_path_ends(GearPair.from_gearset(gearset, stage))
+    return math.degrees(ends["first_roll_rad"]), math.degrees(ends["last_roll_rad"])
+
+
+def path_positions(gearset, stage: int, n: int = DEFAULT_POSITIONS) -> list[float]:
+    """``n`` evenly spaced roll angles (deg) from the first to the last point of contact,
+    the ends moved inward by :data:`END_INSET` of the path."""
+    if n < 2:
+        raise CalibrationError(f"--positions {n}: need at least 2 (the path's ends)")
+    first, last = path_of_contact(gearset, stage)
+    inset = END_INSET * (last - first)
+    return [float(v) for v in np.linspace(first + inset, last - inset, n)]
+
+
+def nominal_force(gearset, stage: int) -> float:
+    """Normal force per mesh (N) at the seed presets' largest load torque on the output."""
+    from fe_impact.gears.report import stage_geometry
+
+    return float(stage_geometry(gearset)[stage - 1]["pitch_point"]["normal_force_N"])
+
+
+def plan_positions(gearset, stages: list[int] | None = None, positions: int | list[float]
+                   = DEFAULT_POSITIONS, forces: tuple[float, ...] | None = None
+                   ) -> list[PositionCase]:
+    """The mesh-cycle cases: every stage at every position.
+
+    ``positions``: a count (evenly along the path, ends included) or roll
+    angles in degrees, each checked against the path of contact. ``forces``
+    default: the stage's nominal force and :data:`CURVE_FORCES`.
+    """
+    n_stages = len(gearset.stages)
+    stages = list(stages or range(1, n_stages + 1))
+    cases = []
+    for s in stages:
+        first, last = path_of_contact(gearset, s)
+        lo, hi = sorted((first, last))
+        if isinstance(positions, int):
+            rolls = path_positions(gearset, s, positions)
+        else:
+            rolls = [float(r) for r in positions]
+            bad = [r for r in rolls if not lo < r < hi]
+            if bad:
+                raise CalibrationError(
+                    f"--positions {bad[0]:g}: stage {s}'s path of contact runs from "
+                    f"{first:.3f} to {last:.3f} deg of pinion roll (ends excluded)")
+        f = forces if forces is not None else tuple(sorted({round(nominal_force(gearset, s), 3),
+                                                             *CURVE_FORCES}))
+        ends = {0: "first", len(rolls) - 1: "last"} if isinstance(positions, int) else {}
+        teeth = gearset.stages[s - 1].teeth
+        cases += [PositionCase(s, teeth, r, tuple(f), ends.get(i, ""))
+                  for i, r in enumerate(rolls)]
+    return cases
+
+
+def case_hash(case: PositionCase, level: str, order: int, gearset_text: str) -> str:
+    """Resume key of a position (case, mesh level, gear set, schema, version)."""
+    blob = json.dumps([asdict(case), level, order, gearset_text, SCHEMA, __version__],
+                      sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+# -- one position (FE) --------------------------------------------------------------------
+def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
+                 cache: str | Path) -> PositionRecord:
+    """Mesh the pair at ``case``'s roll angle and measure its load-approach curve."""
+    import tomllib
+
+    from fe_impact.fe.linalg import limit_threads
+    from fe_impact.fe.mesh import load_mesh
+    from fe_impact.gears import gearset_from_dict
+    from fe_impact.meshing.paircase import static_case
+    from fe_impact.meshing.toothpair import build_pair
+    from fe_impact.solvers.static import StaticSolver
+
+    t0 = time.perf_counter()
+    gearset = gearset_from_dict(tomllib.loads(gearset_text))
+    key = case_hash(case, level, order, gearset_text)
+    timings = {}
+    with limit_threads(1):
+        pair_mesh = build_pair(gearset, case.stage, case.roll_angle_deg, level, order, PAIR_GAP,
+                               0.1, Path(cache) / "meshes" / f"static_{key}", reuse=True,
+                               design_force=max(case.forces))
+        timings["mesh"] = time.perf_counter() - t0
+        t = time.perf_counter()
+        from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
+
+        gear_pair, _ = analyse_stage_pair(gearset, PairSpec(
+            stage=case.stage, roll_angle_deg=case.roll_angle_deg, level=level, order=order,
+            gap=PAIR_GAP, impact_speed=0.1, design_force=max(case.forces)))
+        fe_case = static_case(gearset, gear_pair, pair_mesh.analysis,
+                              pair_mesh.case_path.with_name("static.toml"),
+                              pair_mesh.mesh_path, case.forces)
+        solver = StaticSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit))
+        result = solver.run()
+        timings["fe"] = time.perf_counter() - t
+        timings.update({f"fe_{k}": v for k, v in result.timings.items()})
+    record = _measure(case, solver, result, pair_mesh.analysis, key)
+    timings["total"] = time.perf_counter() - t0
+    return PositionRecord(**{**asdict(record), "timings_s": timings})
+
+
+def _measure(case: PositionCase, solver, result, analysis, key: str) -> PositionRecord:
+    """Approach, fit, edge contact and the footprint of a solved position."""
+    from fe_impact.gears.tca import contact_ellipse
+
+    steps = result.steps
+    lever = analysis.masses.pinion_lever
+    q = np.array([s.rigid_values[0] for s in steps])
+    approach = -q * lever - analysis.gap
+    force = np.array([s.contact_force[0] for s in steps])
+    fitted = force >= FIT_MIN_FORCE * (1.0 - 1e-3)
+    K, e, err = fit_power_law(force[fitted], approach[fitted])
+    i_nom = int(np.argmin(force))
+    hertz = [contact_ellipse(analysis.contact.relative, float(f), analysis.effective_modulus)
+             for f in force]
+    top = steps[int(np.argmax(force))]
+    mesh = solver.mesh
+    return PositionRecord(
+        id=case.id, stage=case.stage, roll_angle_deg=case.roll_angle_deg, end=case.end,
+        forces=force.tolist(), approaches=approach.tolist(),
+        torques=[s.rigid_reactions[0] for s in steps], rotations=q.tolist(),
+        contact_areas=[s.contact_area[0] for s in steps],
+        max_pressures=[s.max_pressure for s in steps],
+        hertz_approaches=[h.approach for h in hertz],
+        stiffness=K, exponent=e, fit_error=err, nominal_force=float(force[i_nom]),
+        nominal_stiffness=float(force[i_nom] / approach[i_nom]), lever=abs(lever),
+        edge=_edge_contact(solver, top),
+        ellipse_outline=_cylindrical(_ellipse_points(analysis.contact.point, hertz[-1])),
+        footprint=_footprint(mesh, top.pressure),
+        flank_edges=_flank_edges(mesh), n_dofs=int(result.info["n_dofs"]), hash=key)
+
+
+def fit_power_law(force: np.ndarray, approach: np.ndarray) -> tuple[float, float, float]:
+    """``F = K delta^e`` by least squares on ``log F`` against ``log delta``.
+
+    Returns ``K``, ``e`` and the largest relative force error of the fit.
+    Needs two or more positive approaches.
+    """
+    ok = (approach > 0) & (force > 0)
+    if ok.sum() < 2:
+        raise CalibrationError("the load-approach curve has fewer than two points with a "
+                               "positive approach: the pair did not touch")
+    e, logk = np.polyfit(np.log(approach[ok]), np.log(force[ok]), 1)
+    K = float(np.exp(logk))
+    err = float(np.max(np.abs(K * approach[ok] ** e / force[ok] - 1.0)))
+    return K, float(e), err
+
+
+def _boundary_nodes(faces: np.ndarray) -> np.ndarray:
+    """Corner nodes on the boundary edges (edges of one face only) of a surface."""
+    edges = np.sort(faces[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    return np.unique(uniq[count == 1])
+
+
+def _edge_contact(solver, step) -> str:
+    """Which flank edge the pressure at ``step`` reaches: "" if none.
+
+    The pinion's: a pressured node on its flank's boundary; the face gear's:
+    a pressured pinion node within one face size of the face flank's boundary.
+    """
+    from scipy.spatial import cKDTree
+
+    from fe_impact.contact.zone import face_size
+
+    pair = solver.pairs[0]
+    mesh = solver.mesh
+    on = np.flatnonzero(step.pressure > 0)
+    where = []
+    if np.isin(on, _boundary_nodes(pair.slave.faces)).any():
+        where.append("pinion flank edge")
+    master_edge = _boundary_nodes(pair.master.faces)
+    if len(on) and len(master_edge):
+        d, _ = cKDTree(mesh.points[master_edge]).query(mesh.points[on])
+        if d.min() < face_size(mesh, pair.master, np.min, None) + 1e-12:
+            where.append("face-gear flank edge")
+    return ", ".join(where)
+
+
+def _ellipse_points(centre: np.ndarray, ellipse, n: int = 48) -> np.ndarray:
+    t = np.linspace(0.0, 2.0 * np.pi, n)
+    return (centre[None, :] + ellipse.a * np.cos(t)[:, None] * ellipse.major[None, :]
+            + ellipse.b * np.sin(t)[:, None] * ellipse.minor[None, :])
+
+
+def _cylindrical(x: np.ndarray) -> list[list[float]]:
+    """(L, y): distance from the face-gear axis (y) and height along it, m."""
+    return np.column_stack([np.hypot(x[:, 0], x[:, 2]), x[:, 1]]).tolist()
+
+
+def _footprint(mesh, pressure: np.ndarray) -> list[list[float]]:
+    on = np.flatnonzero(pressure > 0)
+    L_y = np.asarray(_cylindrical(mesh.points[on])).reshape(-1, 2)
+    return np.column_stack([L_y, pressure[on]]).tolist()
+
+
+def _flank_edges(mesh) -> list[list[float]]:
+    faces = mesh.surface("face_flank")
+    edges = np.sort(faces[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    seg = uniq[count == 1]
+    a = np.asarray(_cylindrical(mesh.points[seg[:, 0]])).reshape(-1, 2)
+    b = np.asarray(_cylindrical(mesh.points[seg[:, 1]])).reshape(-1, 2)
+    return np.column_stack([a, b]).tolist()
+
+
+# -- the cycle ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CycleResult:
+    """Loaded transmission error and mesh stiffness over one mesh cycle at one torque."""
+
+    stage: int
+    torque: float                  # pinion torque, N m
+    roll_deg: np.ndarray           # roll angle of the reference pair, deg
+    transmission_error: np.ndarray  # loaded TE along the line of action, m
+    mesh_stiffness: np.ndarray     # tangent mesh stiffness along the line of action, N/m
+    pairs: np.ndarray              # pairs in contact
+    load_share: np.ndarray         # the reference pair's share of the load
+
+    def to_dict(self) -> dict:
+        return {k: (v.tolist() if isinstance(v, np.ndarray) else v)
+                for k, v in asdict(self).items()}
+
+
+def pair_force(record: PositionRecord, approach: float) -> tuple[float, float]:
+    """Force (N) and ``dF/d delta`` (N/m) of a position's FE curve at ``approach`` (m).
+
+    Piecewise power laws between the FE points (linear in ``log F`` against
+    ``log delta``), continued beyond the first and last point with the end
+    segments' powers.
+    """
+    d = np.log(np.asarray(record.approaches))
+    f = np.log(np.asarray(record.forces))
+    x = math.log(approach)
+    j = int(np.clip(np.searchsorted(d, x) - 1, 0, len(d) - 2))
+    slope = (f[j + 1] - f[j]) / (d[j + 1] - d[j])
+    force = math.exp(f[j] + slope * (x - d[j]))
+    return force, slope * force / approach
+
+
+def mesh_cycle(records: list[PositionRecord], pitch_deg: float, torque: float,
+               n: int = 200) -> CycleResult:
+    """Share ``torque`` (pinion, N m) between the pairs in contact over one mesh cycle.
+
+    The pairs sit one angular pitch apart; a pair is in contact while its
+    roll angle lies on the path spanned by ``records`` (the positions of one
+    stage, ends included). At each roll angle every pair in contact closes by
+    the same approach ``delta`` (one pinion rotation, unmodified flanks: no
+    unloaded transmission error), its force follows the FE curves of the
+    neighbouring positions (:func:`pair_force`, ``log F`` interpolated
+    linearly in roll angle between them), and the forces times the lever arms
+    carry the torque, ``sum_i l_i F_i(delta) = T``, solved for ``delta``: the
+    loaded TE along the line of action. The mesh stiffness is
+    ``sum_i dF_i/d delta``.
+    """
+    from scipy.optimize import brentq
+
+    if not torque > 0.0:
+        raise CalibrationError(f"torque = {torque!r} N m: must be > 0 (no load, or one that "
+                               "separates the pairs, has no loaded transmission error)")
+    recs = sorted(records, key=lambda r: r.roll_angle_deg)
+    roll = np.array([r.roll_angle_deg for r in recs])
+    lo, hi = roll[0], roll[-1]
+    if hi - lo < pitch_deg:
+        raise CalibrationError(
+            f"stage {recs[0].stage}: the positions span {hi - lo:.3f} deg of roll, less than "
+            f"one angular pitch ({pitch_deg:.3f} deg): no two-pair zone to share the load; "
+            "the mesh cycle needs positions over the whole path of contact")
+
+    def pair(t: float, d: float) -> tuple[float, float, float]:
+        """Force, stiffness and lever of the pair at roll ``t`` closed by ``d``."""
+        j = int(np.clip(np.searchsorted(roll, t) - 1, 0, len(roll) - 2))
+        w = (t - roll[j]) / (roll[j + 1] - roll[j])
+        (f0, k0), (f1, k1) = pair_force(recs[j], d), pair_force(recs[j + 1], d)
+        f = math.exp((1.0 - w) * math.log(f0) + w * math.log(f1))
+        k = f * ((1.0 - w) * k0 / f0 + w * k1 / f1)
+        return f, k, (1.0 - w) * recs[j].lever + w * recs[j + 1].lever
+
+    theta = np.linspace(lo, lo + pitch_deg, n, endpoint=False)
+    te, km, count, share = (np.zeros(n) for _ in range(4))
+    for i, t in enumerate(theta):
+        on = [t + m * pitch_deg for m in range(-4, 5) if lo <= t + m * pitch_deg <= hi]
+
+        def excess(d, on=on):
+            return sum(p[2] * p[0] for p in (pair(r, d) for r in on)) - torque
+
+        top = 1e-7
+        while excess(top) < 0.0:
+            top *= 2.0
+        d = brentq(excess, 1e-15, top, xtol=1e-16, rtol=1e-12)
+        pairs = [pair(r, d) for r in on]
+        te[i] = d
+        km[i] = sum(p[1] for p in pairs)
+        count[i] = len(on)
+        ref = int(np.argmin(np.abs(np.asarray(on) - t)))
+        share[i] = pairs[ref][2] * pairs[ref][0] / torque
+    return CycleResult(recs[0].stage, torque, theta, te, km, count, share)

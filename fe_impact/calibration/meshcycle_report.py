@@ -1,0 +1,199 @@
+"""Mesh-cycle files and pictures: what a gear engineer looks at.
+
+:func:`write_mesh_cycle` takes the positions a sweep measured
+(:class:`~fe_impact.calibration.meshcycle.PositionRecord`) and writes
+
+- ``mesh_cycle.json``: every position's load-approach curve and fitted law,
+  and the loaded transmission error and mesh stiffness over one mesh cycle
+  at three pinion torques per stage;
+- ``mesh_cycle.csv``: one row per position;
+- ``contact_pattern.png``: the pressure footprint at the largest force of
+  every position on one drawing of the face-gear flank (radius against
+  height), with the Hertz ellipse outlines and the flank's edges;
+- ``stiffness_along_path.png``: the fitted ``K`` and exponent and the
+  secant stiffness at the nominal load along the path of contact;
+- ``transmission_error.png``: loaded TE and mesh stiffness over one cycle.
+
+It returns the position-dependent law for ``calibration.json``
+(:func:`position_law`). :func:`report_lines` gives the report's section.
+"""
+
+from __future__ import annotations
+
+import logging
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from fe_impact.atomic import atomic_path, write_csv, write_json
+from fe_impact.calibration.meshcycle import SCHEMA, PositionRecord, mesh_cycle
+
+logger = logging.getLogger(__name__)
+
+#: Besides the nominal one, the cycle is shown at the pinion torques that
+#: load a single pair with these forces (N).
+CYCLE_FORCES = (200.0, 1000.0)
+CSV_COLUMNS = ("stage", "roll_angle_deg", "end", "K", "exponent", "fit_error",
+               "nominal_force", "nominal_stiffness", "lever", "edge", "n_dofs", "seconds")
+
+
+def _by_stage(records: list[PositionRecord]) -> dict[int, list[PositionRecord]]:
+    out: dict[int, list[PositionRecord]] = {}
+    for r in sorted(records, key=lambda r: (r.stage, r.roll_angle_deg)):
+        out.setdefault(r.stage, []).append(r)
+    return out
+
+
+def position_law(records: list[PositionRecord]) -> dict:
+    """The position-dependent pair law per stage (``calibration.json``'s ``mesh_cycle``)."""
+    return {str(stage): {
+        "roll_angle_deg": [r.roll_angle_deg for r in recs],
+        "k": [r.stiffness for r in recs],
+        "exponent": [r.exponent for r in recs],
+        "fit_error": [r.fit_error for r in recs],
+        "nominal_stiffness": [r.nominal_stiffness for r in recs],
+        "edge": [r.edge for r in recs],
+    } for stage, recs in _by_stage(records).items()}
+
+
+def cycles(records: list[PositionRecord], pitch_deg: float) -> list:
+    """Loaded TE and mesh stiffness per stage at the nominal torque and :data:`CYCLE_FORCES`."""
+    out = []
+    for recs in _by_stage(records).values():
+        lever = float(np.mean([r.lever for r in recs]))
+        for force in (recs[0].nominal_force, *CYCLE_FORCES):
+            out.append(mesh_cycle(recs, pitch_deg, force * lever))
+    return out
+
+
+def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str) -> dict:
+    """Write the mesh-cycle files and pictures to ``out``; return :func:`position_law`."""
+    from fe_impact.gears import gearset_from_dict
+
+    gearset = gearset_from_dict(tomllib.loads(gearset_text))
+    pitch = 360.0 / gearset.pinion.teeth
+    results = cycles(records, pitch)
+    write_json(out / "mesh_cycle.json", {
+        "schema": SCHEMA, "angular_pitch_deg": pitch,
+        "units": {"forces": "N", "approaches": "m", "torques": "N m", "rotations": "rad",
+                  "K": "N/m^exponent", "nominal_stiffness": "N/m", "transmission_error": "m",
+                  "mesh_stiffness": "N/m", "roll_deg": "deg"},
+        "positions": [r.to_dict() for r in records],
+        "cycles": [c.to_dict() for c in results]})
+    write_csv(out / "mesh_cycle.csv", list(CSV_COLUMNS), [
+        [r.stage, r.roll_angle_deg, r.end, r.stiffness, r.exponent, r.fit_error,
+         r.nominal_force, r.nominal_stiffness, r.lever, r.edge, r.n_dofs,
+         r.timings_s.get("total")] for r in sorted(records, key=lambda r: (r.stage,
+                                                                           r.roll_angle_deg))])
+    for name, plot in (("contact_pattern.png", _plot_pattern),
+                       ("stiffness_along_path.png", _plot_stiffness),
+                       ("transmission_error.png", _plot_cycle)):
+        try:
+            plot(records, results, out / name)
+        except Exception as exc:   # a missing picture must not lose the tables
+            logger.warning("plot %s skipped: %s", name, exc)
+    return position_law(records)
+
+
+def report_lines(section: dict) -> list[str]:
+    """Markdown of the position-dependent law (``calibration.json``'s ``mesh_cycle``)."""
+    lines = ["## The mesh cycle: single-pair stiffness along the path of contact", "",
+             "Quasi-static FE of the tooth pair at each position (face-gear hub held, pinion "
+             "torque): approach along the contact normal from first touch, against force. "
+             "K and exponent fit F = K delta^e from 50 N up; the nominal stiffness is F/delta "
+             "at the nominal load. `edge`: the pressure at the largest force reaches a flank "
+             "edge. Files: `mesh_cycle.json`, `mesh_cycle.csv`.", "",
+             "| stage | roll (deg) | K | exponent | fit error | k at nominal load (N/m) "
+             "| edge |", "|---|---|---|---|---|---|---|"]
+    for stage, law in section.items():
+        for i, roll in enumerate(law["roll_angle_deg"]):
+            lines.append(f"| {stage} | {roll:+.3f} | {law['k'][i]:.4g} | "
+                         f"{law['exponent'][i]:.3f} | {law['fit_error'][i]:.1%} | "
+                         f"{law['nominal_stiffness'][i]:.4g} | {law['edge'][i] or '-'} |")
+    lines += ["", "![contact pattern](contact_pattern.png)", "",
+              "![stiffness along the path](stiffness_along_path.png)", "",
+              "![transmission error](transmission_error.png)", ""]
+    return lines
+
+
+# -- pictures -----------------------------------------------------------------------------
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: Path) -> None:
+    plt = _pyplot()
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+
+
+def _plot_pattern(records, _results, path: Path) -> None:
+    plt = _pyplot()
+    stages = _by_stage(records)
+    fig, axes = plt.subplots(len(stages), 1, figsize=(9, 3.2 * len(stages)), squeeze=False)
+    for ax, (stage, recs) in zip(axes[:, 0], stages.items(), strict=True):
+        for seg in np.asarray(recs[0].flank_edges).reshape(-1, 4) * 1e3:
+            ax.plot(seg[[0, 2]], seg[[1, 3]], color="0.3", lw=0.8)
+        pmax = max(max((p[2] for p in r.footprint), default=1.0) for r in recs)
+        for r in recs:
+            fp = np.asarray(r.footprint).reshape(-1, 3)
+            sc = ax.scatter(fp[:, 0] * 1e3, fp[:, 1] * 1e3, c=fp[:, 2] / 1e6, s=4,
+                            cmap="inferno", vmin=0, vmax=pmax / 1e6)
+            el = np.asarray(r.ellipse_outline) * 1e3
+            ax.plot(el[:, 0], el[:, 1], color="tab:cyan", lw=0.9)
+        fig.colorbar(sc, ax=ax, label="pressure at the largest force (MPa)")
+        ax.set(xlabel="radius on the face gear (mm)", ylabel="height (mm)",
+               title=f"stage {stage}: contact pattern over the path (FE pressure; Hertz "
+                     "ellipses in cyan; flank edges in grey)")
+        ax.set_aspect("equal", adjustable="datalim")
+    _save(fig, path)
+
+
+def _plot_stiffness(records, _results, path: Path) -> None:
+    plt = _pyplot()
+    fig, ax = plt.subplots(1, 3, figsize=(14, 4))
+    for stage, recs in _by_stage(records).items():
+        roll = [r.roll_angle_deg for r in recs]
+        ax[0].plot(roll, [r.nominal_stiffness / 1e6 for r in recs], "o-",
+                   label=f"stage {stage}")
+        ax[1].plot(roll, [r.stiffness for r in recs], "o-", label=f"stage {stage}")
+        ax[2].plot(roll, [r.exponent for r in recs], "o-", label=f"stage {stage}")
+        for r in recs:
+            if r.edge:
+                ax[0].plot(r.roll_angle_deg, r.nominal_stiffness / 1e6, "x", color="k")
+    ax[0].set(ylabel="single-pair stiffness at the nominal load (N/um)")
+    ax[1].set(ylabel="K of F = K delta^e", yscale="log")
+    ax[2].set(ylabel="exponent e")
+    for a in ax:
+        a.set(xlabel="pinion roll angle (deg)")
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    ax[0].set_title("x: pressure reaches a flank edge", fontsize=9)
+    _save(fig, path)
+
+
+def _plot_cycle(_records, results, path: Path) -> None:
+    plt = _pyplot()
+    fig, ax = plt.subplots(1, 2, figsize=(13, 4.2))
+    for c in results:
+        label = f"stage {c.stage}, {c.torque:.3g} N m"
+        line, = ax[0].plot(c.roll_deg, c.transmission_error * 1e6, label=label)
+        ax[1].plot(c.roll_deg, c.mesh_stiffness / 1e6, color=line.get_color(), label=label)
+    ax[0].set(ylabel="loaded transmission error (um, line of action)")
+    ax[1].set(ylabel="mesh stiffness (N/um)")
+    for a in ax:
+        a.set(xlabel="pinion roll angle over one mesh cycle (deg)")
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+    _save(fig, path)
+
+
+__all__ = ["CSV_COLUMNS", "cycles", "position_law", "report_lines", "write_mesh_cycle"]

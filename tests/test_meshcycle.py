@@ -1,0 +1,118 @@
+"""The mesh cycle's arithmetic against closed forms: power-law fits, the pair curves'
+interpolation, load sharing between pairs, and the plan of positions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fe_impact.calibration import meshcycle
+from fe_impact.calibration.meshcycle import PositionRecord, fit_power_law, mesh_cycle, pair_force
+from fe_impact.errors import CalibrationError
+from fe_impact.gears import default_gearset
+
+FORCES = np.array([3.0, 50.0, 100.0, 200.0, 500.0, 1000.0])
+
+
+def _record(roll: float, k: float, e: float, lever: float = 0.0268) -> PositionRecord:
+    """A position whose FE curve is exactly F = k delta^e."""
+    d = (FORCES / k) ** (1.0 / e)
+    return PositionRecord(
+        id=f"r{roll}", stage=1, roll_angle_deg=roll, end="", forces=FORCES.tolist(),
+        approaches=d.tolist(), torques=(FORCES * lever).tolist(), rotations=[0.0] * 6,
+        contact_areas=[0.0] * 6, max_pressures=[0.0] * 6, hertz_approaches=[0.0] * 6,
+        stiffness=k, exponent=e, fit_error=0.0, nominal_force=3.0,
+        nominal_stiffness=3.0 / d[0], lever=lever, edge="", ellipse_outline=[],
+        footprint=[], flank_edges=[], n_dofs=0)
+
+
+def test_fit_recovers_a_power_law():
+    # Exact data: K and e to round-off (1e-10 of a log-log least squares).
+    d = (FORCES / 2.5e9) ** (1.0 / 1.37)
+    K, e, err = fit_power_law(FORCES, d)
+    assert K == pytest.approx(2.5e9, rel=1e-9) and e == pytest.approx(1.37, rel=1e-12)
+    assert err < 1e-10
+
+
+def test_fit_needs_contact():
+    with pytest.raises(CalibrationError, match="did not touch"):
+        fit_power_law(FORCES, -np.ones(6))
+
+
+def test_pair_force_is_exact_on_a_power_law():
+    # Piecewise power laws reproduce a power law exactly, inside and beyond the
+    # FE points, with its derivative e F / delta.
+    rec = _record(0.0, 3e9, 1.3)
+    for d in (1e-9, 3e-7, 2e-6, 5e-5):
+        f, k = pair_force(rec, d)
+        assert f == pytest.approx(3e9 * d ** 1.3, rel=1e-12)
+        assert k == pytest.approx(1.3 * f / d, rel=1e-12)
+
+
+def test_load_sharing_of_linear_pairs():
+    # Linear pairs (e = 1) of one stiffness k, the path 1.75 pitches long: with
+    # n pairs in contact the mesh stiffness is n k and the TE T / (l n k)
+    # exactly (springs in parallel), two pairs over 0.75 of the cycle.
+    k, lever, pitch = 2e8, 0.0268, 20.0
+    recs = [_record(r, k, 1.0, lever) for r in np.linspace(-15.0, 20.0, 8)]
+    c = mesh_cycle(recs, pitch, torque=10.0, n=400)
+    assert set(np.unique(c.pairs)) == {1.0, 2.0}
+    assert np.mean(c.pairs == 2) == pytest.approx(0.75, abs=1.0 / 400)
+    np.testing.assert_allclose(c.mesh_stiffness, c.pairs * k, rtol=1e-9)
+    np.testing.assert_allclose(c.transmission_error, 10.0 / (lever * c.pairs * k), rtol=1e-9)
+    np.testing.assert_allclose(c.load_share, 1.0 / c.pairs, rtol=1e-9)
+
+
+def test_load_sharing_of_hertzian_pairs():
+    # Two equal Hertzian pairs carry half the load each, at 2^(-1/e) of the
+    # single pair's approach.
+    e = 1.5
+    recs = [_record(r, 1e10, e) for r in np.linspace(-15.0, 20.0, 8)]
+    c = mesh_cycle(recs, 20.0, torque=5.0, n=100)
+    one, two = c.pairs == 1, c.pairs == 2
+    ratio = c.transmission_error[two].mean() / c.transmission_error[one].mean()
+    assert ratio == pytest.approx(2.0 ** (-1.0 / e), rel=1e-9)
+
+
+@pytest.mark.parametrize("torque,pattern", [(0.0, "must be > 0"), (-1.0, "must be > 0")])
+def test_cycle_refuses_a_torque_that_loads_nothing(torque, pattern):
+    recs = [_record(r, 1e10, 1.5) for r in (-15.0, 20.0)]
+    with pytest.raises(CalibrationError, match=pattern):
+        mesh_cycle(recs, 20.0, torque)
+
+
+def test_cycle_needs_a_two_pair_zone():
+    recs = [_record(r, 1e10, 1.5) for r in (-5.0, 5.0)]
+    with pytest.raises(CalibrationError, match="no two-pair zone"):
+        mesh_cycle(recs, 20.0, 1.0)
+
+
+def test_positions_span_the_path():
+    gs = default_gearset()
+    first, last = meshcycle.path_of_contact(gs, 1)
+    # The path of contact over the angular pitch is the contact ratio
+    # (1.7622, the geometry command's figure for the seed set).
+    assert abs(first - last) / (360.0 / gs.pinion.teeth) == pytest.approx(1.7622, abs=1e-4)
+    cases = meshcycle.plan_positions(gs, [1], 9, forces=(50.0, 100.0))
+    rolls = [c.roll_angle_deg for c in cases]
+    inset = meshcycle.END_INSET * abs(first - last)
+    assert rolls[0] == pytest.approx(first - math.copysign(inset, first - last))
+    assert rolls[-1] == pytest.approx(last + math.copysign(inset, first - last))
+    assert [c.end for c in cases] == ["first"] + [""] * 7 + ["last"]
+    assert len({c.id for c in cases}) == 9
+
+
+def test_default_forces_hold_the_nominal_load():
+    gs = default_gearset()
+    (case,) = meshcycle.plan_positions(gs, [2], [0.0])
+    assert case.forces[0] == pytest.approx(meshcycle.nominal_force(gs, 2), abs=1e-3)
+    assert case.forces[1:] == meshcycle.CURVE_FORCES
+
+
+def test_positions_off_the_path_are_refused():
+    with pytest.raises(CalibrationError, match=r"--positions 40: stage 1's path of contact"):
+        meshcycle.plan_positions(default_gearset(), [1], [0.0, 40.0])
+    with pytest.raises(CalibrationError, match="need at least 2"):
+        meshcycle.plan_positions(default_gearset(), [1], 1)

@@ -183,6 +183,71 @@ def test_single_impact_reproduces_calibration_case(tmp_path):
     assert hit.approach[0] == pytest.approx(truth.delta_max, rel=2e-4)
 
 
+def _single_impact(tmp_path, law, mesh_cycle=None):
+    """The single-impact run above, with ``law`` in the file and an optional mesh cycle."""
+    model = DriveModel(drive="torque", coupling_stiffness=(1e-6,) * 3, engage_position=0.999,
+                       mesh_phase=0.88, max_step=1e-6, **QUIET, **TIGHT)
+    mass, speed = model.effective_mass(1), 0.05
+    cases = [{"stage": s, "kind": "mesh", "impact_speed": speed,
+              "impact": {"k": law.k, "exponent": law.exponent, "cmax": law.cmax, "d": law.d}}
+             for s in (1, 2, 3)]
+    doc = {"schema": "fe-impact/calibration/2", "cases": cases}
+    if mesh_cycle is not None:
+        doc["mesh_cycle"] = mesh_cycle
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps(doc))
+    law_set = load_calibration(path, GEARSET)
+    rate = -speed / model.base_levers[0]
+    run = simulate(model.with_laws(law_set), StageSchedule((Segment(1e-3, 1, 0.0),)),
+                   initial_rates=[0.0, rate, 0.0, 0.0, rate])
+    return law_set, run.events.select(kind="rattle"), mass, speed
+
+
+def test_the_mesh_cycle_sets_the_pair_stiffness(tmp_path):
+    # A position law four times stiffer than the impact's, the same at every
+    # position, with the impact's damping: the run must be that of the law
+    # (4k, exponent, cmax, d) given as the impact's law, to round-off (the
+    # kernel evaluates the same force), whatever the pair's position.
+    law = laws.ImpactLaw(k=6.5e10, exponent=1.5, cmax=1.5e3, d=1e-6)
+    stiff = laws.ImpactLaw(k=4 * law.k, exponent=law.exponent, cmax=law.cmax, d=law.d)
+    cycle = {str(s): {"roll_angle_deg": [-14.0, 0.0, 18.0], "k": [stiff.k] * 3,
+                      "exponent": [law.exponent] * 3} for s in (1, 2, 3)}
+    law_set, hit, _, _ = _single_impact(tmp_path / "a", law, cycle)
+    assert "mesh cycle" in law_set.source
+    assert not any("position" in n for n in law_set.notes)
+    _, direct, _, _ = _single_impact(tmp_path / "b", stiff)
+    assert len(hit) == 1 and len(direct) == 1
+    for name in ("force", "approach", "restitution", "speed"):
+        assert getattr(hit, name)[0] == pytest.approx(getattr(direct, name)[0], rel=1e-12)
+    # and it is not the impact's own law: 4 k raises the peak force (by 4^(2/5)
+    # = 1.74 undamped; the damping ramp over the shorter approach adds to it)
+    _, soft, _, _ = _single_impact(tmp_path / "c", law)
+    assert hit.force[0] / soft.force[0] > 1.7
+
+
+def test_a_calibration_without_mesh_cycle_says_so(tmp_path, caplog):
+    law = laws.ImpactLaw(k=6.5e10, exponent=1.5, cmax=1.5e3, d=1e-6)
+    with caplog.at_level("WARNING"):
+        law_set, _, _, _ = _single_impact(tmp_path, law)
+    assert any("no position dependence" in n for n in law_set.notes)
+    assert "no position dependence" in caplog.text
+
+
+def test_position_law_interpolation():
+    # log k and the exponent linear in the path coordinate between positions,
+    # held beyond the ends; no table: the slot's own law.
+    from fe_impact.switching._kernel import NPOS, position_law
+
+    tab = np.full((3, NPOS), np.nan)
+    tab[:, :3] = [[0.0, 1.0, 3.0], [1e9, 4e9, 2e9], [1.2, 1.4, 1.3]]
+    k, n = position_law(0.5, tab, 0.0, 0.0)
+    assert k == pytest.approx(2e9, rel=1e-12) and n == pytest.approx(1.3, rel=1e-12)
+    assert position_law(-1.0, tab, 0.0, 0.0) == (1e9, 1.2)
+    assert position_law(9.0, tab, 0.0, 0.0) == (2e9, 1.3)
+    assert position_law(0.5, np.full((3, NPOS), np.nan), 7.0, 1.5) == (7.0, 1.5)
+
+
 @pytest.mark.parametrize("rpm", [100.0, 1000.0])
 def test_switching_impact_speed(rpm):
     # Unloaded rings turning with the output at the stage-1 ratio; at the switch the pinion

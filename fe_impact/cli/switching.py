@@ -141,6 +141,9 @@ def run(args: argparse.Namespace) -> int:
         raise CalibrationError(f"--calibration: {exc}") from exc
     print(f"{preset.name}: {len(preset.cases)} case(s), {preset.duration:g} s simulated; "
           f"laws: {model.law_set.source}", flush=True)
+    # What the laws lack (no position dependence, a kind borrowed from another)
+    # heads the report too, not only the log.
+    notes = [*notes, *(f"Contact laws: {n}." for n in model.law_set.notes)]
     t0 = time.perf_counter()
     runs = {}
     try:

@@ -256,13 +256,43 @@ def law_lookup(tab, ntab, stage, kind, speed):
     return out, 0
 
 
+#: Largest number of mesh-cycle positions per stage (the kernel's table width).
+NPOS = 32
+
+
+@njit(cache=True)
+def position_law(s, tab, k, n):
+    """A pair's stiffness and exponent at path coordinate ``s``.
+
+    ``tab``: the engaged stage's position table, rows ``s`` (rising), ``k``,
+    exponent, NaN-padded (all NaN: no table, ``(k, n)`` returned). Between
+    positions ``log k`` and the exponent are linear in ``s`` (so is the log
+    of the force at any approach); beyond the ends they are held.
+    """
+    if not tab[0, 0] == tab[0, 0]:
+        return k, n
+    m = 1
+    while m < tab.shape[1] and tab[0, m] == tab[0, m]:
+        m += 1
+    if s <= tab[0, 0]:
+        return tab[1, 0], tab[2, 0]
+    if s >= tab[0, m - 1]:
+        return tab[1, m - 1], tab[2, m - 1]
+    i = 0
+    while tab[0, i + 1] < s:
+        i += 1
+    w = (s - tab[0, i]) / (tab[0, i + 1] - tab[0, i])
+    return (math.exp((1.0 - w) * math.log(tab[1, i]) + w * math.log(tab[1, i + 1])),
+            (1.0 - w) * tab[2, i] + w * tab[2, i + 1])
+
+
 @njit(cache=True)
 def slot_of(k):
     return k - NSLOT * (k // NSLOT)
 
 
 @njit(cache=True)
-def rhs(t, y, dy, p, stages, aoff, corners, sch, slots, pairs, npairs, aux):
+def rhs(t, y, dy, p, stages, aoff, corners, postab, sch, slots, pairs, npairs, aux):
     """Time derivative of the state; fills the tooth-pair records ``pairs`` and ``aux``.
 
     Forces are per mesh; the ``pinions`` identical meshes act together on
@@ -303,9 +333,11 @@ def rhs(t, y, dy, p, stages, aoff, corners, sch, slots, pairs, npairs, aux):
             hd = sg * xd - dg * srate - sg * de * rbp * wp
             slot = slots[fl, slot_of(k)]
             if slot.pair == k and slot.has_law == 1:
-                f, pe = impact_force_energy(h, hd, slot.k, slot.n, slot.cmax, slot.d)
+                kk, nn = position_law(s, postab[eng], slot.k, slot.n)
+                f, pe = impact_force_energy(h, hd, kk, nn, slot.cmax, slot.d)
             else:
-                f, pe = impact_force_energy(h, hd, p.law_k, p.law_n, p.law_cmax, p.law_d)
+                kk, nn = position_law(s, postab[eng], p.law_k, p.law_n)
+                f, pe = impact_force_energy(h, hd, kk, nn, p.law_cmax, p.law_d)
             if f > 0.0 or h > 0.0:
                 if h > 0.0:
                     ncontact += 1
@@ -547,8 +579,8 @@ def write_sample(row, t, y, p, stages, aoff, sch, aux):
 
 
 @njit(cache=True)
-def integrate(t_end, run, y, f, p, stages, aoff, atol, corners, sch, tab, ntab, slots, flanks,
-              ev, stats, samples, aux_prev):
+def integrate(t_end, run, y, f, p, stages, aoff, atol, corners, postab, sch, tab, ntab, slots,
+              flanks, ev, stats, samples, aux_prev):
     """Integrate from ``run.t`` to ``t_end``; returns 0, or 1 if the step collapsed.
 
     ``run`` (a `PROGRESS` record) is updated in place, as are ``y`` and its
@@ -581,8 +613,8 @@ def integrate(t_end, run, y, f, p, stages, aoff, atol, corners, sch, tab, ntab, 
                 for j in range(s):
                     acc += _WEIGHTS[s, j] * stages_k[j, i]
                 ytmp[i] = y[i] + h * acc
-            rhs(t + _NODES[s] * h, ytmp, stages_k[s], p, stages, aoff, corners, sch, slots,
-                pairs, npairs, aux)
+            rhs(t + _NODES[s] * h, ytmp, stages_k[s], p, stages, aoff, corners, postab, sch,
+                slots, pairs, npairs, aux)
         # the last stage was evaluated at the new solution (FSAL): pairs, aux hold its data
         ynew[:] = ytmp
         k7 = stages_k[6]
@@ -612,7 +644,8 @@ def integrate(t_end, run, y, f, p, stages, aoff, atol, corners, sch, tab, ntab, 
             for i in range(nv):
                 ytmp[i] = ((2 * z**3 - 3 * z**2 + 1) * y[i] + (z**3 - 2 * z**2 + z) * h * f[i]
                            + (-2 * z**3 + 3 * z**2) * ynew[i] + (z**3 - z**2) * h * k7[i])
-            rhs(ts, ytmp, scratch, p, stages, aoff, corners, sch, slots, pairs2, npairs2, aux2)
+            rhs(ts, ytmp, scratch, p, stages, aoff, corners, postab, sch, slots, pairs2, npairs2,
+                aux2)
             write_sample(samples[run.n_samples], ts, ytmp, p, stages, aoff, sch, aux2)
             run.n_samples += 1
             run.t_sample += dts
@@ -621,7 +654,7 @@ def integrate(t_end, run, y, f, p, stages, aoff, atol, corners, sch, tab, ntab, 
             f[i] = k7[i]
         aux_prev[:] = aux
         if changed:
-            rhs(t_new, y, f, p, stages, aoff, corners, sch, slots, pairs, npairs, aux)
+            rhs(t_new, y, f, p, stages, aoff, corners, postab, sch, slots, pairs, npairs, aux)
             aux_prev[:] = aux
             run.rhs += 1
         t = t_new
@@ -635,7 +668,7 @@ def integrate(t_end, run, y, f, p, stages, aoff, atol, corners, sch, tab, ntab, 
 
 
 @njit(cache=True)
-def prepare(t, y, f, p, stages, aoff, corners, sch, slots, flanks, aux_prev):
+def prepare(t, y, f, p, stages, aoff, corners, postab, sch, slots, flanks, aux_prev):
     """Derivative at ``t`` and contact states of a fresh segment (no events)."""
     pairs = np.zeros((2, MAXPAIR), dtype=PAIR)
     npairs = np.zeros(2, dtype=np.int64)
@@ -648,7 +681,7 @@ def prepare(t, y, f, p, stages, aoff, corners, sch, slots, flanks, aux_prev):
             slot.has_law = 0
         flanks[fl].on = 0
         flanks[fl].event = -1
-    rhs(t, y, f, p, stages, aoff, corners, sch, slots, pairs, npairs, aux_prev)
+    rhs(t, y, f, p, stages, aoff, corners, postab, sch, slots, pairs, npairs, aux_prev)
     for fl in range(2):
         for m in range(npairs[fl]):
             pair = pairs[fl, m]

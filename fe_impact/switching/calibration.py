@@ -158,6 +158,12 @@ class LawSet:
     tables: Mapping[tuple[int, str], LawTable]
     source: str
     notes: tuple[str, ...] = field(default=())
+    #: Position-dependent pair stiffness per stage (from the mesh cycle of a
+    #: calibration file): ``stage -> (roll_deg, k, exponent)``, roll angles
+    #: rising. While a pair touches, its ``k`` and exponent follow its roll
+    #: angle; ``cmax`` and ``d`` stay those of its impact's law.
+    positions: Mapping[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(
+        default_factory=dict)
 
     def table(self, stage: int, kind: str = "mesh") -> LawTable:
         """The table of ``stage`` (from 1) and ``kind``."""
@@ -177,6 +183,23 @@ class LawSet:
     @property
     def n_stages(self) -> int:
         return len({s for s, _ in self.tables})
+
+    def position_arrays(self, s_pitch: float, base_radius: float, size: int) -> np.ndarray:
+        """The position tables in the kernel's path coordinate, shape (n_stages, 3, size).
+
+        Rows: ``s = s_pitch - r_b roll`` (rising), ``k``, exponent; NaN-padded, and
+        NaN throughout for a stage without a position law.
+        """
+        out = np.full((self.n_stages, 3, size), np.nan)
+        for stage, (roll, k, e) in self.positions.items():
+            if len(roll) > size:
+                raise CalibrationError(f"stage {stage}: {len(roll)} mesh-cycle positions; the "
+                                       f"lumped model takes at most {size}")
+            s = s_pitch - base_radius * np.radians(np.asarray(roll, dtype=float))
+            order = np.argsort(s)
+            out[stage - 1, :, : len(s)] = np.stack([s[order], np.asarray(k)[order],
+                                                   np.asarray(e)[order]])
+        return out
 
     def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """Tables padded into one array, shape (n_stages, 2, n_max, 5), and row counts."""
@@ -339,7 +362,8 @@ def load_calibration(path: str | Path, gearset: GearSet,
         message names the file, the case and the key.
     """
     path = Path(path)
-    parsed = read_calibration(path, law_only=True).cases
+    calibration = read_calibration(path, law_only=True)
+    parsed = calibration.cases
     r = Reader(str(path), CalibrationError, "json")
     for i, record in enumerate(parsed):
         _parse_case(record, i, gearset, r)
@@ -364,10 +388,41 @@ def load_calibration(path: str | Path, gearset: GearSet,
             if (stage, kind) not in tables:
                 tables[(stage, kind)] = tables[(stage, present[0])]
                 notes.append(f"stage {stage}: no {kind!r} case, {present[0]!r} cases used")
+    positions = _positions(calibration.mesh_cycle, len(gearset.stages))
+    if not positions:
+        notes.append("no position dependence: the file has no mesh cycle (schema "
+                     f"{calibration.schema}), so every tooth pair takes its impact's law "
+                     "at every position along the path of contact")
+    else:
+        missing = [s for s in range(1, len(gearset.stages) + 1) if s not in positions]
+        logger.info("position-dependent pair stiffness for stages %s (%s positions)",
+                    sorted(positions), [len(v[0]) for v in positions.values()])
+        if missing:
+            notes.append(f"stages {missing}: no mesh cycle, the impact's law at every "
+                         "position")
     for note in notes:
         logger.warning("%s: %s", path, note)
     logger.info("read %d calibration cases from %s", len(parsed), path)
-    return LawSet(tables, f"calibration file {path}", tuple(notes))
+    source = f"calibration file {path}"
+    if positions:
+        source += (" (pair stiffness and exponent along the path of contact from its mesh "
+                   f"cycle, stages {sorted(positions)}; damping from the impacts)")
+    return LawSet(tables, source, tuple(notes), positions)
+
+
+def _positions(mesh_cycle, n_stages: int) -> dict[int, tuple[np.ndarray, ...]]:
+    """The mesh cycle's position law per stage of the gear set (checked on reading)."""
+    if not mesh_cycle:
+        return {}
+    out = {}
+    for key, law in mesh_cycle.items():
+        stage = int(key)
+        if stage > n_stages:
+            raise CalibrationError(f"mesh_cycle stage {stage}: the gear set has stages "
+                                   f"1..{n_stages}")
+        out[stage] = tuple(np.asarray(law[k], dtype=float)
+                           for k in ("roll_angle_deg", "k", "exponent"))
+    return out
 
 
 def laws_for(gearset: GearSet, effective_masses: Sequence[float],

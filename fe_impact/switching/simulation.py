@@ -192,6 +192,7 @@ class _Packed:
     aoff: np.ndarray
     atol: np.ndarray
     corners: np.ndarray
+    postab: np.ndarray
     sch: np.ndarray
     tab: np.ndarray
     ntab: np.ndarray
@@ -252,8 +253,9 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     tab, ntab = model.law_set.kernel_arrays()
     corners = np.stack([np.stack([geo.approach.values, geo.approach.slopes]),
                         np.stack([geo.recess.values, geo.recess.slopes])])
+    postab = model.law_set.position_arrays(geo.s_pitch, geo.base_radius, K.NPOS)
     return _Packed(params=params, stages=stages, aoff=np.zeros(n + 2), atol=atol,
-                   corners=corners, sch=_schedule_array(schedule, model.ramp_time), tab=tab,
+                   corners=corners, postab=postab, sch=_schedule_array(schedule, model.ramp_time), tab=tab,
                    ntab=ntab)
 
 
@@ -414,15 +416,16 @@ def simulate(
             _start_segment(model, pk, seg, t0, y, index == 0)
             if index == 0 and initial_rates is not None:
                 y[1::2] += rates
-            K.prepare(t0, y, f, pk.p, pk.stages, pk.aoff, pk.corners, pk.sch, pk.slots,
-                      pk.flanks, aux_prev)
+            K.prepare(t0, y, f, pk.p, pk.stages, pk.aoff, pk.corners, pk.postab, pk.sch,
+                      pk.slots, pk.flanks, aux_prev)
         t_seg_end = t0 + seg.duration
         while run["t"] < t_seg_end - 1e-12 * t_total:
             t_next = min(run["t"] + chunk, t_seg_end)
             samples = np.empty((int((t_next - run["t"]) / sample_interval) + 3, ncol))
             ev = _grow(ev, int(run["n_events"]))
             status = K.integrate(t_next, run, y, f, pk.p, pk.stages, pk.aoff, pk.atol,
-                                 pk.corners, pk.sch, pk.tab, pk.ntab, pk.slots, pk.flanks, ev,
+                                 pk.corners, pk.postab, pk.sch, pk.tab, pk.ntab, pk.slots,
+                                 pk.flanks, ev,
                                  stats, samples, aux_prev)
             pieces.append(samples[: run["n_samples"]].copy())
             if status != 0:

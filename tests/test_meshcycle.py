@@ -106,13 +106,25 @@ def test_positions_span_the_path():
 
 def test_default_forces_hold_the_nominal_load():
     gs = default_gearset()
-    (case,) = meshcycle.plan_positions(gs, [2], [0.0])
+    case = meshcycle.plan_positions(gs, [2], [-10.0, 0.0, 10.0])[1]
     assert case.forces[0] == pytest.approx(meshcycle.nominal_force(gs, 2), abs=1e-3)
     assert case.forces[1:] == meshcycle.CURVE_FORCES
 
 
+def test_curve_forces_reach_the_largest_impact():
+    assert meshcycle.curve_forces(None) == meshcycle.CURVE_FORCES
+    assert meshcycle.curve_forces(800.0) == meshcycle.CURVE_FORCES
+    f = meshcycle.curve_forces(4000.0)
+    assert f[0] == 50.0 and f[-1] == pytest.approx(4000.0) and len(f) == 5
+
+
+def test_positions_must_span_a_pitch():
+    with pytest.raises(CalibrationError, match="less than one angular pitch"):
+        meshcycle.plan_positions(default_gearset(), [1], [0.0, 5.0])
+
+
 def test_positions_off_the_path_are_refused():
     with pytest.raises(CalibrationError, match=r"--positions 40: stage 1's path of contact"):
-        meshcycle.plan_positions(default_gearset(), [1], [0.0, 40.0])
+        meshcycle.plan_positions(default_gearset(), [1], [-10.0, 0.0, 40.0])
     with pytest.raises(CalibrationError, match="need at least 2"):
         meshcycle.plan_positions(default_gearset(), [1], 1)

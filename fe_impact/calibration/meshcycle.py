@@ -55,7 +55,7 @@ END_INSET = 1e-3
 PAIR_GAP = 1e-6
 #: Forces of the load-approach curves besides the nominal one (N): 50 N up
 #: to above the largest calibrated impact force of the default calibration
-#: (820 N).
+#: (820 N). :func:`curve_forces` extends them to a larger impact.
 CURVE_FORCES = (50.0, 100.0, 200.0, 500.0, 1000.0)
 #: Smallest force of the power-law fit (N).
 FIT_MIN_FORCE = 50.0
@@ -156,21 +156,38 @@ def nominal_force(gearset, stage: int) -> float:
     return float(stage_geometry(gearset)[stage - 1]["pitch_point"]["normal_force_N"])
 
 
+def curve_forces(top: float | None = None) -> tuple[float, ...]:
+    """:data:`CURVE_FORCES`, or five forces from 50 N to ``top`` (N) evenly in log if
+    ``top`` exceeds them (the largest impact force the calibration expects)."""
+    if top is None or top <= CURVE_FORCES[-1]:
+        return CURVE_FORCES
+    return tuple(float(f) for f in np.geomspace(CURVE_FORCES[0], top, len(CURVE_FORCES)))
+
+
 def plan_positions(gearset, stages: list[int] | None = None, positions: int | list[float]
-                   = DEFAULT_POSITIONS, forces: tuple[float, ...] | None = None
-                   ) -> list[PositionCase]:
+                   = DEFAULT_POSITIONS, forces: tuple[float, ...] | None = None,
+                   top_force: float | None = None) -> list[PositionCase]:
     """The mesh-cycle cases: every stage at every position.
 
     ``positions``: a count (evenly along the path, ends included) or roll
-    angles in degrees, each checked against the path of contact. ``forces``
-    default: the stage's nominal force and :data:`CURVE_FORCES`.
+    angles in degrees, each checked against the path of contact; together
+    they must span one angular pitch (the cycle shares the load between the
+    pairs one pitch apart). ``forces`` default: the stage's nominal force and
+    :func:`curve_forces` up to ``top_force``.
     """
     n_stages = len(gearset.stages)
     stages = list(stages or range(1, n_stages + 1))
+    pitch = 360.0 / gearset.pinion.teeth
     cases = []
     for s in stages:
         first, last = path_of_contact(gearset, s)
         lo, hi = sorted((first, last))
+        if hi - lo < pitch:
+            raise CalibrationError(
+                f"stage {s}: the path of contact spans {hi - lo:.3f} deg of pinion roll, less "
+                f"than one angular pitch ({pitch:.3f} deg; contact ratio "
+                f"{(hi - lo) / pitch:.3f}): no two-pair zone, so there is no mesh cycle to "
+                "measure; widen the face gear's teeth (addendum) or run with --no-mesh-cycle")
         if isinstance(positions, int):
             rolls = path_positions(gearset, s, positions)
         else:
@@ -180,8 +197,14 @@ def plan_positions(gearset, stages: list[int] | None = None, positions: int | li
                 raise CalibrationError(
                     f"--positions {bad[0]:g}: stage {s}'s path of contact runs from "
                     f"{first:.3f} to {last:.3f} deg of pinion roll (ends excluded)")
+            if max(rolls) - min(rolls) < pitch:
+                raise CalibrationError(
+                    f"--positions {','.join(f'{r:g}' for r in rolls)}: span "
+                    f"{max(rolls) - min(rolls):.3f} deg, less than one angular pitch "
+                    f"({pitch:.3f} deg): the mesh cycle needs positions over the path of "
+                    f"contact ({first:.3f} to {last:.3f} deg)")
         f = forces if forces is not None else tuple(sorted({round(nominal_force(gearset, s), 3),
-                                                             *CURVE_FORCES}))
+                                                             *curve_forces(top_force)}))
         ends = {0: "first", len(rolls) - 1: "last"} if isinstance(positions, int) else {}
         teeth = gearset.stages[s - 1].teeth
         cases += [PositionCase(s, teeth, r, tuple(f), ends.get(i, ""))

@@ -268,8 +268,15 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     if not args.no_mesh_cycle:
         from fe_impact.calibration.meshcycle import DEFAULT_POSITIONS, plan_positions
 
+        # The curves reach the largest impact force the sweep expects (Hertz
+        # estimate at the pitch point, a quarter above for the bending).
+        from fe_impact.gears.pairanalysis import hertz_impact_estimate
+
+        top = max((1.25 * hertz_impact_estimate(gearset, c.stage, settings.roll_angle_deg,
+                                                c.impact_speed).force_max for c in cases),
+                  default=None)
         cases += plan_positions(gearset, args.stages, args.positions if args.positions
-                                is not None else DEFAULT_POSITIONS)
+                                is not None else DEFAULT_POSITIONS, top_force=top)
     print(f"calibrating {n_impacts} impacts and {len(cases) - n_impacts} mesh-cycle positions "
           f"({settings.level} meshes, {settings.integrator}) -> {args.out}", flush=True)
     bar = tqdm(total=len(cases), desc="  cases", unit="case")

@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import blas, cho_factor, cho_solve
+from scipy.linalg import blas, cho_factor, cho_solve, lapack
 
 from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.linearised import ContactModel, ZoneFrames, zone_frames
@@ -137,6 +137,23 @@ class ZoneSolver:
             solver.release()
         return S
 
+    @property
+    def partial(self) -> bool:
+        """True while the kept Schur factorisation serves: :meth:`forward` and
+        :meth:`backward` split a solve around the zone's Schur system."""
+        return self._plain is None and self._rotated is not None and \
+            self.solves < self.schur_solves
+
+    def forward(self, b: np.ndarray) -> np.ndarray:
+        """Rotated forward substitution of ``b``; its condensed entries are the Schur
+        system's right-hand side (counts as one solve with :meth:`backward`)."""
+        self.solves += 1
+        return self._rotated.forward(self._RT @ b)
+
+    def backward(self, y: np.ndarray) -> np.ndarray:
+        """``x`` from :meth:`forward`'s ``y`` holding the condensed solution in place."""
+        return self._R @ self._rotated.backward(y)
+
     def solve(self, b: np.ndarray) -> np.ndarray:
         """Solve ``K_eff x = b`` for one (n,) or several (n, k) right-hand sides."""
         if self._plain is None and self._rotated is None:
@@ -187,6 +204,14 @@ class ZoneCompliance:
         self.G: np.ndarray | None = None
         self.solved_rows = 0
 
+    def apply(self, v: np.ndarray) -> np.ndarray:
+        """``S^-1 v``."""
+        if self.size == 0:
+            return np.zeros(0)
+        if self.G is not None:
+            return self.G @ v
+        return lapack.dpotrs(self.L, v, lower=1)[0]
+
     def inner(self, Bc: sp.spmatrix) -> np.ndarray:
         """``Bc S^-1 Bc^T`` for a sparse ``Bc`` of shape (k, m)."""
         k = Bc.shape[0]
@@ -232,6 +257,7 @@ class CondensedContact:
         self.frames, self.compliance = self._condensation()
         self._delassus = np.zeros((0, 0))   # f B S^-1 B^T of the current projection
         self._delassus_at = -1              # the projection it belongs to
+        self._jacobian_at = -1              # that of the condensed gap Jacobian
 
     @property
     def coordinates(self) -> np.ndarray:
@@ -241,7 +267,7 @@ class CondensedContact:
     def condense(self) -> None:
         """Condense anew after the contact zone changed."""
         self.frames, self.compliance = self._condensation()
-        self._delassus_at = -1
+        self._delassus_at = self._jacobian_at = -1
 
     def _condensation(self) -> tuple[ZoneFrames, ZoneCompliance]:
         """Schur complement of ``K_eff`` on the zone nodes' normal coordinates.
@@ -267,17 +293,37 @@ class CondensedContact:
                              - (self.solver.factor_cpu_seconds - factor_c))
         return frames, compliance
 
+    def _condensed_jacobian(self) -> tuple[sp.csr_matrix, np.ndarray]:
+        """``B`` on the condensed coordinates (``B z = B_c z'_c``) and ``B z_ref``, of
+        the current projection."""
+        c = self.contact
+        if self._jacobian_at != c.n_projections:
+            self._Bc = (c.B @ self.frames.R)[:, self.frames.condensed].tocsr()
+            self._Bz_ref = c.B @ c.z_ref
+            self._jacobian_at = c.n_projections
+        return self._Bc, self._Bz_ref
+
     def _delassus_matrix(self) -> np.ndarray:
         """``f B S^-1 B^T`` on the rows with a gap, rebuilt after each projection."""
         c = self.contact
         if self._delassus_at != c.n_projections:
-            Bc = (c.B @ self.frames.R)[:, self.frames.condensed][c.active_rows].tocsr()
-            self._delassus = self.force_factor * self.compliance.inner(Bc)
+            Bc, _ = self._condensed_jacobian()
+            self._delassus = self.force_factor * self.compliance.inner(Bc[c.active_rows])
             self._delassus_at = c.n_projections
         return self._delassus
 
     def solve(self, rhs: np.ndarray, active: np.ndarray | None) -> StepContact:
-        """The step's displacement and contact forces; ``active`` warm-starts the LCP."""
+        """The step's displacement and contact forces; ``active`` warm-starts the LCP.
+
+        While the kept Schur factorisation serves (:attr:`ZoneSolver.partial`)
+        one forward and one backward substitution make the step: the contact
+        forces act on the condensed coordinates only, so they change only the
+        Schur system's right-hand side, ``x_c = S^-1 (y_c + f B_c^T lambda)``,
+        and the gaps need only ``x_c``. Otherwise the contact-free solve and,
+        in contact, a second one.
+        """
+        if self.solver.partial:
+            return self._solve_partial(rhs, active)
         c = self.contact
         z_star = self.solver.solve(rhs)
         h = c.gaps(z_star)
@@ -293,6 +339,25 @@ class CondensedContact:
             return StepContact(lam, z_star, lam > 0)
         z_new = self.solver.solve(rhs + self.force_factor * (c.BT @ lam))
         return StepContact(lam, z_new, lam > 0)
+
+    def _solve_partial(self, rhs: np.ndarray, active: np.ndarray | None) -> StepContact:
+        c = self.contact
+        cond = self.frames.condensed
+        Bc, Bz_ref = self._condensed_jacobian()
+        y = self.solver.forward(rhs)
+        x_c = self.compliance.apply(y[cond])
+        h = c.g_ref + Bc @ x_c - Bz_ref
+        lam = np.zeros(len(h))
+        if np.any(h < 0) or (active is not None and active.any()):
+            ok = c.active_rows
+            lam[ok], _ = solve_penalty_lcp(None, None, h[ok], c.eps_w[ok],
+                                           None if active is None or len(active) != len(h)
+                                           else active[ok], C=self._delassus_matrix())
+            if np.any(lam > 0):
+                x_c = x_c + self.force_factor * self.compliance.apply(Bc.T @ lam)
+        y[cond] = x_c
+        z = self.solver.backward(y)
+        return StepContact(lam, z, (lam > 0) if lam.any() else None)
 
     def linearisation(self, lam: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
         """``w -> dz``: the step's response to a force ``w`` at a fixed active set.

@@ -146,6 +146,29 @@ class SPDSolver:
         self._call(33, b, x)
         return np.ascontiguousarray(x)
 
+    def forward(self, b: np.ndarray) -> np.ndarray:
+        """Forward substitution (PARDISO phase 331) of a kept Schur factorisation.
+
+        The result's Schur-DOF entries are the right-hand side ``y_s`` of the
+        Schur system ``S x_s = y_s``; with ``x_s`` written back in their place,
+        :meth:`backward` gives the solution of ``K x = b``. A right-hand side
+        on the Schur DOFs alone passes unchanged (its interior part is zero).
+        """
+        if self._iparm[35] != 2:
+            raise RuntimeError("forward/backward need a Schur factorisation with keep_factor")
+        b = np.asfortranarray(b, dtype=float)
+        y = np.zeros_like(b)
+        self._call(331, b, y)
+        return y
+
+    def backward(self, y: np.ndarray) -> np.ndarray:
+        """Backward substitution (phase 333) from :meth:`forward`'s result with the
+        Schur DOFs' solution in place."""
+        y = np.asfortranarray(y, dtype=float)
+        x = np.zeros_like(y)
+        self._call(333, y, x)
+        return np.ascontiguousarray(x)
+
     def release(self) -> None:
         """Free PARDISO's memory (also done on garbage collection)."""
         if not self._released:

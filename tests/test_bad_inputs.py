@@ -391,7 +391,8 @@ SWITCHING = [
      ["cal.json: not UTF-8 text"]),
     ("--calibration not JSON", with_calibration("{"), ["cal.json: not valid JSON"]),
     ("--calibration schema", with_calibration('{"schema": "x", "cases": []}'),
-     ["schema = 'x': expected 'fe-impact/calibration/2' (or the older 'fe-impact/calibration/1')"]),
+     ["schema = 'x': expected 'fe-impact/calibration/2' (or the older "
+      "'fe-impact/calibration/1')"]),
     ("--calibration k -1", with_calibration(calibration_file(k=-1.0)),
      ["[cases[0].impact] k = -1.0", "must be > 0"]),
     ("--calibration k Infinity", with_calibration(calibration_file(k=math.inf)),

@@ -18,7 +18,8 @@ from fe_impact.physics import hertz
 def calibrated(tmp_path_factory):
     out = tmp_path_factory.mktemp("calibration")
     argv = ["calibrate", "--stages", "1", "--impact-speeds", "0.05", "--level", "coarse",
-            "--positions", "2", "--workers", "1", "--out", str(out / "run"), "--cache", str(out / "cache")]
+            "--positions", "2", "--workers", "1", "--out", str(out / "run"),
+            "--cache", str(out / "cache")]
     assert main(argv) == 0
     return out, argv
 

@@ -278,7 +278,8 @@ DYNAMIC_BAD = [
     ('time_step = ', 'time_step = 1.0 #', r"time_step = 1.0.*at most the duration"),
     ('[analysis]', '[[displacements]]\nsurface = "upper_all"\ncomponent = "z"\nvalues = [1e-6]'
      '\n[analysis]', r"\[\[displacements\]\] apply to static analysis"),
-    ('type = "dynamic"', 'type = "static"', r"inertia and initial_velocity need \[analysis\] type = \"dynamic\""),
+    ('type = "dynamic"', 'type = "static"',
+     r"inertia and initial_velocity need \[analysis\] type = \"dynamic\""),
 ]
 
 

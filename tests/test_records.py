@@ -205,7 +205,8 @@ def test_reading_rejects_a_bad_value_naming_the_key(tmp_path, change, message):
 
 @pytest.mark.parametrize(("mutate", "message"), [
     (lambda d: d.update(schema="fe-impact/calibration/0"),
-     "schema = 'fe-impact/calibration/0': expected 'fe-impact/calibration/2' (or the older 'fe-impact/calibration/1')"),
+     "schema = 'fe-impact/calibration/0': expected 'fe-impact/calibration/2' (or the older "
+     "'fe-impact/calibration/1')"),
     (lambda d: d.update(cases=[]), "cases = []: must be a non-empty list of objects"),
     (lambda d: d.update(extra=1), "unknown key(s) ['extra'] at the top level"),
 ])

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import numpy as np
 import pytest
 
 from fe_impact.errors import CaseError, ContactError
@@ -168,3 +167,15 @@ def test_tooth_pair_converges_at_three_times_the_largest_impact(tmp_path):
         approach = -step.rigid_values[0] * lever - pm.analysis.gap
         hertz = contact_ellipse(pm.analysis.contact.relative, f, pm.analysis.effective_modulus)
         assert approach > hertz.approach
+
+
+def test_a_stalled_iteration_says_what_helps():
+    # A change stalling at 2e-8 m on a 1e-4 m face with a 2e-5 m contact
+    # displacement: the active set flips at the patch edge; a tolerance of
+    # about 2 x 2e-8 / 2e-5 = 2e-3 ends it (the stall the coarse stage-1 pair
+    # showed at 3 kN before the normal-coordinate contact).
+    from fe_impact.solvers.static import _diagnosis
+
+    msg = _diagnosis([1e-6, 1e-7, 2e-8, 1.9e-8, 2e-8, 1.8e-8], 2e-5, 1e-4)
+    assert "loosen [analysis] tolerance to about 2e-03" in msg
+    assert "max_iterations" in _diagnosis([1e-5, 5e-6, 2e-6, 1e-6], 2e-5, 1e-4)

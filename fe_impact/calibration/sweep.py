@@ -52,6 +52,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from fe_impact import __version__
+from fe_impact.calibration import meshcycle
+from fe_impact.calibration.meshcycle import PositionCase
 from fe_impact.calibration.records import (  # noqa: F401 (KINDS, UNITS: importable here)
     KINDS,
     NOTES,
@@ -71,8 +73,6 @@ from fe_impact.calibration.records import (  # noqa: F401 (KINDS, UNITS: importa
     write_calibration_csv,
     write_record,
 )
-from fe_impact.calibration import meshcycle
-from fe_impact.calibration.meshcycle import PositionCase
 from fe_impact.errors import CalibrationError
 from fe_impact.fe.case import INTEGRATORS
 from fe_impact.gears.pairanalysis import LEVEL_NAMES

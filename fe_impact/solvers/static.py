@@ -276,7 +276,7 @@ class StaticSolver:
             f"contact did not converge in {a.max_iterations} iterations (last change of the "
             f"zone's displacement {change:.3g} m, {change / max(scale, 1e-30):.2g} of the "
             f"contact displacement {scale:.3g} m; tolerance {a.tolerance:g}): "
-            f"{_diagnosis(history, face_size(self.mesh, self.pairs[0].slave))}")
+            f"{_diagnosis(history, scale, face_size(self.mesh, self.pairs[0].slave))}")
 
     def _forces(self, rows: _RowCompliance, h, hw, eps_w, valid, seed, load, reaction, q):
         """Contact forces (and the load-controlled coordinate) of one projection.
@@ -503,12 +503,16 @@ class _RowCompliance:
         return self.B @ (self.BG.T @ lam)
 
 
-def _diagnosis(history: list[float], face: float) -> str:
-    """What helps when the projection iteration does not converge."""
-    tail = history[-6:]
-    if len(tail) >= 4 and max(tail) < 0.02 * face and min(tail) > 0.3 * max(tail):
-        return ("the change stalls far below a face size (%.3g m) while the active set "
-                "flips at the patch edge: loosen [analysis] tolerance to about %.0e or "
-                "refine the contact faces" % (face, 2 * max(tail) / max(face, 1e-30)))
+def _diagnosis(history: list[float], scale: float, face: float) -> str:
+    """What helps when the projection iteration does not converge.
+
+    ``history``: the zone's displacement change per iteration (m); ``scale``:
+    the contact displacement (m); ``face``: the contact faces' size (m).
+    """
+    tail = history[-4:]
+    if len(tail) == 4 and max(tail) < 0.02 * face and min(tail) > 0.3 * max(tail):
+        return (f"the change stalls far below a face size ({face:.3g} m) while the active "
+                f"set flips at the patch edge: loosen [analysis] tolerance to about "
+                f"{2 * max(tail) / max(scale, 1e-30):.0e} or refine the contact faces")
     return ("raise [analysis] max_iterations, or apply the load in smaller steps "
             "(more [[displacements]] values or loads)")

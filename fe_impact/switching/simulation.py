@@ -255,8 +255,8 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
                         np.stack([geo.recess.values, geo.recess.slopes])])
     postab = model.law_set.position_arrays(geo.s_pitch, geo.base_radius, K.NPOS)
     return _Packed(params=params, stages=stages, aoff=np.zeros(n + 2), atol=atol,
-                   corners=corners, postab=postab, sch=_schedule_array(schedule, model.ramp_time), tab=tab,
-                   ntab=ntab)
+                   corners=corners, postab=postab,
+                   sch=_schedule_array(schedule, model.ramp_time), tab=tab, ntab=ntab)
 
 
 def _check_schedule(model: DriveModel, schedule: StageSchedule) -> None:

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from fe_impact.calibration.records import Calibration, CalibrationRecord
+from fe_impact.errors import CalibrationError
 from fe_impact.inputs import read_document
 from fe_impact.output.files import atomic_path
 
@@ -214,31 +216,364 @@ def _plot_parameters(out: Path, cases: tuple[CalibrationRecord, ...], path: Path
     return True
 
 
-def _plot_stress(out: Path, cases: tuple[CalibrationRecord, ...], path: Path) -> bool:
-    """3-D von Mises field at peak force of the hardest impact (pyvista off-screen)."""
+#: Stress picture: the colour scale of von Mises ends at this percentile of the
+#: cells in the window at the contact (cells above it are drawn in _STRESS_ABOVE_COLOUR).
+_STRESS_PERCENTILE = 99.0
+_STRESS_ABOVE_COLOUR = "magenta"
+#: The flank window's half-width along the footprint's long axis, in its long
+#: semi-axis a (so that the whole footprint shows), and the section's
+#: half-width and depth in its short semi-axis b (Hertz: the largest von Mises
+#: lies 0.5-0.8 b deep). a and b are at least the local element size along them.
+_STRESS_WINDOW_MAJOR, _STRESS_SECTION = 1.5, 4.0
+#: Contact pressure outlining the footprint, as a fraction of its peak.
+_STRESS_OUTLINE = 0.01
+#: One impact's row (pixels): a header, two flank views and a section.
+_FLANK, _SECTION, _HEADER = (720, 440), (480, 440), 190
+
+
+@dataclass(frozen=True)
+class _ContactWindow:
+    """Where the stress picture of one VTU frame looks: a box at the contact.
+
+    Lengths in m, stresses in Pa. The flank window has half-widths
+    ``half_size[0]`` along ``major`` and ``half_size[1]`` along ``minor``
+    (the footprint's long and short axes in the flank's tangent plane); the
+    section across the footprint has half-width ``section`` and shows that
+    depth below the flank. The colour range is taken over the ``window``
+    cells: the viewed body's cells whose centroids lie in the flank window,
+    at most ``section`` above or below the tangent plane.
+    """
+
+    centre: np.ndarray           # pressure-weighted centroid of the footprint
+    peak_point: np.ndarray       # node of the largest contact pressure
+    normal: np.ndarray           # outward normal of the viewed flank
+    major: np.ndarray
+    minor: np.ndarray
+    semi_axes: tuple[float, float]     # footprint half-extents (major, minor)
+    element_size: tuple[float, float]  # local element extents (major, minor)
+    half_size: tuple[float, float]     # flank window (major, minor)
+    section: float                     # section half-width and depth
+    body: np.ndarray             # bool per cell: the viewed body
+    window: np.ndarray           # bool per cell: the viewed body's cells in the window
+    clim: tuple[float, float]    # von Mises colour range: 0 to the in-window percentile
+    vm_max: float                # largest von Mises in the window
+    vm_max_depth: float          # its cell centroid's depth below the flank
+    p_max: float                 # largest contact pressure
+    footprint_nodes: int         # nodes with a contact pressure on the viewed body
+
+
+def _cell_nodes(grid) -> tuple[np.ndarray, np.ndarray]:
+    """Connectivity and offsets (n_cells + 1) of an unstructured grid."""
+    name = "cell_offsets" if "cell_offsets" in dir(type(grid)) else "offset"
+    return np.asarray(grid.cell_connectivity), np.asarray(getattr(grid, name))
+
+
+def _centroids(grid) -> np.ndarray:
+    """Mean of each cell's nodes (n_cells, 3)."""
+    conn, offsets = _cell_nodes(grid)
+    pts = np.asarray(grid.points, dtype=float)
+    return np.add.reduceat(pts[conn], offsets[:-1]) / np.diff(offsets)[:, None]
+
+
+def _bodies(grid) -> tuple[np.ndarray, np.ndarray]:
+    """Connected bodies of an unstructured grid: a label per point and per cell."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    conn, offsets = _cell_nodes(grid)
+    cells = csr_matrix((np.ones(len(conn)), conn, offsets),
+                       shape=(grid.n_cells, grid.n_points))
+    _, points = connected_components(cells.T @ cells, directed=False)
+    return points, points[conn[offsets[:-1]]]
+
+
+def _tangent_axes(normal: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors (major, minor) of the tangent plane: the principal axes of
+    ``offsets`` projected on it (an arbitrary pair when there are fewer than two)."""
+    seed = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    e1 = seed - (seed @ normal) * normal
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    if len(offsets) >= 2:
+        q = offsets @ np.column_stack([e1, e2])
+        v = np.linalg.eigh(q.T @ q)[1][:, 1]     # eigenvector of the largest eigenvalue
+        e1 = v[0] * e1 + v[1] * e2
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(normal, e1)
+    return e1, e2
+
+
+def _in_box(x: np.ndarray, centre: np.ndarray, axes: tuple[np.ndarray, ...],
+            half: tuple[float, ...]) -> np.ndarray:
+    """Points ``x`` within ``half`` of ``centre`` along each of ``axes``, both ways."""
+    d = x - centre
+    return np.all([np.abs(d @ e) <= w for e, w in zip(axes, half, strict=True)], axis=0)
+
+
+def _contact_window(grid, normal: np.ndarray | None = None,
+                    point: np.ndarray | None = None) -> _ContactWindow:
+    """Find the contact in a frame: the footprint, the flank it is on and the window.
+
+    Parameters
+    ----------
+    grid : pyvista.UnstructuredGrid
+        A frame with point data ``contact_pressure`` and cell data ``von_mises`` (Pa).
+    normal, point : array_like, optional
+        The contact normal and point of the FE summary: the normal (either sign)
+        is used when given, else the footprint's plane; the point only when no
+        node carries a pressure.
+
+    Returns
+    -------
+    _ContactWindow
+        The viewed body is the one carrying the largest contact pressure (the
+        slave side of the contact).
+    """
+    if "von_mises" not in grid.cell_data:
+        raise CalibrationError("stress picture: the frame has no cell data 'von_mises'")
+    pts = np.asarray(grid.points, dtype=float)
+    vm = np.asarray(grid.cell_data["von_mises"], dtype=float)
+    p = (np.asarray(grid.point_data["contact_pressure"], dtype=float)
+         if "contact_pressure" in grid.point_data else np.zeros(len(pts)))
+    labels, cell_labels = _bodies(grid)
+    if p.max(initial=0.0) > 0.0:
+        peak = int(np.argmax(p))
+    elif point is not None:
+        peak = int(np.argmin(np.linalg.norm(pts - np.asarray(point, float), axis=1)))
+    else:
+        raise CalibrationError("stress picture: no node carries a contact pressure and the "
+                               "FE summary gives no contact_point")
+    body = cell_labels == labels[peak]
+    foot = (p > 0.0) & (labels == labels[peak])
+    centre = (np.average(pts[foot], axis=0, weights=p[foot]) if foot.any()
+              else pts[peak].copy())
+    if normal is not None:
+        n = np.asarray(normal, dtype=float)
+    elif foot.sum() >= 3:
+        d = pts[foot] - centre
+        n = np.linalg.eigh(d.T @ d)[1][:, 0]    # the footprint plane's normal
+    else:
+        raise CalibrationError("stress picture: the footprint has fewer than 3 nodes and the "
+                               "FE summary gives no contact_normal")
+    n = n / np.linalg.norm(n)
+    centroids = _centroids(grid)
+    ids = np.flatnonzero(body)
+    near = ids[np.argsort(np.linalg.norm(centroids[ids] - centre, axis=1))[:20]]
+    # The body lies behind its flank: orient the normal out of it.
+    if np.mean((centroids[near] - centre) @ n) > 0.0:
+        n = -n
+    major, minor = _tangent_axes(n, pts[foot] - centre)
+    conn, offsets = _cell_nodes(grid)
+    extent = np.array([np.ptp(pts[conn[offsets[c]:offsets[c + 1]]] @ np.column_stack(
+        [major, minor]), axis=0) for c in near])
+    h = tuple(float(v) for v in np.median(extent, axis=0))
+    d = pts[foot] - centre
+    semi = ((float(np.abs(d @ major).max()), float(np.abs(d @ minor).max())) if foot.any()
+            else (0.0, 0.0))
+    a, b = max(semi[0], h[0]), max(semi[1], h[1])
+    section = _STRESS_SECTION * b
+    w_major = max(_STRESS_WINDOW_MAJOR * a, section * _FLANK[0] / _FLANK[1])
+    half = (w_major, w_major * _FLANK[1] / _FLANK[0])
+    window = body & _in_box(centroids, centre, (major, minor, n), (*half, section))
+    if not window.any():
+        raise CalibrationError("stress picture: no cell of the contacting body lies in the "
+                               f"window of half-widths {half} m at the contact")
+    vmw = vm[window]
+    top = int(np.argmax(vmw))
+    return _ContactWindow(
+        centre=centre, peak_point=pts[peak].copy(), normal=n, major=major, minor=minor,
+        semi_axes=semi, element_size=h, half_size=half, section=section, body=body,
+        window=window, clim=(0.0, float(np.percentile(vmw, _STRESS_PERCENTILE))),
+        vm_max=float(vmw[top]), vm_max_depth=float(-(centroids[window][top] - centre) @ n),
+        p_max=float(p.max(initial=0.0)), footprint_nodes=int(foot.sum()))
+
+
+def _side_name(summary: dict | None) -> str:
+    """The slave side's name (it carries the contact pressure), e.g. ``pinion``."""
+    name = ((summary or {}).get("model") or {}).get("sides", {}).get("slave", "")
+    if "(" in name and name.endswith(")"):
+        name = name[name.index("(") + 1:-1]
+    return name.replace("_", " ") or "contacting body"
+
+
+def _surface(grid):
+    """The outer surface, quadratic faces split once (pyvista's default algorithm)."""
+    import inspect
+
+    extra = ({"algorithm": "dataset_surface"}
+             if "algorithm" in inspect.signature(grid.extract_surface).parameters else {})
+    return grid.extract_surface(nonlinear_subdivision=1, **extra)
+
+
+def _camera(p, focus: np.ndarray, towards: np.ndarray, up: np.ndarray,
+            half_height: float) -> None:
+    """Parallel view of the current panel onto ``focus`` from the side of ``towards``."""
+    p.camera_position = [tuple(focus + 100 * half_height * towards), tuple(focus), tuple(up)]
+    p.enable_parallel_projection()
+    p.camera.parallel_scale = half_height
+    p.reset_camera_clipping_range()
+
+
+def _render_contact(grid, w: _ContactWindow, titles: tuple[str, str, str]
+                    ) -> tuple[np.ndarray, tuple[float, float]]:
+    """Render one frame's contact as a row of three panels (pyvista off-screen).
+
+    Left: von Mises (MPa) on the flank seen along the contact normal, the
+    footprint outlined in white; middle: the contact pressure (MPa) there
+    with the element edges; right: von Mises in the section across the
+    footprint through its centre, the flank on top. ``titles`` head the three
+    columns, above their colour bars. Returns the RGB image and the von Mises
+    range of the left panel's colour map (Pa).
+    """
     import pyvista as pv
 
-    c = max(cases, key=lambda c: c.fe.peak_force)
-    s = _history(out, c)
-    if s is None or not s["fields"]["frames"]:
-        return False
-    # The frame nearest the peak: the fields are written at every few output
-    # times only (sweep.VTU_FRAME_STRIDE), so index the frames by their own times.
-    times = np.asarray(s["fields"].get("frame_times") or s["history"]["time"])
-    k = int(np.argmin(np.abs(times - s["time_of_peak_force"])))
-    k = min(k, len(s["fields"]["frames"]) - 1)
-    grid = pv.read(out / "cases" / c.id / "fe" / s["fields"]["frames"][k])
     pv.OFF_SCREEN = True
     # Off screen without an X server VTK falls back to its own context after
     # printing a warning about the missing display; keep the terminal clean.
     pv.vtk_verbosity("off")
-    p = pv.Plotter(off_screen=True, window_size=(1000, 750))
-    p.add_mesh(grid, scalars="von_mises", cmap="turbo", show_edges=False,
-               scalar_bar_args={"title": "von Mises (Pa)"})
-    p.add_text(f"{c.id}: von Mises stress at peak force {c.fe.peak_force:.4g} N",
-               font_size=10)
-    p.view_isometric()
-    with atomic_path(path) as tmp:
-        p.screenshot(str(tmp))
+    (wmaj, wmin), ws = w.half_size, w.section
+    shown = w.body & _in_box(_centroids(grid), w.centre, (w.major, w.minor, w.normal),
+                             (1.3 * wmaj, 1.3 * wmin, 1.3 * max(ws, wmin)))
+    sub = grid.extract_cells(np.flatnonzero(shown))
+    sub.cell_data["vm"] = np.asarray(sub.cell_data["von_mises"]) / 1e6
+    sub.point_data["p"] = (np.asarray(sub.point_data["contact_pressure"]) / 1e6
+                           if "contact_pressure" in sub.point_data else np.zeros(sub.n_points))
+    surf = _surface(sub)
+    lift = 1e-3 * wmin * w.normal          # lines and marks just above the flank
+    outline = None
+    if w.p_max > 0:
+        outline = surf.contour([_STRESS_OUTLINE * w.p_max / 1e6], scalars="p")
+        if outline.n_points:
+            outline.points = outline.points + lift
+        else:
+            outline = None
+    peak = pv.PolyData((w.peak_point + lift)[None, :])
+    clim = (w.clim[0] / 1e6, w.clim[1] / 1e6)
+    vm_style = dict(scalars="vm", preference="cell", cmap="turbo", clim=clim,
+                    above_color=_STRESS_ABOVE_COLOUR, show_scalar_bar=False, lighting=False)
+    mark = dict(color="black", point_size=10, render_points_as_spheres=True)
+
+    height = _HEADER + _FLANK[1]
+    p = pv.Plotter(shape=(2, 3), off_screen=True, border=False,
+                   window_size=(2 * _FLANK[0] + _SECTION[0], height),
+                   row_weights=[_HEADER, _FLANK[1]],
+                   col_weights=[_FLANK[0], _FLANK[0], _SECTION[0]])
+    p.set_background("white")
+    p.subplot(1, 0)
+    actor = p.add_mesh(surf, **vm_style)
+    if outline is not None:
+        p.add_mesh(outline, color="white", line_width=3)
+    p.add_mesh(peak, **mark)
+    _camera(p, w.centre, w.normal, w.minor, wmin)
+    p.add_axes(line_width=3, color="white", viewport=(0.0, 0.0, 0.14, 0.24))
+    p.subplot(1, 1)
+    pressure = p.add_mesh(surf, scalars="p", cmap="YlOrRd", show_scalar_bar=False,
+                          clim=(0.0, max(w.p_max / 1e6, 1e-9)), show_edges=True,
+                          edge_color="grey", line_width=0.5, lighting=False)
+    if outline is not None:
+        p.add_mesh(outline, color="blue", line_width=2)
+    p.add_mesh(peak, **mark)
+    _camera(p, w.centre, w.normal, w.minor, wmin)
+    p.subplot(1, 2)
+    cut = sub.slice(normal=w.major, origin=w.centre)
+    if cut.n_cells:
+        p.add_mesh(cut, show_edges=True, edge_color="grey", line_width=0.5, **vm_style)
+    p.add_mesh(pv.PolyData((w.centre + lift)[None, :]), **mark)
+    _camera(p, w.centre - 0.6 * ws * w.normal, w.major, w.normal,
+            ws * _SECTION[1] / _SECTION[0])
+    # Four labels: none in the middle, under the title.
+    bar = dict(n_labels=4, fmt="%.0f", color="black", title_font_size=13,
+               label_font_size=12, position_x=0.08, position_y=0.22, width=0.8, height=0.3)
+    for col, (title, mapper) in enumerate(zip(
+            titles, (actor.mapper, pressure.mapper, None), strict=True)):
+        p.subplot(0, col)
+        p.add_text(title, position="upper_left", font_size=10, color="black")
+        if mapper is not None:
+            name = "von Mises (MPa)" if col == 0 else "contact pressure (MPa)"
+            p.add_scalar_bar(name, mapper=mapper, **bar)
+    image = p.screenshot(return_img=True)
+    used = tuple(float(v) * 1e6 for v in actor.mapper.scalar_range)
     p.close()
+    return image, used
+
+
+def _titles(c: CalibrationRecord, summary: dict, w: _ContactWindow, t: float,
+            force: float) -> tuple[str, str, str]:
+    """The three column headings of one impact's row."""
+    side = _side_name(summary)
+    t0 = summary.get("first_touch") or 0.0
+    t_peak = summary.get("time_of_peak_force", t)
+    return (f"{c.id}: v = {c.impact_speed:.3g} m/s, peak force {c.fe.peak_force:.4g} N at "
+            f"{(t_peak - t0) * 1e6:.0f} us\n"
+            f"frame at {(t - t0) * 1e6:.0f} us ({force:.4g} N); max von Mises near the "
+            f"contact {w.vm_max / 1e6:.0f} MPa\n"
+            f"{side} flank along the contact normal, {2e3 * w.half_size[0]:.3g} x "
+            f"{2e3 * w.half_size[1]:.3g} mm;\ncolours to the {_STRESS_PERCENTILE:g}th "
+            f"percentile there, above in {_STRESS_ABOVE_COLOUR}",
+            f"contact pressure on the {side} flank, peak {w.p_max / 1e6:.0f} MPa\n"
+            f"footprint half-extents {w.semi_axes[0] * 1e6:.0f} x "
+            f"{w.semi_axes[1] * 1e6:.0f} um ({w.footprint_nodes} nodes),\noutlined at "
+            f"{_STRESS_OUTLINE:.0%} of the peak; element edges in grey",
+            f"section across the footprint, {2e6 * w.section:.0f} um wide,\n"
+            f"flank on top, colours as on the left;\nmax von Mises {w.vm_max / 1e6:.0f} MPa "
+            f"at {w.vm_max_depth * 1e6:.0f} um depth\n(footprint half-width "
+            f"{w.semi_axes[1] * 1e6:.0f} um)")
+
+
+def _peak_frame(out: Path, case: CalibrationRecord,
+                summary: dict) -> tuple[Path, float, float] | None:
+    """The VTU frame of the largest contact force: (file, time s, force N).
+
+    The fields are written at every few output times only
+    (sweep.VTU_FRAME_STRIDE): the force at each frame's time is read off the
+    history, and the frame with the largest one is taken.
+    """
+    frames = summary["fields"]["frames"]
+    if not frames:
+        return None
+    h = summary["history"]
+    t, f = np.asarray(h["time"], float), np.asarray(h["contact_force"], float)
+    times = np.asarray(summary["fields"].get("frame_times") or t[:len(frames)], float)
+    n = min(len(frames), len(times))
+    k = int(np.argmax(np.interp(times[:n], t, f)))
+    return (out / "cases" / case.id / "fe" / frames[k], float(times[k]),
+            float(np.interp(times[k], t, f)))
+
+
+def _plot_stress(out: Path, cases: tuple[CalibrationRecord, ...], path: Path) -> bool:
+    """von Mises at the contact of each impact, at the frame of peak contact force.
+
+    One row per impact (pyvista off-screen, see :func:`_render_contact`): the
+    flank seen along the contact normal in a window around the footprint, the
+    colour scale from 0 to the _STRESS_PERCENTILE percentile of the cells in
+    that window; the contact pressure there; the section across the footprint.
+    A case whose frames are missing or unreadable is left out with a warning.
+    """
+    import pyvista as pv
+    from PIL import Image
+
+    rows = []
+    for c in sorted(cases, key=lambda c: (c.stage, c.kind, c.impact_speed)):
+        s = _history(out, c)
+        if s is None or c.fe is None:
+            continue
+        try:
+            found = _peak_frame(out, c, s)
+            if found is None:
+                continue
+            frame, t, force = found
+            grid = pv.read(frame)
+            model = s.get("model") or {}
+            w = _contact_window(grid, model.get("contact_normal"), model.get("contact_point"))
+        except (OSError, KeyError, ValueError, CalibrationError) as exc:
+            logger.warning("stress picture of %s skipped: %s", c.id, exc)
+            continue
+        rows.append(_render_contact(grid, w, _titles(c, s, w, t, force))[0])
+    if not rows:
+        return False
+    width = max(r.shape[1] for r in rows)
+    rows = [np.pad(r, ((0, 0), (0, width - r.shape[1]), (0, 0)), constant_values=255)
+            for r in rows]
+    with atomic_path(path) as tmp:
+        Image.fromarray(np.vstack(rows)).save(tmp, format="png")
     return True

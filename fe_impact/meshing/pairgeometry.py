@@ -1,10 +1,11 @@
 """Gmsh geometry of the tooth pair: the two sectors as OCC solids, and the exact flanks.
 
 :func:`add_sectors` builds, in the mesh frame of :mod:`fe_impact.gears.tca`
-(the model in millimetres, :data:`MM`), one pinion tooth over the pinion's
-face width and ``n_face_teeth`` face-gear teeth cut by the ring of the face
-width, as lofts through exact sections, and finds the faces of each surface
-group (``pinion_flank``, ``pinion_hub``, ``face_flank``, ``face_hub``).
+(the model in millimetres, :data:`MM`), one pinion tooth (or adjacent
+teeth, :mod:`fe_impact.meshing.twopair`) over the pinion's face width and
+``n_face_teeth`` face-gear teeth cut by the ring of the face width, as
+lofts through exact sections, and finds the faces of each surface group
+(``pinion_flank``, ``pinion_hub``, ``face_flank``, ``face_hub``).
 :func:`snap_flanks` moves the mesh nodes of both flanks onto the exact
 analytic flanks. The teeth are placed as a
 :class:`~fe_impact.gears.pairanalysis.PairAnalysis` says (the pinion turned
@@ -113,18 +114,36 @@ def _line(a: NDArray, b: NDArray) -> NDArray:
     return a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
 
 
-def _pinion_section(pair: GearPair, roll: float, u: float, rim: float) -> list[Piece]:
-    """Closed transverse section of the pinion sector at axial position ``u``."""
+def _turned(xy: NDArray, angle: float) -> NDArray:
+    """Transverse points (n, 2) of the pinion frame turned by ``angle`` from ``+y`` towards
+    ``+x`` (the tooth that sits at roll angle ``roll - angle``)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * xy[:, 0] + s * xy[:, 1], c * xy[:, 1] - s * xy[:, 0]], axis=-1)
+
+
+def _pinion_section(pair: GearPair, roll: float, u: float, rim: float,
+                    n_teeth: int = 1) -> list[Piece]:
+    """Closed transverse section of the pinion sector at axial position ``u``.
+
+    ``n_teeth`` adjacent teeth: tooth ``k`` is the placed tooth turned back by
+    ``k`` angular pitches (it sits where the placed one is at ``roll - k``
+    pitches); its pieces carry the suffix ``_k`` (none for ``k = 0``).
+    """
     p = pair.pinion
     prof = p.transverse_profile(u=u, n_flank=60, n_fillet=30, n_tip=12, n_root=8)
     a = np.pi / p.teeth
-    rim_l, rim_r = rim * np.array([-np.sin(a), np.cos(a)]), rim * np.array([np.sin(a), np.cos(a)])
+    span = (2 * n_teeth - 1) * a   # the right cut, half a pitch past the last tooth
+    rim_l = rim * np.array([-np.sin(a), np.cos(a)])
+    rim_r = rim * np.array([np.sin(span), np.cos(span)])
     seg = {s.name: s.points for s in prof.segments}
-    arc = np.linspace(a, -a, 9)
+    arc = np.linspace(span, -a, 1 + 8 * n_teeth)
+    teeth = [(name, seg[name]) for name in (s.name for s in prof.segments)]
+    for k in range(1, n_teeth):
+        teeth += [(f"{name}_{k}", _turned(xy, 2 * k * a)) for name, xy in teeth[:len(seg)]]
     pieces2d = [
         ("hub_left", _line(rim_l, seg["root_left"][0])),
-        *[(name, seg[name]) for name in (s.name for s in prof.segments)],
-        ("hub_right", _line(seg["root_right"][-1], rim_r)),
+        *teeth,
+        ("hub_right", _line(teeth[-1][1][-1], rim_r)),
         ("hub_rim", rim * np.stack([np.sin(arc), np.cos(arc)], axis=-1)),
     ]
     out = []
@@ -261,24 +280,35 @@ def _stations_through(lo: float, hi: float, at: float, step: float) -> NDArray:
     return np.concatenate([left, right[1:]])
 
 
-def _add_pinion(model, pair: GearPair,
-                analysis: PairAnalysis) -> tuple[int, dict[str, list[int]]]:
-    """The pinion sector over its face width (one loft of transverse sections)."""
+def _add_pinion(model, pair: GearPair, analysis: PairAnalysis, n_teeth: int = 1,
+                groups: dict[str, tuple[str, ...]] | None = None
+                ) -> tuple[int, dict[str, list[int]]]:
+    """The pinion sector over its face width (one loft of transverse sections).
+
+    ``n_teeth`` adjacent teeth (:func:`_pinion_section`); ``groups`` maps each
+    surface group to its section pieces (default :data:`_PINION_GROUPS`).
+    """
     p, spec = pair.pinion, analysis.spec
     rim = p.root_radius - spec.rim_modules * p.module
     u_c = float(np.clip(analysis.contact.point[2] - pair.z0, -0.4 * p.face_width,
                         0.4 * p.face_width))
     us = _stations_through(-0.5 * p.face_width, 0.5 * p.face_width, u_c,
                            _SECTION_MODULES * p.module)
-    sections = [_pinion_section(pair, analysis.pinion_roll_placed, u, rim) for u in us]
+    sections = [_pinion_section(pair, analysis.pinion_roll_placed, u, rim, n_teeth) for u in us]
     solid = _loft(model, sections, int(np.argmin(np.abs(us - u_c))))
     model.occ.synchronize()
-    return solid.volume, _classify(model, solid, _PINION_GROUPS)
+    return solid.volume, _classify(model, solid, _PINION_GROUPS if groups is None else groups)
 
 
-def _add_face_gear(model, pair: GearPair,
-                   analysis: PairAnalysis) -> tuple[int, dict[str, list[int]]]:
-    """The face-gear sector: a loft of sections ``z = const``, cut by the ring."""
+def _add_face_gear(model, pair: GearPair, analysis: PairAnalysis,
+                   groups: dict[str, tuple[str, ...]] | None = None
+                   ) -> tuple[int, dict[str, list[int]]]:
+    """The face-gear sector: a loft of sections ``z = const``, cut by the ring.
+
+    ``groups`` maps each surface group to its section pieces (default
+    :data:`_FACE_GROUPS`; tooth ``j`` of the sector, counted from the placed
+    one towards ``-x``, has the pieces ``flank_plus_j`` and ``flank_minus_j``).
+    """
     f, spec, contact = pair.face, analysis.spec, analysis.contact
     flank = _FaceFlank(f)
     bottom = f.root_height - spec.rim_modules * f.module
@@ -298,23 +328,28 @@ def _add_face_gear(model, pair: GearPair,
     if len(out) != 1:
         raise MeshError(f"face-gear sector: the cut by the ring gave {len(out)} volumes")
     solid.volume = out[0][1]
-    return solid.volume, _classify(model, solid, _FACE_GROUPS)
+    return solid.volume, _classify(model, solid, _FACE_GROUPS if groups is None else groups)
 
 
-def add_sectors(model, pair: GearPair,
-                analysis: PairAnalysis) -> tuple[dict[str, int], dict[str, list[int]]]:
+def add_sectors(model, pair: GearPair, analysis: PairAnalysis, *, pinion_teeth: int = 1,
+                pinion_groups: dict[str, tuple[str, ...]] | None = None,
+                face_groups: dict[str, tuple[str, ...]] | None = None,
+                ) -> tuple[dict[str, int], dict[str, list[int]]]:
     """Both sectors in ``model`` (OCC, millimetres), placed as ``analysis`` says.
 
     Returns the volume tags (``pinion``, ``face_gear``) and the surface tags
-    of each surface group.
+    of each surface group. ``pinion_teeth`` adjacent pinion teeth (the placed
+    one and the next ones turned back by one angular pitch each); the groups
+    map surface-group names to section pieces (see :func:`_add_pinion` and
+    :func:`_add_face_gear`; default: one flank per sector and the hubs).
     """
-    pinion, pinion_groups = _add_pinion(model, pair, analysis)
-    face, face_groups = _add_face_gear(model, pair, analysis)
+    pinion, pinion_faces = _add_pinion(model, pair, analysis, pinion_teeth, pinion_groups)
+    face, face_faces = _add_face_gear(model, pair, analysis, face_groups)
     extra = [(3, t) for _, t in model.getEntities(3) if t not in (pinion, face)]
     if extra:  # construction leftovers of the boolean
         model.occ.remove(extra, recursive=True)
         model.occ.synchronize()
-    return {"pinion": pinion, "face_gear": face}, {**pinion_groups, **face_groups}
+    return {"pinion": pinion, "face_gear": face}, {**pinion_faces, **face_faces}
 
 
 # -- the mesh on the exact flanks --------------------------------------------------------

@@ -128,3 +128,11 @@ def test_positions_off_the_path_are_refused():
         meshcycle.plan_positions(default_gearset(), [1], [-10.0, 0.0, 40.0])
     with pytest.raises(CalibrationError, match="need at least 2"):
         meshcycle.plan_positions(default_gearset(), [1], 1)
+
+
+@pytest.mark.parametrize("forces,pattern", [
+    ((100.0, 50.0), "rising order"), ((3.0, -1.0), "positive forces"),
+    ((3.0, 51.0), "two or more from 50 N up"), ((), "positive forces")])
+def test_bad_curve_forces_are_refused_before_any_work(forces, pattern):
+    with pytest.raises(CalibrationError, match=pattern):
+        meshcycle.PositionCase(1, 56, 0.0, forces)

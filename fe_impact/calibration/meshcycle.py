@@ -46,10 +46,13 @@ logger = logging.getLogger(__name__)
 SCHEMA = "fe-impact/mesh-cycle/1"
 #: Positions along the path of contact by default (ends included).
 DEFAULT_POSITIONS = 9
-#: The end positions are moved inward by this fraction of the path: at the
-#: exact ends the contact leaves the working flanks (tip edge, form circle),
-#: where the tooth contact analysis has no contact point.
-END_INSET = 1e-3
+#: The end positions are moved inward by this fraction of the path. At the
+#: exact ends the contact runs onto the face gear's (sharp) tip edge and the
+#: pinion's form circle: the tooth contact analysis has no contact point
+#: there, and up to 2% of the path from the first point the default-level
+#: mesh of that edge contact has inverted elements at every stretch factor
+#: (at 5%: 198k DOFs, meshed). Rounded tip edges will let the ends in.
+END_INSET = 0.05
 #: Initial gap of the static pair (m): the approach is measured from first
 #: touch, so any small gap serves; it keeps the meshes apart.
 PAIR_GAP = 1e-6
@@ -68,8 +71,17 @@ class PositionCase:
     stage: int
     face_teeth: int
     roll_angle_deg: float
-    forces: tuple[float, ...]           # normal forces of the load steps, N
+    forces: tuple[float, ...]           # normal forces of the load steps, N, rising
     end: str = ""                       # "first" / "last" for the path's ends
+
+    def __post_init__(self) -> None:
+        f = np.asarray(self.forces, dtype=float)
+        if f.size == 0 or np.any(~np.isfinite(f)) or np.any(f <= 0) or np.any(np.diff(f) <= 0):
+            raise CalibrationError(f"mesh-cycle forces {list(self.forces)}: need positive "
+                                   "forces in rising order (N)")
+        if np.count_nonzero(f >= FIT_MIN_FORCE) < 2:
+            raise CalibrationError(f"mesh-cycle forces {list(self.forces)}: the fit of "
+                                   f"F = K delta^e needs two or more from {FIT_MIN_FORCE:g} N up")
 
     @property
     def id(self) -> str:
@@ -389,8 +401,9 @@ def pair_force(record: PositionRecord, approach: float) -> tuple[float, float]:
     ``log delta``), continued beyond the first and last point with the end
     segments' powers.
     """
-    d = np.log(np.asarray(record.approaches))
-    f = np.log(np.asarray(record.forces))
+    order = np.argsort(record.approaches)
+    d = np.log(np.asarray(record.approaches)[order])
+    f = np.log(np.asarray(record.forces)[order])
     x = math.log(approach)
     j = int(np.clip(np.searchsorted(d, x) - 1, 0, len(d) - 2))
     slope = (f[j + 1] - f[j]) / (d[j + 1] - d[j])

@@ -16,8 +16,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDIES = ("hertz_static", "hertz_impact", "plastic_impact", "mesh_cycle", "bench_static",
-           "bench_dynamic", "bench_switching")
+STUDIES = ("hertz_static", "hertz_impact", "plastic_impact", "mesh_cycle", "two_pair",
+           "bench_static", "bench_dynamic", "bench_switching", "bench_sweep")
 
 
 def run_study(name: str, out: Path, quick: bool) -> tuple[int, str, float]:

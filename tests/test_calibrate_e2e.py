@@ -147,8 +147,13 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
     peak), so the peak force is held to 3%.
 
     Action and reaction, in the static solve at the impact's largest approach:
-    the reactions of the two hubs are equal and opposite to round-off (the
-    contact forces on slave and master balance, and K u sums to zero), each
+    K u sums to zero to round-off, and the reactions of the two hubs are equal
+    and opposite to the second order of the normals' mismatch: the static
+    solver condenses the zone nodes' normal coordinates only, so each node's
+    contact force acts along its own surface normal, and slave and master
+    normals across the patch differ by a / R (a few per mille), which leaves
+    an imbalance of order (a / R)^2: held to 1e-4, (1e-2)^2 (measured 6.6e-6
+    of the force). Each hub's reaction
     equals the contact force, and each hub's torque about its gear's axis over
     its lever arm at the contact point equals the contact force within 1%
     (the normals vary over the contact patch by a / R, a few per mille;
@@ -191,7 +196,9 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
         assert abs(torque) / lever == pytest.approx(step.contact_force[0], rel=0.01), hub
         resultants.append(reaction.sum(axis=0))
     pinion, face = resultants
-    assert np.linalg.norm(pinion + face) < 1e-9 * np.linalg.norm(pinion)
+    total = (K @ u).reshape(-1, 3).sum(axis=0)
+    assert np.linalg.norm(total) < 1e-9 * np.linalg.norm(pinion)
+    assert np.linalg.norm(pinion + face) < 1e-4 * np.linalg.norm(pinion)
     assert np.linalg.norm(pinion) == pytest.approx(step.contact_force[0], rel=1e-3)
 
 

@@ -65,6 +65,20 @@ def test_load_sharing_of_linear_pairs():
     np.testing.assert_allclose(c.load_share, 1.0 / c.pairs, rtol=1e-9)
 
 
+def test_cycle_covers_the_whole_path_beyond_the_outer_positions():
+    # Positions inset from the path's ends: the pairs are in contact over the
+    # whole path (two pairs over 1.75 - 1 of the cycle), the end stretches
+    # carrying the outer positions' curves (here all equal: k per pair).
+    k, lever, pitch = 2e8, 0.0268, 20.0
+    recs = [_record(r, k, 1.0, lever) for r in np.linspace(-13.0, 18.0, 6)]
+    c = mesh_cycle(recs, pitch, torque=10.0, n=400, path=(-15.0, 20.0))
+    assert np.mean(c.pairs == 2) == pytest.approx(0.75, abs=1.0 / 400)
+    np.testing.assert_allclose(c.mesh_stiffness, c.pairs * k, rtol=1e-9)
+    # Without the path the cycle spans the positions only: 31/20 - 1 of it.
+    short = mesh_cycle(recs, pitch, torque=10.0, n=400)
+    assert np.mean(short.pairs == 2) == pytest.approx(0.55, abs=1.0 / 400)
+
+
 def test_load_sharing_of_hertzian_pairs():
     # Two equal Hertzian pairs carry half the load each, at 2^(-1/e) of the
     # single pair's approach.

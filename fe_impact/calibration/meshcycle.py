@@ -412,12 +412,15 @@ def pair_force(record: PositionRecord, approach: float) -> tuple[float, float]:
 
 
 def mesh_cycle(records: list[PositionRecord], pitch_deg: float, torque: float,
-               n: int = 200) -> CycleResult:
+               n: int = 200, path: tuple[float, float] | None = None) -> CycleResult:
     """Share ``torque`` (pinion, N m) between the pairs in contact over one mesh cycle.
 
     The pairs sit one angular pitch apart; a pair is in contact while its
-    roll angle lies on the path spanned by ``records`` (the positions of one
-    stage, ends included). At each roll angle every pair in contact closes by
+    roll angle lies on the path of contact: ``path`` (first and last point of
+    contact, deg), or else the span of ``records`` (the positions of one
+    stage). Between the path's ends and the outermost positions (which
+    :data:`END_INSET` moves inward) a pair follows the nearest position's
+    curve. At each roll angle every pair in contact closes by
     the same approach ``delta`` (one pinion rotation, unmodified flanks: no
     unloaded transmission error), its force follows the FE curves of the
     neighbouring positions (:func:`pair_force`, ``log F`` interpolated
@@ -433,7 +436,7 @@ def mesh_cycle(records: list[PositionRecord], pitch_deg: float, torque: float,
                                "separates the pairs, has no loaded transmission error)")
     recs = sorted(records, key=lambda r: r.roll_angle_deg)
     roll = np.array([r.roll_angle_deg for r in recs])
-    lo, hi = roll[0], roll[-1]
+    lo, hi = (roll[0], roll[-1]) if path is None else sorted(path)
     if hi - lo < pitch_deg:
         raise CalibrationError(
             f"stage {recs[0].stage}: the positions span {hi - lo:.3f} deg of roll, less than "
@@ -443,7 +446,7 @@ def mesh_cycle(records: list[PositionRecord], pitch_deg: float, torque: float,
     def pair(t: float, d: float) -> tuple[float, float, float]:
         """Force, stiffness and lever of the pair at roll ``t`` closed by ``d``."""
         j = int(np.clip(np.searchsorted(roll, t) - 1, 0, len(roll) - 2))
-        w = (t - roll[j]) / (roll[j + 1] - roll[j])
+        w = min(max((t - roll[j]) / (roll[j + 1] - roll[j]), 0.0), 1.0)
         (f0, k0), (f1, k1) = pair_force(recs[j], d), pair_force(recs[j + 1], d)
         f = math.exp((1.0 - w) * math.log(f0) + w * math.log(f1))
         k = f * ((1.0 - w) * k0 / f0 + w * k1 / f1)

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from fe_impact.atomic import atomic_path, write_csv, write_json
-from fe_impact.calibration.meshcycle import SCHEMA, PositionRecord, mesh_cycle
+from fe_impact.calibration.meshcycle import SCHEMA, PositionRecord, mesh_cycle, path_of_contact
 
 logger = logging.getLogger(__name__)
 
@@ -57,13 +57,19 @@ def position_law(records: list[PositionRecord]) -> dict:
     } for stage, recs in _by_stage(records).items()}
 
 
-def cycles(records: list[PositionRecord], pitch_deg: float) -> list:
-    """Loaded TE and mesh stiffness per stage at the nominal torque and :data:`CYCLE_FORCES`."""
+def cycles(records: list[PositionRecord], pitch_deg: float,
+           paths: dict[int, tuple[float, float]] | None = None) -> list:
+    """Loaded TE and mesh stiffness per stage at the nominal torque and :data:`CYCLE_FORCES`.
+
+    ``paths``: per stage, the first and last point of contact (deg of pinion
+    roll); without it a stage's path is the span of its positions.
+    """
     out = []
-    for recs in _by_stage(records).values():
+    for stage, recs in _by_stage(records).items():
         lever = float(np.mean([r.lever for r in recs]))
+        path = (paths or {}).get(stage)
         for force in (recs[0].nominal_force, *CYCLE_FORCES):
-            out.append(mesh_cycle(recs, pitch_deg, force * lever))
+            out.append(mesh_cycle(recs, pitch_deg, force * lever, path=path))
     return out
 
 
@@ -73,9 +79,12 @@ def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str
 
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
     pitch = 360.0 / gearset.pinion.teeth
-    results = cycles(records, pitch)
+    stages = sorted({r.stage for r in records})
+    paths = {s: path_of_contact(gearset, s) for s in stages}
+    results = cycles(records, pitch, paths)
     write_json(out / "mesh_cycle.json", {
         "schema": SCHEMA, "angular_pitch_deg": pitch,
+        "path_of_contact_deg": {str(s): list(p) for s, p in paths.items()},
         "units": {"forces": "N", "approaches": "m", "torques": "N m", "rotations": "rad",
                   "K": "N/m^exponent", "nominal_stiffness": "N/m", "transmission_error": "m",
                   "mesh_stiffness": "N/m", "roll_deg": "deg"},

@@ -244,6 +244,7 @@ class StaticSolver:
             reaction = self._reaction_model(u0, u_d)
         active, total, change, scale = None, 0, math.inf, 0.0
         history: list[float] = []
+        cycle: list[tuple[np.ndarray, np.ndarray, float]] = []   # the last two states
         for it in range(1, a.max_iterations + 1):
             self.contact.offset = self._full(np.zeros(len(u0)), self._prescribed(u_d, q))
             c.update(z)
@@ -266,8 +267,27 @@ class StaticSolver:
             change = float(np.abs(zone @ (z_new - z)).max(initial=0.0))
             scale = float(np.abs(zone @ (z_new - base)).max(initial=0.0))
             new_active = lam > 0
+            if len(cycle) == 2 and np.array_equal(new_active, active) and \
+                    np.array_equal(cycle[0][1] > 0, new_active) and \
+                    np.abs(zone @ (z_new - cycle[0][0])).max(initial=0.0) <= \
+                    a.tolerance * max(scale, 1e-30) < change:
+                # Two projections alternate (a quadrature point on either side of a
+                # master face's edge, or of the master's boundary): no single
+                # projection is consistent, the equilibrium lies between the two.
+                # Their mean is taken; the two states' contact forces bound it.
+                f0, f1 = sum(c.pair_forces(cycle[1][1])), sum(c.pair_forces(lam))
+                logger.info("the contact projection alternates between two states (contact "
+                            "force %.6g and %.6g N, %.1e apart): their mean is taken", f0, f1,
+                            abs(f1 - f0) / max(abs(f0), abs(f1), 1e-300))
+                return _Equilibrium(0.5 * (z_new + cycle[1][0]), 0.5 * (lam + cycle[1][1]),
+                                    0.5 * (q + cycle[1][2]), it, total)
+            cycle = [*cycle[-1:], (z_new, lam, q)]
             z = z_new
             history.append(change)
+            logger.debug("projection %d: change %.3g of %.3g, force %.12g, %d active, "
+                         "%d flipped", it, change, scale, sum(c.pair_forces(lam)),
+                         int(new_active.sum()), -1 if active is None or
+                         len(active) != len(new_active) else int((active != new_active).sum()))
             if active is not None and np.array_equal(new_active, active) and \
                     change <= a.tolerance * max(scale, 1e-30):
                 return _Equilibrium(z, lam, q, it, total)
@@ -511,8 +531,8 @@ def _diagnosis(history: list[float], scale: float, face: float) -> str:
     """
     tail = history[-4:]
     if len(tail) == 4 and max(tail) < 0.02 * face and min(tail) > 0.3 * max(tail):
-        return (f"the change stalls far below a face size ({face:.3g} m) while the active "
-                f"set flips at the patch edge: loosen [analysis] tolerance to about "
+        return (f"the change stalls far below a face size ({face:.3g} m) while the contact "
+                f"state cycles at the patch edge: loosen [analysis] tolerance to about "
                 f"{2 * max(tail) / max(scale, 1e-30):.0e} or refine the contact faces")
     return ("raise [analysis] max_iterations, or apply the load in smaller steps "
             "(more [[displacements]] values or loads)")

@@ -21,7 +21,7 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # Every study and benchmark, each asserting its figures; ends with one
 # pass/fail line per study (VALIDATE_FLAGS=--quick for the coarse settings).

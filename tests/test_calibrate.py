@@ -46,6 +46,7 @@ def test_bad_plans(kwargs, pattern):
 @pytest.mark.parametrize("kwargs,pattern", [
     ({"level": "huge"}, r"level = 'huge': pick one of \['coarse', 'default', 'fine'\]"),
     ({"integrator": "rk4"}, r"integrator = 'rk4'"),
+    ({"cycle_level": "huge"}, r"mesh-cycle level = 'huge': pick one of \['coarse', "),
 ])
 def test_bad_settings(kwargs, pattern):
     with pytest.raises(CalibrationError, match=pattern):
@@ -54,6 +55,7 @@ def test_bad_settings(kwargs, pattern):
 
 @pytest.mark.parametrize("argv,pattern", [
     (["--level", "huge"], "level = 'huge'"),
+    (["--mesh-cycle-level", "huge"], "mesh-cycle level = 'huge'"),
     (["--stages", "0"], r"--stages \[0\]"),
     (["--workers", "0"], "--workers 0: must be at least 1"),
 ])
@@ -62,6 +64,22 @@ def test_cli_rejects_bad_options(tmp_path, capsys, argv, pattern):
     err = capsys.readouterr().err
     assert err.startswith("fe-impact: error:") and pattern.replace("\\", "") in err
     assert not (tmp_path / "o" / "calibration.json").exists()
+
+
+def test_mesh_cycle_level_keys_the_positions_not_the_impacts():
+    # The positions' mesh level enters their resume key (default: the impacts'
+    # level); the impacts' keys do not depend on it.
+    from fe_impact.calibration import meshcycle
+    from fe_impact.calibration.sweep import case_hash
+
+    impact = ImpactCase(1, 68, "mesh", 0.0387, 300.0)
+    position = meshcycle.PositionCase(1, 68, 0.0, (50.0, 100.0))
+    plain, coarse = Settings(), Settings(cycle_level="coarse")
+    assert plain.position_level == "default" and coarse.position_level == "coarse"
+    assert case_hash(impact, plain, "g") == case_hash(impact, coarse, "g")
+    assert case_hash(position, plain, "g") != case_hash(position, coarse, "g")
+    assert case_hash(position, Settings(level="coarse"), "g") == \
+        case_hash(position, coarse, "g")
 
 
 def test_case_ids_are_stable():

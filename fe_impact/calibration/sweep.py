@@ -150,10 +150,14 @@ class Settings:
     gap: float | None = None     # m, initial gap at the contact point; None: auto
     roll_angle_deg: float = 0.0
     nominal_load: float = NOMINAL_LOAD
+    cycle_level: str | None = None   # mesh level of the mesh-cycle positions; None: level
 
     def __post_init__(self) -> None:
         if self.level not in LEVELS:
             raise CalibrationError(f"level = {self.level!r}: pick one of {list(LEVELS)}")
+        if self.cycle_level is not None and self.cycle_level not in LEVELS:
+            raise CalibrationError(f"mesh-cycle level = {self.cycle_level!r}: pick one of "
+                                   f"{list(LEVELS)}")
         if self.integrator not in INTEGRATORS:
             raise CalibrationError(f"integrator = {self.integrator!r}: pick one of "
                                    f"{list(INTEGRATORS)}")
@@ -161,6 +165,16 @@ class Settings:
             raise CalibrationError(f"order = {self.order!r}: must be 1 or 2")
         if self.gap is not None and not (math.isfinite(self.gap) and 0.0 < self.gap <= 1e-4):
             raise CalibrationError(f"gap = {self.gap!r} m: must be in (0, 1e-4] m")
+
+
+    @property
+    def position_level(self) -> str:
+        """Mesh level of the mesh-cycle positions."""
+        return self.cycle_level or self.level
+
+    def impact_key(self) -> dict:
+        """The settings an impact case depends on (its resume key)."""
+        return {k: v for k, v in asdict(self).items() if k != "cycle_level"}
 
 
 def mesh_impact_speed(pinion_pitch_radius: float, pressure_angle: float, rpm: float) -> float:
@@ -239,8 +253,8 @@ def case_hash(case: ImpactCase | PositionCase, settings: Settings, gearset_text:
     """Resume key: the case, the run's settings, the gear set, the schema and the
     fe-impact version (a result from another version is computed again)."""
     if isinstance(case, PositionCase):
-        return meshcycle.case_hash(case, settings.level, settings.order, gearset_text)
-    blob = json.dumps([asdict(case), asdict(settings), gearset_text, SCHEMA, __version__],
+        return meshcycle.case_hash(case, settings.position_level, settings.order, gearset_text)
+    blob = json.dumps([asdict(case), settings.impact_key(), gearset_text, SCHEMA, __version__],
                       sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
@@ -321,7 +335,8 @@ def _run_position(case: PositionCase, settings: Settings, gearset_text: str, out
     from fe_impact.runtime import keep_freed_memory
 
     keep_freed_memory()
-    record = meshcycle.run_position(case, settings.level, settings.order, gearset_text, cache)
+    record = meshcycle.run_position(case, settings.position_level, settings.order,
+                                    gearset_text, cache)
     write_json(Path(out) / "cases" / case.id / "result.json", record.to_dict())
     return record
 

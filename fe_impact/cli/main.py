@@ -141,6 +141,8 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--no-mesh-cycle", action="store_true",
                    help="impacts only: no single-pair curves along the path of contact")
     c.add_argument("--level", default="default", help="mesh level: coarse, default or fine")
+    c.add_argument("--mesh-cycle-level", default=None, metavar="LEVEL",
+                   help="mesh level of the mesh-cycle positions (default: --level)")
     c.add_argument("--integrator", default="newmark", help="newmark or explicit")
     c.add_argument("--workers", type=int, help="local Dask workers (default: one per core)")
     c.add_argument("--scheduler", help="address of an existing dask.distributed scheduler")
@@ -260,7 +262,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         gearset = default_gearset()
         text = next(p for p in _default_candidates() if p.is_file()).read_text(
             encoding="utf-8-sig")
-    settings = Settings(level=args.level, integrator=args.integrator)
+    settings = Settings(level=args.level, integrator=args.integrator,
+                        cycle_level=args.mesh_cycle_level)
     cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)
     n_impacts = len(cases)
     if args.no_mesh_cycle and args.positions is not None:
@@ -277,8 +280,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                   default=None)
         cases += plan_positions(gearset, args.stages, args.positions if args.positions
                                 is not None else DEFAULT_POSITIONS, top_force=top)
+    levels = settings.level if settings.position_level == settings.level or \
+        len(cases) == n_impacts else f"{settings.level} / {settings.position_level}"
     print(f"calibrating {n_impacts} impacts and {len(cases) - n_impacts} mesh-cycle positions "
-          f"({settings.level} meshes, {settings.integrator}) -> {args.out}", flush=True)
+          f"({levels} meshes, {settings.integrator}) -> {args.out}", flush=True)
     bar = tqdm(total=len(cases), desc="  cases", unit="case")
 
     def progress(done: int, total: int, last: str) -> None:

@@ -19,9 +19,12 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(BIN)/fe-impact calibrate --out out/calibration
 
+# Two processes, each taking whole test files (module fixtures run once); a
+# worker that dies ends the run at once, naming the test (pytest-xdist's
+# file scheduler can wait forever for a replaced worker).
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --max-worker-restart 0
 
 # Every study and benchmark, each asserting its figures; ends with one
 # pass/fail line per study (VALIDATE_FLAGS=--quick for the coarse settings).

@@ -41,8 +41,10 @@ def write_calibration_report(out: Path, calibration: Calibration) -> Path:
                 plots.append(name)
         except Exception as exc:  # a missing plot must not lose the tables
             logger.warning("plot %s skipped: %s", name, exc)
+    cycle_level = settings.get("cycle_level") or settings.get("level")
+    cycle = f", mesh cycle at level `{cycle_level}`" if calibration.mesh_cycle else ""
     lines = ["# fe-impact calibration", "",
-             f"Settings: level `{settings.get('level')}`, integrator "
+             f"Settings: level `{settings.get('level')}`{cycle}, integrator "
              f"`{settings.get('integrator')}`, P{settings.get('order')}, initial gap "
              f"{_gap(settings.get('gap'))}. Wall time {_fmt(calibration.wall_time_s, '.0f')} s.",
              "",

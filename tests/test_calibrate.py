@@ -67,17 +67,21 @@ def test_cli_rejects_bad_options(tmp_path, capsys, argv, pattern):
 
 
 def test_mesh_cycle_level_keys_the_positions_not_the_impacts():
-    # The positions' mesh level enters their resume key (default: the impacts'
-    # level); the impacts' keys do not depend on it.
+    # The positions' mesh level enters their resume key (default: one level
+    # below the impacts'); the impacts' keys do not depend on it.
     from fe_impact.calibration import meshcycle
     from fe_impact.calibration.sweep import case_hash
 
     impact = ImpactCase(1, 68, "mesh", 0.0387, 300.0)
     position = meshcycle.PositionCase(1, 68, 0.0, (50.0, 100.0))
     plain, coarse = Settings(), Settings(cycle_level="coarse")
-    assert plain.position_level == "default" and coarse.position_level == "coarse"
+    assert plain.position_level == "coarse" and coarse.position_level == "coarse"
+    assert Settings(level="fine").position_level == "default"
+    assert Settings(level="coarse").position_level == "coarse"
+    assert Settings(cycle_level="fine").position_level == "fine"
     assert case_hash(impact, plain, "g") == case_hash(impact, coarse, "g")
-    assert case_hash(position, plain, "g") != case_hash(position, coarse, "g")
+    assert case_hash(position, Settings(cycle_level="default"), "g") != \
+        case_hash(position, coarse, "g")
     assert case_hash(position, Settings(level="coarse"), "g") == \
         case_hash(position, coarse, "g")
 

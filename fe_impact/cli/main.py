@@ -142,7 +142,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="impacts only: no single-pair curves along the path of contact")
     c.add_argument("--level", default="default", help="mesh level: coarse, default or fine")
     c.add_argument("--mesh-cycle-level", default=None, metavar="LEVEL",
-                   help="mesh level of the mesh-cycle positions (default: --level)")
+                   help="mesh level of the mesh-cycle positions (default: one level below "
+                        "--level, coarse at the least)")
     c.add_argument("--integrator", default="newmark", help="newmark or explicit")
     c.add_argument("--workers", type=int, help="local Dask workers (default: one per core)")
     c.add_argument("--scheduler", help="address of an existing dask.distributed scheduler")

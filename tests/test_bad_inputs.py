@@ -274,6 +274,7 @@ MESH = [
     ("--gap nan", mesh("--gap", "nan"), ["--gap nan um"]),
     ("--impact-speed", mesh("--impact-speed", "0"), ["--impact-speed 0 m/s", "(0, 20] m/s"]),
     ("--face-teeth", mesh("--face-teeth", "4"), ["--face-teeth 4", "1, 2 or 3"]),
+    ("--neighbour-teeth", mesh("--neighbour-teeth", "3"), ["--neighbour-teeth 3", "0, 1 or 2"]),
     ("--roll-angle", mesh("--roll-angle", "90"), ["--roll-angle 90 deg", "-60 .. 60 deg"]),
     ("--stage", mesh("--stage", "4"), ["--stage 4", "has stages 1..3"]),
     ("--stage not a number", mesh("--stage", "x"), ["--stage", "invalid int value: 'x'"]),

@@ -143,8 +143,12 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
     modes, so the FE must reach it within 1% (a 1% error of the force over
     the loading branch moves it by 0.7%; measured 0.02%). The force
     oscillates about the static curve with the teeth's vibration that the
-    impact starts (measured -1% to +3% over the loading branch, +2.0% at the
-    peak), so the peak force is held to 3%.
+    impact starts, and the peak can sit anywhere in that swing:
+    ``validation/mesh_cycle.py`` measures the swing on the same stage and
+    level as 7.9% of the local force at most (the sector's neighbour teeth,
+    free on the rim, vibrate with the loaded ones; +5.5% at that impact's
+    peak), so the peak force is held to 8% (measured +4.6% here; the
+    force averaged over the swing is checked to 2% by that study).
 
     Action and reaction, in the static solve at the impact's largest approach:
     K u sums to zero to round-off, and the reactions of the two hubs are equal
@@ -176,7 +180,7 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
     energy = 0.5 * case["effective_mass"] * fe["impact_velocity"] ** 2
     reach = brentq(lambda d: float(work(d)) - energy, 1e-3 * approach[0], approach[-1])
     assert fe["max_approach"] == pytest.approx(reach, rel=0.01)
-    assert fe["peak_force"] == pytest.approx(float(curve(reach)), rel=0.03)
+    assert fe["peak_force"] == pytest.approx(float(curve(reach)), rel=0.08)
 
     step = result.steps[3]                       # at the impact's largest approach
     mesh, K = solver.mesh, solver.model.K

@@ -134,19 +134,23 @@ def test_flank_nodes_lie_on_the_exact_flanks(mesh, coarse, gearset):
 
 def test_hub_faces_lie_where_expected(mesh, coarse, gearset):
     """pinion_hub: the rim cylinder rho = r_root - 2 m about the pinion axis and the two
-    radial planes at +-pi/N_p from the tooth centre; face_hub: the plane
-    y = root - 2 m and the radial planes at +-pi/N_2 (rotated by phi_2).
+    radial planes at +-(2 n + 1) pi/N_p from the tooth centre (n neighbour teeth on each
+    side, half a pitch beyond the outer ones); face_hub: the plane y = root - 2 m and the
+    radial planes at +-(2 n + 1) pi/N_2 (rotated by phi_2).
 
     Only the flanks are moved onto exact surfaces; other faces are carried by a
     surface mesh through the stretch map (planes stay within a few micrometres,
     measured 4.5 um) and mid-edge nodes are straight, so on the rim arc they sit on
-    the chord: sagitta h^2 / (8 r) with h up to the far size 3.75 mm, 94 um."""
+    the chord: sagitta h^2 / (8 r). Gmsh takes an edge as of unit size up to about
+    1.4 times the size field, so h up to 1.5 times the far size 3.75 mm: 211 um."""
     pair, _ = coarse
     g = GearPair.from_gearset(gearset, 1)
     p, f = g.pinion, g.face
+    cuts = 2 * pair.analysis.spec.neighbour_teeth + 1
+    assert cuts == 3  # the default: one neighbour tooth on each side
     planes = 10e-6
     rim = p.root_radius - 2 * p.module
-    chord = (1.25 * 3e-3) ** 2 / (8 * rim) + planes
+    chord = (1.5 * 1.25 * 3e-3) ** 2 / (8 * rim) + planes
     # pinion frame: undo Rz(pi + pi/(2 N_p) + phi) about (0, r_p, z0)
     phi = pair.analysis.pinion_roll_placed
     x = mesh.points[mesh.surface_points("pinion_hub")] - [0.0, p.pitch_radius, g.z0]
@@ -155,14 +159,14 @@ def test_hub_faces_lie_where_expected(mesh, coarse, gearset):
                    np.sin(a) * x[:, 0] + np.cos(a) * x[:, 1]], axis=1)
     rho, sigma = np.hypot(*xp.T), np.arctan2(xp[:, 0], xp[:, 1])
     on_rim = (rho > rim - chord) & (rho < rim + planes)
-    on_cut = np.abs(rho * (np.abs(sigma) - np.pi / p.teeth)) < planes
+    on_cut = np.abs(rho * (np.abs(sigma) - cuts * np.pi / p.teeth)) < planes
     assert np.all(on_rim | on_cut) and on_rim.any() and on_cut.any()
     # face gear
     x = mesh.points[mesh.surface_points("face_hub")]
     on_bottom = np.abs(x[:, 1] - (f.root_height - 2 * f.module)) < planes
     on_planes = np.zeros(len(x), bool)
     for side in (-1, 1):
-        ang = side * np.pi / f.teeth + pair.contact.face_angle
+        ang = side * cuts * np.pi / f.teeth + pair.contact.face_angle
         on_planes |= np.abs(x[:, 0] * np.cos(ang) - x[:, 2] * np.sin(ang)) < planes
     assert np.all(on_bottom | on_planes) and on_bottom.any() and on_planes.any()
 

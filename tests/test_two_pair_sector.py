@@ -137,15 +137,18 @@ def test_quick_study_one_position(tmp_path):
         assert min(step["forces_N"]) > 0.0     # both pairs carry load
     for target in position["targets"]:
         errors = target["superposition_errors"]
-        # Load shares: the mesh cycle's output; within the study's 5% (0.6% measured).
+        # The figure: load shares and mesh stiffness from the superposition
+        # of the single-pair curves within 5% of the two-pair FE (coarse: shares
+        # 0.1%, secant 0.9-1.6%, tangent 2.7-2.9% measured at this position).
         assert max(abs(e) for e in errors["shares"]) < study.TOLERANCE
-        # Coupling alone (each pair's curve measured on the same mesh): below
-        # 1% measured in share and stiffness; 2% allows the central difference.
+        assert abs(errors["secant_stiffness"]) < study.TOLERANCE
+        assert abs(errors["tangent_stiffness"]) < study.TOLERANCE
+        # Coupling alone (each pair's curve measured on the same mesh, the other
+        # contact left out): the pairs share a rim that the neighbour teeth leave
+        # free, so a load on one tooth moves the other's base and the superposition
+        # is a little stiff (1.3-2.5% measured); it is part of what the 5% bounds,
+        # and the same-mesh superposition of shares is the tighter (0.6% measured).
         same = target["same_mesh_superposition_errors"]
         assert max(abs(e) for e in same["shares"]) < 0.02
-        assert abs(same["secant_stiffness"]) < 0.02
-        assert abs(same["tangent_stiffness"]) < 0.02
-        # The single-pair model's sectors are cut rigidly half a pitch beside the
-        # tooth: the two-pair sector (free neighbouring roots) is softer, by
-        # 2-6% at the coarse level (not asserted to 5%: see the study).
-        assert -0.08 < errors["secant_stiffness"] < 0.0
+        assert abs(same["secant_stiffness"]) < study.TOLERANCE
+        assert abs(same["tangent_stiffness"]) < study.TOLERANCE

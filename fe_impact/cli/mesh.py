@@ -53,6 +53,10 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="closing normal speed at the contact point [m/s] (default 0.1)")
     p.add_argument("--face-teeth", type=int, default=1, metavar="N",
                    help="face-gear teeth in the sector, 1..3 (default 1)")
+    p.add_argument("--neighbour-teeth", type=int, default=1, metavar="N",
+                   help="unloaded teeth on each side of both sectors, 0..2 (default 1: the "
+                        "loaded teeth's roots free as in the whole gear; 0 holds the sector "
+                        "cuts half a pitch beside them, which stiffens the pair)")
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--reuse", action="store_true",
                    help="keep the files in --out if they were made from the same inputs")
@@ -73,6 +77,8 @@ def _check_options(args: argparse.Namespace) -> None:
         raise MeshError(f"--impact-speed {args.impact_speed:g} m/s: allowed (0, 20] m/s")
     if args.face_teeth not in (1, 2, 3):
         raise MeshError(f"--face-teeth {args.face_teeth}: allowed 1, 2 or 3")
+    if args.neighbour_teeth not in (0, 1, 2):
+        raise MeshError(f"--neighbour-teeth {args.neighbour_teeth}: allowed 0, 1 or 2")
     if not (math.isfinite(args.roll_angle) and abs(args.roll_angle) <= 60.0):
         raise MeshError(f"--roll-angle {args.roll_angle:g} deg: allowed -60 .. 60 deg")
 
@@ -97,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     print("  tooth contact analysis, geometry and mesh ...", flush=True)
     pair = build_pair(gearset, args.stage, args.roll_angle, args.level, args.order,
                       args.gap * 1e-6, args.impact_speed, args.out, reuse=args.reuse,
-                      n_face_teeth=args.face_teeth)
+                      n_face_teeth=args.face_teeth, neighbour_teeth=args.neighbour_teeth)
     c, e, s = pair.contact, pair.ellipse, pair.stats
     print(f"  contact point {np.round(c.point * 1e3, 4).tolist()} mm, normal "
           f"{np.round(c.normal, 5).tolist()}", flush=True)

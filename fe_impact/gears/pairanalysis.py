@@ -80,6 +80,12 @@ class PairSpec:
         Face-gear teeth in the sector, 1..3.
     rim_modules : float
         Rim depth below the root of both sectors, in modules.
+    neighbour_teeth : int
+        Unloaded teeth beside the loaded ones on each side of both sectors,
+        0..2 (each sector is cut half a pitch beyond its outer teeth, and the
+        cuts are held: with 0 the cuts half a pitch beside the loaded tooth
+        stiffen its root; a neighbour tooth on each side frees it as the rest
+        of the gear would).
     design_force : float or None
         Load [N] whose Hertz ellipse sets the element sizes; None takes the
         Hertz peak force of the impact (:func:`fe_impact.physics.hertz.impact` with
@@ -101,6 +107,7 @@ class PairSpec:
     impact_speed: float = 0.1
     n_face_teeth: int = 1
     rim_modules: float = 2.0
+    neighbour_teeth: int = 1
     design_force: float | None = None
     velocity_split: str = "momentum"
     pinion_axial_position: float | None = None
@@ -117,6 +124,8 @@ class PairSpec:
                             f"(0, {MAX_IMPACT_SPEED:g}] m/s")
         if self.n_face_teeth not in (1, 2, 3):
             raise MeshError(f"n_face_teeth = {self.n_face_teeth!r}; allowed 1, 2 or 3")
+        if self.neighbour_teeth not in (0, 1, 2) or isinstance(self.neighbour_teeth, bool):
+            raise MeshError(f"neighbour_teeth = {self.neighbour_teeth!r}; allowed 0, 1 or 2")
         if not (math.isfinite(self.rim_modules) and 0.5 <= self.rim_modules <= 10.0):
             raise MeshError(f"rim_modules = {self.rim_modules!r}; allowed 0.5 .. 10 modules")
         if self.design_force is not None and not (

@@ -3,8 +3,9 @@
 :func:`add_sectors` builds, in the mesh frame of :mod:`fe_impact.gears.tca`
 (the model in millimetres, :data:`MM`), one pinion tooth (or adjacent
 teeth, :mod:`fe_impact.meshing.twopair`) over the pinion's face width and
-``n_face_teeth`` face-gear teeth cut by the ring of the face width, as
-lofts through exact sections, and finds the faces of each surface group
+``n_face_teeth`` face-gear teeth cut by the ring of the face width, each
+sector with ``neighbour_teeth`` unloaded teeth more on each side, as lofts
+through exact sections, and finds the faces of each surface group
 (``pinion_flank``, ``pinion_hub``, ``face_flank``, ``face_hub``).
 :func:`snap_flanks` moves the mesh nodes of both flanks onto the exact
 analytic flanks. The teeth are placed as a
@@ -122,26 +123,29 @@ def _turned(xy: NDArray, angle: float) -> NDArray:
 
 
 def _pinion_section(pair: GearPair, roll: float, u: float, rim: float,
-                    n_teeth: int = 1) -> list[Piece]:
+                    n_teeth: int = 1, neighbours: int = 0) -> list[Piece]:
     """Closed transverse section of the pinion sector at axial position ``u``.
 
     ``n_teeth`` adjacent teeth: tooth ``k`` is the placed tooth turned back by
     ``k`` angular pitches (it sits where the placed one is at ``roll - k``
     pitches); its pieces carry the suffix ``_k`` (none for ``k = 0``).
+    ``neighbours`` more teeth on each side, ``k = -neighbours .. -1`` and
+    ``n_teeth .. n_teeth + neighbours - 1``. The sector is cut half a pitch
+    beyond its outer teeth.
     """
     p = pair.pinion
     prof = p.transverse_profile(u=u, n_flank=60, n_fillet=30, n_tip=12, n_root=8)
     a = np.pi / p.teeth
-    span = (2 * n_teeth - 1) * a   # the right cut, half a pitch past the last tooth
-    rim_l = rim * np.array([-np.sin(a), np.cos(a)])
-    rim_r = rim * np.array([np.sin(span), np.cos(span)])
-    seg = {s.name: s.points for s in prof.segments}
-    arc = np.linspace(span, -a, 1 + 8 * n_teeth)
-    teeth = [(name, seg[name]) for name in (s.name for s in prof.segments)]
-    for k in range(1, n_teeth):
-        teeth += [(f"{name}_{k}", _turned(xy, 2 * k * a)) for name, xy in teeth[:len(seg)]]
+    first, last = -neighbours, n_teeth + neighbours - 1
+    left, right = (2 * first - 1) * a, (2 * last + 1) * a   # the cuts
+    rim_l = rim * np.array([np.sin(left), np.cos(left)])
+    rim_r = rim * np.array([np.sin(right), np.cos(right)])
+    seg = [(s.name, s.points) for s in prof.segments]
+    teeth = [(name if k == 0 else f"{name}_{k}", _turned(xy, 2 * k * a) if k else xy)
+             for k in range(first, last + 1) for name, xy in seg]
+    arc = np.linspace(right, left, 1 + 8 * (last - first + 1))
     pieces2d = [
-        ("hub_left", _line(rim_l, seg["root_left"][0])),
+        ("hub_left", _line(rim_l, teeth[0][1][0])),
         *teeth,
         ("hub_right", _line(teeth[-1][1][-1], rim_r)),
         ("hub_rim", rim * np.stack([np.sin(arc), np.cos(arc)], axis=-1)),
@@ -172,21 +176,28 @@ def _face_flank_at_plane(flank: _FaceFlank, c: float, heights: NDArray, centre: 
 
 
 def _face_section(pair: GearPair, flank: _FaceFlank, face_angle: float, c: float,
-                  n_teeth: int, bottom: float) -> list[Piece]:
-    """Closed section of the face-gear sector in the plane ``z = c`` (mesh frame)."""
+                  n_teeth: int, bottom: float, neighbours: int = 0) -> list[Piece]:
+    """Closed section of the face-gear sector in the plane ``z = c`` (mesh frame).
+
+    Teeth ``i = 0 .. n_teeth - 1`` counted from the placed one towards ``-x``
+    (pieces ``flank_minus_i``, ``tip_i``, ``flank_plus_i``), and
+    ``neighbours`` more on each side (``i < 0`` towards ``+x``); the sector is
+    cut half a pitch beyond its outer teeth.
+    """
     f = pair.face
     pitch = 2 * np.pi / f.teeth
     heights = np.concatenate([np.linspace(f.root_height, flank.h_ext, 20)[:-1],
                               np.linspace(flank.h_ext, f.tip_height, 60)])
-    left_cut = -0.5 * pitch - (n_teeth - 1) * pitch + face_angle
-    right_cut = 0.5 * pitch + face_angle
+    first, last = -(n_teeth - 1 + neighbours), neighbours   # j = -i, from -x to +x
+    left_cut = (first - 0.5) * pitch + face_angle
+    right_cut = (last + 0.5) * pitch + face_angle
 
     def at(angle: float, y: float) -> NDArray:
         return np.array([c * np.tan(angle), y, c])
 
     pieces: list[Piece] = [("hub_left", _line(at(left_cut, bottom), at(left_cut, f.root_height)))]
     corner = pieces[0][1][-1]
-    for j in range(-(n_teeth - 1), 1):
+    for j in range(first, last + 1):
         minus = _face_flank_at_plane(flank, c, heights, j * pitch, -1, face_angle)
         plus = _face_flank_at_plane(flank, c, heights, j * pitch, 1, face_angle)
         pieces.append(("root", _line(corner, minus[0])))
@@ -238,17 +249,22 @@ def _loft(model, sections: list[list[Piece]], probe: int) -> _Solid:
 def _classify(model, solid: _Solid, groups: dict[str, tuple[str, ...]]) -> dict[str, list[int]]:
     """Faces of ``solid`` carrying each group, by the pieces' representative points."""
     faces = [tag for _, tag in model.getBoundary([(3, solid.volume)], oriented=False)]
+    boxes = np.array([model.getBoundingBox(2, f) for f in faces]).reshape(-1, 2, 3)
     found: dict[str, list[int]] = {g: [] for g in groups}
     for group, pieces in groups.items():
         for piece in pieces:
             for rep in solid.representatives.get(piece, []):
+                # only the faces whose bounding box holds the point (OCC's boxes are
+                # padded; the closest-point query is the costly part)
+                near = np.all((boxes[:, 0] - 1e-3 <= rep) & (rep <= boxes[:, 1] + 1e-3), axis=1)
+                tags = [f for f, keep in zip(faces, near, strict=True) if keep] or faces
                 dist = [np.linalg.norm(np.array(model.getClosestPoint(2, f, rep)[0]) - rep)
-                        for f in faces]
+                        for f in tags]
                 best = int(np.argmin(dist))
                 if dist[best] > 1e-3:  # mm: the loft passes through its section points
                     raise MeshError(f"face of piece {piece!r} not found ({dist[best]:.3g} mm)")
-                if faces[best] not in found[group]:
-                    found[group].append(faces[best])
+                if tags[best] not in found[group]:
+                    found[group].append(tags[best])
     return found
 
 
@@ -294,7 +310,8 @@ def _add_pinion(model, pair: GearPair, analysis: PairAnalysis, n_teeth: int = 1,
                         0.4 * p.face_width))
     us = _stations_through(-0.5 * p.face_width, 0.5 * p.face_width, u_c,
                            _SECTION_MODULES * p.module)
-    sections = [_pinion_section(pair, analysis.pinion_roll_placed, u, rim, n_teeth) for u in us]
+    sections = [_pinion_section(pair, analysis.pinion_roll_placed, u, rim, n_teeth,
+                                spec.neighbour_teeth) for u in us]
     solid = _loft(model, sections, int(np.argmin(np.abs(us - u_c))))
     model.occ.synchronize()
     return solid.volume, _classify(model, solid, _PINION_GROUPS if groups is None else groups)
@@ -313,13 +330,14 @@ def _add_face_gear(model, pair: GearPair, analysis: PairAnalysis,
     flank = _FaceFlank(f)
     bottom = f.root_height - spec.rim_modules * f.module
     pitch = 2 * np.pi / f.teeth
-    widest = (spec.n_face_teeth - 0.5) * pitch + abs(contact.face_angle)
+    widest = (spec.n_face_teeth - 0.5 + spec.neighbour_teeth) * pitch + abs(contact.face_angle)
     margin = 0.5 * f.module
     z_c = contact.point[2]
     cs = _stations_through(f.face_inner * np.cos(widest) - margin, f.face_outer + margin, z_c,
                            _SECTION_MODULES * f.module)
     angle = contact.face_angle
-    sections = [_face_section(pair, flank, angle, c, spec.n_face_teeth, bottom) for c in cs]
+    sections = [_face_section(pair, flank, angle, c, spec.n_face_teeth, bottom,
+                              spec.neighbour_teeth) for c in cs]
     solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
     ring = _annulus(model, f.face_inner * MM, f.face_outer * MM, (bottom - margin) * MM,
                     (f.tip_height + margin) * MM)

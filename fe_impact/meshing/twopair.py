@@ -4,7 +4,8 @@ Inside the two-pair zone of the path of contact (the contact ratio is above
 1) two adjacent tooth pairs carry the load, one angular pitch apart.
 :func:`build_two_pair` meshes a pinion sector with two adjacent teeth and a
 face-gear sector with the two mating teeth (``n_face_teeth = 2``; each sector
-is cut half a pitch beyond its outer teeth, as the single pair's is), both
+with ``neighbour_teeth`` unloaded teeth on each side and cut half a pitch
+beyond them, as the single pair's is), both
 contacts refined as :func:`~fe_impact.meshing.toothpair.build_pair` refines
 its one (each contact with its own design ellipse, element sizes and
 stretch). *Pair 1* is the pair at the larger roll angle; *pair 2* the next

@@ -233,7 +233,8 @@ def _statistics(model, volumes: dict[str, int], seconds: float, sizes: dict) -> 
     )
 
 
-def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float) -> MeshStats:
+def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
+          sectors: _Sectors | None = None) -> MeshStats:
     """Build, mesh in the stretched space, map back, snap, check and write the mesh.
 
     1. the two sectors are built in physical space (OCC lofts of exact
@@ -247,7 +248,8 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float)
     """
     from fe_impact.meshing.session import write_msh
 
-    volumes, groups = add_sectors(model, design.pair, design.analysis)
+    volumes, groups = sectors.add(model, design) if sectors else add_sectors(
+        model, design.pair, design.analysis)
     reference_size_field(model, design)
     model.mesh.generate(2)
     _map_nodes(model, design.stretch.to_mesh)
@@ -383,6 +385,53 @@ def build_pair(
     return PairMesh(*paths, key=key, stats=stats, case=case, analysis=design.analysis)
 
 
+class _Sectors:
+    """The two sectors' solids, built once and reloaded for each retry of a mesh.
+
+    A retry changes the stretch, not the geometry: the first :meth:`add`
+    builds the solids (:func:`add_sectors`, most of a coarse mesh's time)
+    and writes them as OCC BRep (exact) to ``brep``; later calls import
+    that file and find the volumes and the surface groups' faces again by
+    their centres of mass.
+    """
+
+    def __init__(self, brep: Path) -> None:
+        self.brep = brep
+        self.volumes: dict[str, NDArray] = {}
+        self.faces: dict[str, list[NDArray]] = {}
+
+    def add(self, model, design: PairDesign) -> tuple[dict[str, int], dict[str, list[int]]]:
+        import gmsh
+
+        occ = model.occ
+        if not self.volumes:
+            volumes, groups = add_sectors(model, design.pair, design.analysis)
+            gmsh.write(str(self.brep))
+            self.volumes = {k: np.array(occ.getCenterOfMass(3, t)) for k, t in volumes.items()}
+            self.faces = {k: [np.array(occ.getCenterOfMass(2, f)) for f in faces]
+                          for k, faces in groups.items()}
+            return volumes, groups
+        occ.importShapes(str(self.brep))
+        occ.synchronize()
+        tags = [t for _, t in model.getEntities(3)]
+        centres = np.array([occ.getCenterOfMass(3, t) for t in tags])
+        volumes = {k: tags[self._nearest(centres, c, k)] for k, c in self.volumes.items()}
+        faces = sorted({t for v in volumes.values()
+                        for _, t in model.getBoundary([(3, v)], oriented=False)})
+        centres = np.array([occ.getCenterOfMass(2, f) for f in faces])
+        groups = {k: [faces[self._nearest(centres, c, k)] for c in cs]
+                  for k, cs in self.faces.items()}
+        return volumes, groups
+
+    @staticmethod
+    def _nearest(centres: NDArray, c: NDArray, name: str) -> int:
+        d = np.linalg.norm(centres - c, axis=1)
+        i = int(np.argmin(d))
+        if d[i] > 1e-6:  # mm: the same exact shapes, read back
+            raise MeshError(f"{name}: the reloaded sectors lack an entity at {c} mm")
+        return i
+
+
 #: Stretch caps tried in turn when a mesh comes out with an element turned
 #: inside out by the map (the last, 1, is the plain isotropic mesh).
 _RETRY_STRETCH = (None, 5.0, 2.5, 1.0)
@@ -391,13 +440,22 @@ _RETRY_STRETCH = (None, 5.0, 2.5, 1.0)
 def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
                        started: float) -> tuple[PairDesign, MeshStats]:
     """Mesh, lowering the anisotropy if an element comes out inverted."""
+    sectors = _Sectors(path.with_name(f".{path.stem}-sectors.brep"))
+    try:
+        return _retry(gearset, spec, path, key, verbose, started, sectors)
+    finally:
+        sectors.brep.unlink(missing_ok=True)
+
+
+def _retry(gearset, spec: PairSpec, path: Path, key: str, verbose: bool, started: float,
+           sectors: _Sectors) -> tuple[PairDesign, MeshStats]:
     from fe_impact.meshing.session import gmsh_session
 
     for cap in _RETRY_STRETCH:
         design = design_pair(gearset, spec, cap)
         try:
             with gmsh_session(f"pair_{key}", verbose=verbose) as model:
-                stats = _mesh(model, design, spec, path, started)
+                stats = _mesh(model, design, spec, path, started, sectors)
         except _InvertedMesh as exc:
             if design.sizes["factor"] <= 1.0:
                 raise MeshError(str(exc)) from exc

@@ -84,6 +84,8 @@ def test_mesh_cycle_level_keys_the_positions_not_the_impacts():
         case_hash(position, coarse, "g")
     assert case_hash(position, Settings(level="coarse"), "g") == \
         case_hash(position, coarse, "g")
+    # What the files say is the level the positions were meshed at, not the option.
+    assert plain.to_dict()["cycle_level"] == "coarse" and plain.to_dict()["level"] == "default"
 
 
 def test_case_ids_are_stable():

@@ -179,6 +179,11 @@ class Settings:
             return self.cycle_level
         return LEVELS[max(0, LEVELS.index(self.level) - 1)]
 
+    def to_dict(self) -> dict:
+        """The settings as written to summary.json and calibration.json: the fields,
+        ``cycle_level`` resolved to the level the positions were meshed at."""
+        return {**asdict(self), "cycle_level": self.position_level}
+
     def impact_key(self) -> dict:
         """The settings an impact case depends on (its resume key)."""
         return {k: v for k, v in asdict(self).items() if k != "cycle_level"}
@@ -560,7 +565,7 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
     summary = {"schema": SUMMARY_SCHEMA, "fe_impact_version": __version__, "status": status,
                "finished": [c.id for c in cases if c.id in sweep.done],
                "missing": [c.id for c in cases if c.id not in sweep.done],
-               "settings": asdict(settings), "wall_time_s": wall,
+               "settings": settings.to_dict(), "wall_time_s": wall,
                "calibration": "calibration.json" if status == "completed" else None}
     with ignore_signals():   # the files belong together: a second Ctrl-C waits for them
         path = None
@@ -572,7 +577,7 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
                 from fe_impact.calibration.meshcycle_report import write_mesh_cycle
 
                 cycle = write_mesh_cycle(out, positions, gearset_text)
-            calibration = Calibration(cases=records, settings=asdict(settings),
+            calibration = Calibration(cases=records, settings=settings.to_dict(),
                                       wall_time_s=wall, fe_impact_version=__version__,
                                       notes=NOTES, mesh_cycle=cycle)
             path = write_calibration(out / "calibration.json", calibration)

@@ -68,6 +68,12 @@ Gmsh's fast 3-D mesher (HXT) is isotropic, so the pair is meshed in a
    the nodes of both flanks are moved onto the exact analytic flanks, so the
    initial gap and the curvatures in the mesh are those of the TCA.
 
+Step 1's solids depend on the gear set and the sector's make-up only: a
+process builds them once per stage and turns them about each gear's axis
+into place for every other position, speed and retry (:func:`_add_solids`;
+on the seed set at the coarse level a mesh built so takes about half the
+time of one built from the sections).
+
 A map strong enough to make elements ten times longer can turn an element
 inside out where it varies fast; the mesh is then made again with less
 stretch (:data:`MIN_SICN`, ``_RETRY_STRETCH``), down to the isotropic mesh.
@@ -234,7 +240,7 @@ def _statistics(model, volumes: dict[str, int], seconds: float, sizes: dict) -> 
 
 
 def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
-          sectors: _Sectors | None = None) -> MeshStats:
+          gearset=None) -> MeshStats:
     """Build, mesh in the stretched space, map back, snap, check and write the mesh.
 
     1. the two sectors are built in physical space (OCC lofts of exact
@@ -248,8 +254,8 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
     """
     from fe_impact.meshing.session import write_msh
 
-    volumes, groups = sectors.add(model, design) if sectors else add_sectors(
-        model, design.pair, design.analysis)
+    volumes, groups = (add_sectors(model, design.pair, design.analysis) if gearset is None
+                       else _add_solids(model, gearset, spec, design))
     reference_size_field(model, design)
     model.mesh.generate(2)
     _map_nodes(model, design.stretch.to_mesh)
@@ -385,51 +391,120 @@ def build_pair(
     return PairMesh(*paths, key=key, stats=stats, case=case, analysis=design.analysis)
 
 
-class _Sectors:
-    """The two sectors' solids, built once and reloaded for each retry of a mesh.
+#: Fields of :class:`PairSpec` that shape the sectors' solids (the rest place them
+#: or size the mesh): the key of :data:`_SOLIDS`.
+_SOLID_FIELDS = ("stage", "n_face_teeth", "neighbour_teeth", "rim_modules",
+                 "pinion_axial_position")
 
-    A retry changes the stretch, not the geometry: the first :meth:`add`
-    builds the solids (:func:`add_sectors`, most of a coarse mesh's time)
-    and writes them as OCC BRep (exact) to ``brep``; later calls import
-    that file and find the volumes and the surface groups' faces again by
-    their centres of mass.
+
+@dataclass
+class _Solids:
+    """Two sectors' solids as built once (OCC BRep, exact), where they were placed,
+    and the centres of mass [mm] of their volumes and of each group's faces."""
+
+    brep: Path
+    pinion_roll: float             # PairAnalysis.pinion_roll_placed of the build, rad
+    face_angle: float              # contact.face_angle of the build, rad
+    volumes: dict[str, NDArray]
+    faces: dict[str, list[NDArray]]
+
+
+#: Solids built in this process, by gear set and :data:`_SOLID_FIELDS`: the
+#: positions of a stage, the speeds of an impact and the retries of a mesh
+#: differ only in where the same two solids are placed (a turn of each about
+#: its gear's axis) and in the mesh.
+_SOLIDS: dict[str, _Solids] = {}
+_SOLIDS_DIR: list[Path] = []
+
+
+def _solids_dir() -> Path:
+    """This process's scratch folder for the solids (removed when it exits)."""
+    if not _SOLIDS_DIR:
+        import atexit
+        import shutil
+        import tempfile
+
+        folder = Path(tempfile.mkdtemp(prefix="fe_impact_sectors_"))
+        atexit.register(shutil.rmtree, folder, ignore_errors=True)
+        _SOLIDS_DIR.append(folder)
+    return _SOLIDS_DIR[0]
+
+
+def _affine(rotation: NDArray, centre: NDArray) -> NDArray:
+    """The 3 x 4 row-major matrix of ``x -> rotation (x - centre) + centre`` [mm]."""
+    return np.hstack([rotation, (centre - rotation @ centre)[:, None]])
+
+
+def _apply(matrix: NDArray, x: NDArray) -> NDArray:
+    return matrix[:, :3] @ x + matrix[:, 3]
+
+
+def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
+                ) -> tuple[dict[str, int], dict[str, list[int]]]:
+    """The sectors of :func:`add_sectors`, built once per process and reused.
+
+    The first call for a gear set and :data:`_SOLID_FIELDS` builds them and
+    writes them as BRep; later calls import that file and turn the pinion
+    sector about the pinion's axis and the face-gear sector about the face
+    gear's to their places, then find the volumes and the surface groups'
+    faces by their centres of mass. Built at one placement and turned, a
+    sector differs from one built in place only between its loft sections,
+    by the lofts' interpolation (below 0.01 um on the flanks, which the
+    mesh's flank nodes are snapped onto anyway).
     """
+    import gmsh
 
-    def __init__(self, brep: Path) -> None:
-        self.brep = brep
-        self.volumes: dict[str, NDArray] = {}
-        self.faces: dict[str, list[NDArray]] = {}
-
-    def add(self, model, design: PairDesign) -> tuple[dict[str, int], dict[str, list[int]]]:
-        import gmsh
-
-        occ = model.occ
-        if not self.volumes:
-            volumes, groups = add_sectors(model, design.pair, design.analysis)
-            gmsh.write(str(self.brep))
-            self.volumes = {k: np.array(occ.getCenterOfMass(3, t)) for k, t in volumes.items()}
-            self.faces = {k: [np.array(occ.getCenterOfMass(2, f)) for f in faces]
-                          for k, faces in groups.items()}
-            return volumes, groups
-        occ.importShapes(str(self.brep))
-        occ.synchronize()
-        tags = [t for _, t in model.getEntities(3)]
-        centres = np.array([occ.getCenterOfMass(3, t) for t in tags])
-        volumes = {k: tags[self._nearest(centres, c, k)] for k, c in self.volumes.items()}
-        faces = sorted({t for v in volumes.values()
-                        for _, t in model.getBoundary([(3, v)], oriented=False)})
-        centres = np.array([occ.getCenterOfMass(2, f) for f in faces])
-        groups = {k: [faces[self._nearest(centres, c, k)] for c in cs]
-                  for k, cs in self.faces.items()}
+    blob = json.dumps({"gearset": asdict(gearset),
+                       **{k: getattr(spec, k) for k in _SOLID_FIELDS}},
+                      sort_keys=True, default=repr)
+    key = hashlib.sha256(blob.encode()).hexdigest()[:16]
+    pair, analysis, occ = design.pair, design.analysis, model.occ
+    solids = _SOLIDS.get(key)
+    if solids is None or not solids.brep.is_file():
+        volumes, groups = add_sectors(model, pair, analysis)
+        brep = _solids_dir() / f"{key}.brep"
+        gmsh.write(str(brep))
+        _SOLIDS[key] = _Solids(
+            brep, analysis.pinion_roll_placed, analysis.contact.face_angle,
+            {k: np.array(occ.getCenterOfMass(3, t)) for k, t in volumes.items()},
+            {k: [np.array(occ.getCenterOfMass(2, f)) for f in faces]
+             for k, faces in groups.items()})
         return volumes, groups
+    occ.importShapes(str(solids.brep))
+    occ.synchronize()
+    turns = {
+        "pinion": _affine(pair.pinion_rotation(analysis.pinion_roll_placed)
+                          @ pair.pinion_rotation(solids.pinion_roll).T,
+                          np.array([0.0, pair.pinion.pitch_radius, pair.z0]) * MM),
+        "face_gear": _affine(pair.face_rotation(analysis.contact.face_angle)
+                             @ pair.face_rotation(solids.face_angle).T, np.zeros(3)),
+    }
+    tags = [t for _, t in model.getEntities(3)]
+    centres = np.array([occ.getCenterOfMass(3, t) for t in tags])
+    volumes = {k: tags[_nearest(centres, c, k)] for k, c in solids.volumes.items()}
+    for name, tag in volumes.items():
+        occ.affineTransform([(3, tag)], turns[name].ravel().tolist())
+    occ.synchronize()
+    groups = {}
+    for group, cs in solids.faces.items():
+        turn = turns["pinion" if group.startswith("pinion") else "face_gear"]
+        faces = [t for _, t in model.getBoundary(
+            [(3, volumes["pinion" if group.startswith("pinion") else "face_gear"])],
+            oriented=False)]
+        centres = np.array([occ.getCenterOfMass(2, f) for f in faces])
+        groups[group] = [faces[_nearest(centres, _apply(turn, c), group)] for c in cs]
+    return volumes, groups
 
-    @staticmethod
-    def _nearest(centres: NDArray, c: NDArray, name: str) -> int:
-        d = np.linalg.norm(centres - c, axis=1)
-        i = int(np.argmin(d))
-        if d[i] > 1e-6:  # mm: the same exact shapes, read back
-            raise MeshError(f"{name}: the reloaded sectors lack an entity at {c} mm")
-        return i
+
+def _nearest(centres: NDArray, c: NDArray, name: str) -> int:
+    """Index of the centre nearest ``c`` [mm]: the same exact shapes, read back and
+    turned (1e-6 mm allows the turn's rounding on 100 mm coordinates)."""
+    d = np.linalg.norm(centres - c, axis=1)
+    i = int(np.argmin(d))
+    if d[i] > 1e-6:
+        raise MeshError(f"{name}: the reloaded sectors lack an entity at {c} mm "
+                        f"(nearest {d[i]:.3g} mm away)")
+    return i
 
 
 #: Stretch caps tried in turn when a mesh comes out with an element turned
@@ -440,22 +515,13 @@ _RETRY_STRETCH = (None, 5.0, 2.5, 1.0)
 def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
                        started: float) -> tuple[PairDesign, MeshStats]:
     """Mesh, lowering the anisotropy if an element comes out inverted."""
-    sectors = _Sectors(path.with_name(f".{path.stem}-sectors.brep"))
-    try:
-        return _retry(gearset, spec, path, key, verbose, started, sectors)
-    finally:
-        sectors.brep.unlink(missing_ok=True)
-
-
-def _retry(gearset, spec: PairSpec, path: Path, key: str, verbose: bool, started: float,
-           sectors: _Sectors) -> tuple[PairDesign, MeshStats]:
     from fe_impact.meshing.session import gmsh_session
 
     for cap in _RETRY_STRETCH:
         design = design_pair(gearset, spec, cap)
         try:
             with gmsh_session(f"pair_{key}", verbose=verbose) as model:
-                stats = _mesh(model, design, spec, path, started, sectors)
+                stats = _mesh(model, design, spec, path, started, gearset)
         except _InvertedMesh as exc:
             if design.sizes["factor"] <= 1.0:
                 raise MeshError(str(exc)) from exc

@@ -244,12 +244,18 @@ def project(points: np.ndarray, master: ContactSurface, x: np.ndarray,
     loop over points and faces is compiled (:func:`_project_kernel`).
     """
     k = int(min(k, len(faces)))
-    corners = x[master.faces[faces, :3]]
-    cent = corners.mean(axis=1)
-    # A face's points lie within twice its corners' reach of the centroid
-    # (curved 6-node faces bulge by less than that): faces whose centroid is
-    # farther than that beyond the best projection so far cannot win.
-    reach = 2.0 * np.linalg.norm(corners - cent[:, None, :], axis=2).max(axis=1)
+    nodes = x[master.faces[faces]]
+    cent = nodes[:, :3].mean(axis=1)
+    # A face lies in the convex hull of its Bezier control points: the corners
+    # and, on a 6-node face, 2 m - (a + b) / 2 for the mid-side node m of the
+    # edge a-b. So no point of the face is farther from the centroid than the
+    # farthest control point, and a face whose centroid is farther than that
+    # beyond the best projection so far cannot win.
+    control = nodes[:, :3]
+    if nodes.shape[1] == 6:
+        ends = nodes[:, [0, 1, 2]] + nodes[:, [1, 2, 0]]
+        control = np.concatenate([control, 2.0 * nodes[:, 3:6] - 0.5 * ends], axis=1)
+    reach = np.linalg.norm(control - cent[:, None, :], axis=2).max(axis=1)
     dist, cand = cKDTree(cent).query(points, k=k)
     cand = cand.reshape(len(points), k)
     fidx = np.ascontiguousarray(faces[cand], dtype=np.int64)

@@ -470,6 +470,19 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
             {k: [np.array(occ.getCenterOfMass(2, f)) for f in faces]
              for k, faces in groups.items()})
         return volumes, groups
+    try:
+        return _turned_solids(model, design, solids)
+    except MeshError as exc:   # not expected; building them costs only time
+        logger.warning("%s; building the sectors again", exc)
+        occ.remove(model.getEntities(3), recursive=True)
+        occ.synchronize()
+        return add_sectors(model, pair, analysis)
+
+
+def _turned_solids(model, design: PairDesign, solids: _Solids
+                   ) -> tuple[dict[str, int], dict[str, list[int]]]:
+    """Import ``solids`` and turn each sector into the place ``design`` says."""
+    pair, analysis, occ = design.pair, design.analysis, model.occ
     occ.importShapes(str(solids.brep))
     occ.synchronize()
     turns = {

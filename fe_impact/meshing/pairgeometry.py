@@ -367,23 +367,19 @@ def add_sectors(model, pair: GearPair, analysis: PairAnalysis, *, pinion_teeth: 
     if extra:  # construction leftovers of the boolean
         model.occ.remove(extra, recursive=True)
         model.occ.synchronize()
-    _remove_free_entities(model, [(3, pinion), (3, face)])
     return {"pinion": pinion, "face_gear": face}, {**pinion_faces, **face_faces}
 
 
-def _remove_free_entities(model, volumes: list[tuple[int, int]]) -> None:
-    """Remove the points, curves and surfaces that bound no volume: the sections'
+def free_entities(model, volumes: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The points, curves and surfaces that bound none of ``volumes``: the sections'
     interpolation points and wires stay in the model after the lofts (some 20k
     points on a sector pair), and every one would be meshed, mapped and written."""
     keep, level = set(volumes), list(volumes)
     for _ in range(3):
-        level = model.getBoundary(level, combined=False, oriented=False)
-        keep.update((d, abs(t)) for d, t in level)
-        level = sorted({(d, abs(t)) for d, t in level})
-    free = [e for e in model.getEntities() if e[0] < 3 and e not in keep]
-    if free:
-        model.occ.remove(free)
-        model.occ.synchronize()
+        level = sorted({(d, abs(t)) for d, t in
+                        model.getBoundary(level, combined=False, oriented=False)})
+        keep.update(level)
+    return [e for e in model.getEntities() if e[0] < 3 and e not in keep]
 
 
 # -- the mesh on the exact flanks --------------------------------------------------------

@@ -99,7 +99,7 @@ from fe_impact.fe.case import Case
 from fe_impact.gears.pairanalysis import PairAnalysis, PairSpec
 from fe_impact.gears.tca import ContactEllipse, ContactPoint
 from fe_impact.meshing.paircase import case_header, impact_case
-from fe_impact.meshing.pairgeometry import MM, add_sectors, snap_flanks
+from fe_impact.meshing.pairgeometry import MM, add_sectors, free_entities, snap_flanks
 from fe_impact.meshing.sizing import (
     LEVELS,
     PairDesign,
@@ -461,15 +461,25 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
     pair, analysis, occ = design.pair, design.analysis, model.occ
     solids = _SOLIDS.get(key)
     if solids is None or not solids.brep.is_file():
+        # Built from the sections, written without the lofts' leftover points and
+        # curves (hidden: removing 20k entities from OCC costs seconds), then
+        # read back like any later call: the model holds the two solids alone.
         volumes, groups = add_sectors(model, pair, analysis)
         brep = _solids_dir() / f"{key}.brep"
-        gmsh.write(str(brep))
-        _SOLIDS[key] = _Solids(
+        model.setVisibility(free_entities(model, [(3, t) for t in volumes.values()]), 0)
+        gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 1)
+        try:
+            gmsh.write(str(brep))
+        finally:
+            gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 0)
+        solids = _SOLIDS[key] = _Solids(
             brep, analysis.pinion_roll_placed, analysis.contact.face_angle,
             {k: np.array(occ.getCenterOfMass(3, t)) for k, t in volumes.items()},
             {k: [np.array(occ.getCenterOfMass(2, f)) for f in faces]
              for k, faces in groups.items()})
-        return volumes, groups
+        name = model.getCurrent()
+        gmsh.clear()
+        model.add(name)
     try:
         return _turned_solids(model, design, solids)
     except MeshError as exc:   # not expected; building them costs only time
@@ -496,16 +506,35 @@ def _turned_solids(model, design: PairDesign, solids: _Solids
     centres = np.array([occ.getCenterOfMass(3, t) for t in tags])
     volumes = {k: tags[_nearest(centres, c, k)] for k, c in solids.volumes.items()}
     for name, tag in volumes.items():
-        occ.affineTransform([(3, tag)], turns[name].ravel().tolist())
+        # the build's own placement: R R^T, the identity to rounding (1e-10 mm moves)
+        if not np.allclose(turns[name], _affine(np.eye(3), np.zeros(3)), rtol=0.0,
+                           atol=1e-12):
+            occ.affineTransform([(3, tag)], turns[name].ravel().tolist())
     occ.synchronize()
+    faces = {name: [t for _, t in model.getBoundary([(3, tag)], oriented=False)]
+             for name, tag in volumes.items()}
+    boxes = {name: np.array([model.getBoundingBox(2, f) for f in fs]).reshape(-1, 2, 3)
+             for name, fs in faces.items()}
+    centres: dict[tuple[str, int], NDArray] = {}   # computed once, when needed
+
+    def centre(name: str, i: int) -> NDArray:
+        if (name, i) not in centres:
+            centres[name, i] = np.array(occ.getCenterOfMass(2, faces[name][i]))
+        return centres[name, i]
+
     groups = {}
     for group, cs in solids.faces.items():
-        turn = turns["pinion" if group.startswith("pinion") else "face_gear"]
-        faces = [t for _, t in model.getBoundary(
-            [(3, volumes["pinion" if group.startswith("pinion") else "face_gear"])],
-            oriented=False)]
-        centres = np.array([occ.getCenterOfMass(2, f) for f in faces])
-        groups[group] = [faces[_nearest(centres, _apply(turn, c), group)] for c in cs]
+        name = "pinion" if group.startswith("pinion") else "face_gear"
+        groups[group] = []
+        for c in cs:
+            c = _apply(turns[name], c)
+            # a face's centre of mass lies in its bounding box (OCC pads the box):
+            # the costly centres are computed for those faces only
+            near = np.flatnonzero(np.all((boxes[name][:, 0] - 1e-3 <= c)
+                                         & (c <= boxes[name][:, 1] + 1e-3), axis=1))
+            pool = near if len(near) else np.arange(len(faces[name]))
+            d = np.array([centre(name, int(i)) for i in pool])
+            groups[group].append(faces[name][int(pool[_nearest(d, c, group)])])
     return volumes, groups
 
 

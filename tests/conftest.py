@@ -7,11 +7,23 @@ is generated into the test's folder instead.
 
 from __future__ import annotations
 
+import os
 import shutil
 import warnings
 from pathlib import Path
 
-import pytest
+# Each pytest-xdist worker compiles the numba kernels (cache=True) into a cache
+# of its own: two processes compiling the same kernel into one cache at once can
+# leave an index and a data file that do not belong together, and a process
+# that loads them crashes (numba/numba#4807, #10128; seen here once on a fresh
+# clone, a worker killed by a segfault in libc). The folder is stable per
+# worker, so later runs still load their compiled kernels. Set before any
+# numba kernel is imported: numba reads it when a kernel is decorated.
+if "PYTEST_XDIST_WORKER" in os.environ and "NUMBA_CACHE_DIR" not in os.environ:
+    os.environ["NUMBA_CACHE_DIR"] = str(Path(__file__).resolve().parents[1] / ".numba_cache"
+                                        / os.environ["PYTEST_XDIST_WORKER"])
+
+import pytest  # noqa: E402
 
 from fe_impact.fe.casefile import write_case as write_case_file
 from validation.hertz_static import DISPLACEMENTS, write_case

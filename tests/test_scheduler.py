@@ -68,3 +68,21 @@ def _leaves(record, prefix: str = "") -> dict:
             out.update(_leaves(value, f"{prefix}{i}."))
         return out
     return {prefix[:-1]: record}
+
+
+def test_local_workers_compile_into_caches_of_their_own(tmp_path):
+    """Two local workers must not share a numba cache folder (two processes compiling
+    one cached kernel into one folder can crash a later load: numba#4807); each
+    gets ``<cache>/numba/w<name>``, stable across runs."""
+    import os
+
+    from fe_impact.calibration.sweep import _local_cluster
+
+    cluster, client = _local_cluster(2, tmp_path / "numba")
+    try:
+        dirs = client.run(lambda: os.environ.get("NUMBA_CACHE_DIR"))
+    finally:
+        client.close()
+        cluster.close()
+    assert sorted(dirs.values()) == [str(tmp_path / "numba" / "w0"),
+                                     str(tmp_path / "numba" / "w1")]

@@ -609,7 +609,8 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
             raise CalibrationError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
         cluster = None
     else:
-        cluster, client = _local_cluster(workers or max(1, min(len(todo), _cores())))
+        cluster, client = _local_cluster(workers or max(1, min(len(todo), _cores())),
+                                         Path(cache) / "numba")
     stop_name = f"fe-impact-stop-{uuid.uuid4().hex}"
     try:
         # Largest models first (impacts before the quasi-static positions, bigger
@@ -700,18 +701,36 @@ def _clean_cases(out, cases: list[ImpactCase]) -> None:
                     logger.info("removed the unfinished file %s", path)
 
 
-def _local_cluster(n: int):
+def _local_cluster(n: int, numba_cache: Path | None = None):
     """A local Dask cluster of ``n`` single-thread worker processes and its client.
 
     The workers are started with SIGINT and SIGTERM ignored (they keep
     that): Ctrl-C in a terminal signals the whole process group, and a
     worker that got it printed tracebacks and stopped mid-write. The
     scheduler's HTTP server (the dashboard's) takes a free port, so a second
-    run never finds 8787 taken.
+    run never finds 8787 taken. With ``numba_cache``, each worker compiles
+    its numba kernels into a folder of its own (``numba_cache/wN``): two
+    processes compiling one cached kernel into one folder at once can leave
+    an index and a data file that do not belong together, and a process
+    that loads them crashes (numba/numba#4807, #10128). The folders are
+    stable per worker name, so a later run loads its compiled kernels.
     """
     from dask.distributed import Client, LocalCluster
 
-    cluster = LocalCluster(n_workers=0, threads_per_worker=1, processes=True,
+    class _Cluster(LocalCluster):
+        def new_worker_spec(self):
+            spec = super().new_worker_spec()
+            if numba_cache is None:
+                return spec
+            out = {}
+            for name, s in spec.items():
+                options = dict(s.get("options", {}))
+                options["env"] = {**options.get("env", {}),
+                                  "NUMBA_CACHE_DIR": str(Path(numba_cache) / f"w{name}")}
+                out[name] = {**s, "options": options}
+            return out
+
+    cluster = _Cluster(n_workers=0, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=logging.ERROR,
                            scheduler_kwargs={"dashboard_address": ":0"})
     try:

@@ -110,12 +110,24 @@ class SPDSolver:
             # dense Schur complement returned in x; 2: the factorisation also
             # solves the full system (phases 331, 332, 333 or 33)
             self._iparm[35] = 2 if keep_factor else 1
+        self._released = False
+        self._dense: np.ndarray | None = None
+        if ns == self.n:
+            # Every DOF in the Schur block (a model of rigid bodies only): S is K
+            # itself. MKL PARDISO's Schur path with an empty interior reads out of
+            # bounds (a segfault in mkl_pds_permutetips, seen on a 1-DOF model,
+            # depending on the heap's layout), so it is not called.
+            self.schur = K.toarray()
+            self._dense = self.schur.copy() if keep_factor else None
+            self._iparm[35] = 2 if keep_factor else 1
+            self.factor_nnz = (self.n * (self.n + 1)) // 2
+            self._released = True    # nothing held by PARDISO
+            return
         out = np.zeros(ns * ns if ns else 1)
         self._call(12, np.zeros(1), out)
         if ns:
             self.schur = out.reshape(ns, ns)
         self.factor_nnz = int(self._iparm[17])
-        self._released = False
 
     def _call(self, phase: int, b: np.ndarray, x: np.ndarray) -> None:
         err = ctypes.c_int32(0)
@@ -139,6 +151,8 @@ class SPDSolver:
         if not self.solvable:
             raise RuntimeError("a Schur-complement factorisation without keep_factor=True "
                                "cannot solve full systems")
+        if self._dense is not None:
+            return np.linalg.solve(self._dense, np.asarray(b, dtype=float))
         if self._released:
             raise RuntimeError("this factorisation was released")
         b = np.asfortranarray(b, dtype=float)
@@ -157,6 +171,8 @@ class SPDSolver:
         if self._iparm[35] != 2:
             raise RuntimeError("forward/backward need a Schur factorisation with keep_factor")
         b = np.asfortranarray(b, dtype=float)
+        if self._dense is not None:   # no interior DOFs: y = b
+            return b.copy(order="F")
         y = np.zeros_like(b)
         self._call(331, b, y)
         return y
@@ -165,12 +181,15 @@ class SPDSolver:
         """Backward substitution (phase 333) from :meth:`forward`'s result with the
         Schur DOFs' solution in place."""
         y = np.asfortranarray(y, dtype=float)
+        if self._dense is not None:   # no interior DOFs: x = y
+            return np.ascontiguousarray(y)
         x = np.zeros_like(y)
         self._call(333, y, x)
         return np.ascontiguousarray(x)
 
     def release(self) -> None:
         """Free PARDISO's memory (also done on garbage collection)."""
+        self._dense = None
         if not self._released:
             self._call(-1, np.zeros(1), np.zeros(1))
             self._released = True

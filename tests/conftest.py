@@ -15,8 +15,7 @@ from pathlib import Path
 # Each pytest-xdist worker compiles the numba kernels (cache=True) into a cache
 # of its own: two processes compiling the same kernel into one cache at once can
 # leave an index and a data file that do not belong together, and a process
-# that loads them crashes (numba/numba#4807, #10128; seen here once on a fresh
-# clone, a worker killed by a segfault in libc). The folder is stable per
+# that loads them crashes (numba/numba#4807, #10128). The folder is stable per
 # worker, so later runs still load their compiled kernels. Set before any
 # numba kernel is imported: numba reads it when a kernel is decorated.
 if "PYTEST_XDIST_WORKER" in os.environ and "NUMBA_CACHE_DIR" not in os.environ:

@@ -323,3 +323,28 @@ def test_command_user_errors_name_the_option(tmp_path, argv, option):
     args = _parser().parse_args(["mesh", *argv, "--out", str(tmp_path)])
     with pytest.raises(FeImpactError, match=option):
         args.func(args)
+
+
+def test_pinion_flank_snap_stays_on_the_involute_at_the_base_circle(gearset):
+    """Snapping a flank node onto the crowned pinion flank keeps its radius and axial
+    position. At radii above the base circle the Newton solve must return that radius
+    to rounding (1e-12 relative); a node a hair inside the base circle (where the flank
+    meets the root) has no point with roll angle >= 0 at its radius and must stay at
+    the flank's start (radius r_b; 1 nm: rounding of the roll angle near the start,
+    where the radius is flat in it), not on the mirrored branch, which moved such
+    a node by up to millimetres and turned its elements inside out."""
+    from fe_impact.meshing.pairgeometry import _pinion_flank_point
+
+    pinion = GearPair.from_gearset(gearset, 1).pinion
+    r_b = pinion.base_radius
+    u = np.array([-5e-3, 0.0, 2.6e-3, 7e-3])
+    for radius in (1.01 * r_b, 1.1 * r_b, 0.5 * (r_b + pinion.tip_radius)):
+        p = _pinion_flank_point(pinion, u, np.full(u.shape, radius))
+        assert np.allclose(np.hypot(p[:, 0], p[:, 1]), radius, rtol=1e-12, atol=0)
+        assert np.allclose(p[:, 2], u, rtol=0, atol=1e-12)
+    # the flank's start: roll angle t* = delta / r_b, radius r_b (no relief at u = 0)
+    r_b_points = _pinion_flank_point(pinion, u, np.full(u.shape, r_b))
+    assert np.allclose(np.hypot(r_b_points[:, 0], r_b_points[:, 1]), r_b, rtol=1e-12, atol=0)
+    for radius in (r_b - 2e-6, r_b - 1e-4):
+        p = _pinion_flank_point(pinion, u, np.full(u.shape, radius))
+        assert np.all(np.linalg.norm(p - r_b_points, axis=1) < 1e-9)

@@ -82,22 +82,38 @@ class _FaceFlank:
 def _pinion_flank_point(pinion, u: NDArray, radius: NDArray) -> NDArray:
     """Crowned right flank of the pinion at axial position ``u`` and radius (pinion frame).
 
-    Newton on the roll angle: ``|P - delta N|^2 = r_b^2 (1 + t^2) - 2 delta r_b t +
-    delta^2`` (``P . N = r_b t``) must equal ``radius^2``.
+    With ``P . N = r_b t`` the squared radius of ``P - delta N`` is
+    ``g(t) = r_b^2 (1 + t^2) - 2 delta r_b t + delta^2 = r_b^2 + (r_b t - delta)^2``:
+    smallest, ``r_b``, at the flank's start ``t* = delta(t*) / r_b`` and rising
+    beyond it. The roll angle is found by Newton on ``g(t) = radius^2`` from
+    above the root (``g`` is convex there, so the iterates fall monotonically
+    onto it) and kept ``>= t*``; a mesh node a hair inside the base circle
+    (where the flank meets the root) has no root and lands on the flank's
+    start. (Unguarded, such a node was moved onto the mirrored branch, up to
+    millimetres away, turning its elements inside out.)
     """
     r_b = pinion.base_radius
     span = pinion.theta_tip - pinion.theta_pitch
-    theta = np.sqrt(np.maximum((radius / r_b) ** 2 - 1.0, 1e-12))
-    for _ in range(20):
+    u, radius = np.broadcast_arrays(np.asarray(u, float), np.asarray(radius, float))
+    start = np.zeros(radius.shape)
+    for _ in range(6):   # fixed point t* = delta(t*) / r_b; delta varies slowly with t
+        start = (pinion.lengthwise_relief(u) + pinion.profile_relief(start)) / r_b
+    d_hi = (pinion.lengthwise_relief(u) + pinion.profile_relief(np.zeros(radius.shape))
+            + pinion.profile_relief(np.full(radius.shape, pinion.theta_tip)))
+    # |P| - delta <= radius at the root, so this is at or above it
+    theta = np.maximum(np.sqrt(np.maximum(((radius + d_hi) / r_b) ** 2 - 1.0, 0.0)), start)
+    for _ in range(50):
         d = pinion.lengthwise_relief(u) + pinion.profile_relief(theta)
         d_theta = 2.0 * pinion.profile_crowning * (theta - pinion.theta_pitch) / span**2
         f = r_b**2 * (1 + theta**2) - 2 * d * r_b * theta + d**2 - radius**2
-        df = 2 * r_b**2 * theta - 2 * d_theta * r_b * theta - 2 * d * r_b + 2 * d * d_theta
-        step = f / df
-        theta = theta - step
+        df = 2.0 * (r_b - d_theta) * (r_b * theta - d)
+        step = np.divide(f, df, out=np.zeros_like(f), where=df > 0.0)
+        new = np.maximum(theta - step, start)
+        step, theta = theta - new, new
         if np.all(np.abs(step) < 1e-15):
             break
-    return pinion.flank_surface(u, theta, side=1).points
+    with np.errstate(invalid="ignore"):  # the normal at the very start may be 0/0: unused
+        return pinion.flank_surface(u, theta, side=1).points
 
 
 # -- sections (physical mesh frame, metres) -----------------------------------------------

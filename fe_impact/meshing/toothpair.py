@@ -88,7 +88,7 @@ import hashlib
 import json
 import logging
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -455,8 +455,9 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
                 ) -> tuple[dict[str, int], dict[str, list[int]]]:
     """The sectors of :func:`add_sectors`, built once per process and reused.
 
-    The first call for a gear set and :data:`_SOLID_FIELDS` builds them and
-    writes them as BRep; later calls import that file and turn the pinion
+    The first call for a gear set and :data:`_SOLID_FIELDS` builds them at
+    the pitch point with no gap (roll angle 0, ``gap = 0``), whatever its own
+    position, and writes them as BRep; every call imports that file and turn the pinion
     sector about the pinion's axis and the face-gear sector about the face
     gear's to their places, then find the volumes and the surface groups'
     faces by their centres of mass. Built at one placement and turned, a
@@ -476,7 +477,16 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         # Built from the sections, written without the lofts' leftover points and
         # curves (hidden: removing 20k entities from OCC costs seconds), then
         # read back like any later call: the model holds the two solids alone.
-        volumes, groups = add_sectors(model, pair, analysis)
+        # Always at the pitch point with no gap, whatever position asked first:
+        # a mesh then depends on its own parameters only, not on which case
+        # the process happened to build the solids for (measured before: the
+        # same position meshed to 57k or 159k DOFs depending on the order).
+        from fe_impact.gears.pairanalysis import analyse_stage_pair
+
+        home = replace(spec, roll_angle_deg=0.0, gap=0.0)
+        pair_home, analysis_home = ((pair, analysis) if home == spec
+                                    else analyse_stage_pair(gearset, home))
+        volumes, groups = add_sectors(model, pair_home, analysis_home)
         brep = _solids_dir() / f"{key}.brep"
         model.setVisibility(free_entities(model, [(3, t) for t in volumes.values()]), 0)
         gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 1)
@@ -485,7 +495,7 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         finally:
             gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 0)
         solids = _SOLIDS[key] = _Solids(
-            brep, analysis.pinion_roll_placed, analysis.contact.face_angle,
+            brep, analysis_home.pinion_roll_placed, analysis_home.contact.face_angle,
             {k: np.array(occ.getCenterOfMass(3, t)) for k, t in volumes.items()},
             {k: [np.array(occ.getCenterOfMass(2, f)) for f in faces]
              for k, faces in groups.items()})

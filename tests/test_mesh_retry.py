@@ -43,7 +43,7 @@ def test_every_attempt_inverted_ends_in_a_mesh_error(tmp_path, monkeypatch, capl
     # error reaches the caller.
     factors = _failing_mesh(monkeypatch, failures=10)
     with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"), \
-            pytest.raises(MeshError, match="quality"):
+            pytest.raises(MeshError, match=r"^stage 1 at \+0\.000 deg roll: .*quality"):
         toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path)
     assert factors == [toothpair.LEVELS["coarse"].max_stretch, 5.0, 2.5, 1.0]
     retries = [r.getMessage() for r in caplog.records if "meshing again" in r.getMessage()]
@@ -62,6 +62,7 @@ def test_one_inverted_attempt_is_meshed_again_with_less_stretch(tmp_path, monkey
     assert factors == [toothpair.LEVELS["coarse"].max_stretch, 5.0]
     (warning,) = [r for r in caplog.records if "meshing again" in r.getMessage()]
     assert warning.levelno == logging.WARNING and "at most 5.0" in warning.getMessage()
+    assert warning.getMessage().startswith("stage 1 at +0.000 deg roll: ")   # which pair
     # the written mesh is the second attempt's: element sizes 5 : 1 along and across
     sizes = pair.stats.element_sizes
     assert sizes["major"] / sizes["minor"] == pytest.approx(5.0, rel=1e-12)

@@ -381,10 +381,11 @@ def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: b
             with gmsh_session(f"two_pair_{key}", verbose=verbose) as model:
                 stats = _mesh(model, design, spec, path, started)
         except _InvertedMesh as exc:
+            where = f"stage {spec.stage} two pairs at {spec.roll_angle_deg:+.3f} deg roll"
             if design.factor <= 1.0:
-                raise MeshError(str(exc)) from exc
-            logger.warning("%s; meshing again with a stretch factor of at most %s", exc,
-                           _RETRY_STRETCH[_RETRY_STRETCH.index(cap) + 1])
+                raise MeshError(f"{where}: {exc}") from exc
+            logger.warning("%s: %s; meshing again with a stretch factor of at most %s", where,
+                           exc, _RETRY_STRETCH[_RETRY_STRETCH.index(cap) + 1])
             continue
         return design, replace(stats, seconds=time.perf_counter() - started)
     raise AssertionError("unreachable: the isotropic mesh either passes or raises")

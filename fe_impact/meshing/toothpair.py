@@ -75,8 +75,11 @@ on the seed set at the coarse level a mesh built so takes about half the
 time of one built from the sections).
 
 A map strong enough to make elements ten times longer can turn an element
-inside out where it varies fast; the mesh is then made again with less
-stretch (:data:`MIN_SICN`, ``_RETRY_STRETCH``), down to the isotropic mesh.
+inside out where it varies fast. The stretched mesh is first optimised by
+gmsh (its default tetrahedral optimisation) and a mesh that still comes back
+with a turned-over element gets gmsh's vertex relocation; if an element is
+still below :data:`MIN_SICN` after the flanks are snapped, the mesh is made
+again with less stretch (``_RETRY_STRETCH``), down to the isotropic mesh.
 Faces other than the flanks are only as exact as the reference surface
 mesh, and their P2 mid-edge nodes are straight (e.g. up to ~0.1 mm chord on
 the pinion's rim arc, a hub face).

@@ -119,7 +119,6 @@ class SPDSolver:
             # depending on the heap's layout), so it is not called.
             self.schur = K.toarray()
             self._dense = self.schur.copy() if keep_factor else None
-            self._iparm[35] = 2 if keep_factor else 1
             self.factor_nnz = (self.n * (self.n + 1)) // 2
             self._released = True    # nothing held by PARDISO
             return

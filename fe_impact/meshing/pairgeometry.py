@@ -95,15 +95,16 @@ def _pinion_flank_point(pinion, u: NDArray, radius: NDArray) -> NDArray:
     r_b = pinion.base_radius
     span = pinion.theta_tip - pinion.theta_pitch
     u, radius = np.broadcast_arrays(np.asarray(u, float), np.asarray(radius, float))
+    lengthwise = pinion.lengthwise_relief(u)
     start = np.zeros(radius.shape)
     for _ in range(6):   # fixed point t* = delta(t*) / r_b; delta varies slowly with t
-        start = (pinion.lengthwise_relief(u) + pinion.profile_relief(start)) / r_b
-    d_hi = (pinion.lengthwise_relief(u) + pinion.profile_relief(np.zeros(radius.shape))
+        start = (lengthwise + pinion.profile_relief(start)) / r_b
+    d_hi = (lengthwise + pinion.profile_relief(np.zeros(radius.shape))
             + pinion.profile_relief(np.full(radius.shape, pinion.theta_tip)))
     # |P| - delta <= radius at the root, so this is at or above it
     theta = np.maximum(np.sqrt(np.maximum(((radius + d_hi) / r_b) ** 2 - 1.0, 0.0)), start)
     for _ in range(50):
-        d = pinion.lengthwise_relief(u) + pinion.profile_relief(theta)
+        d = lengthwise + pinion.profile_relief(theta)
         d_theta = 2.0 * pinion.profile_crowning * (theta - pinion.theta_pitch) / span**2
         f = r_b**2 * (1 + theta**2) - 2 * d * r_b * theta + d**2 - radius**2
         df = 2.0 * (r_b - d_theta) * (r_b * theta - d)

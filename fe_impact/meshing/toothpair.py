@@ -465,9 +465,9 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
 
     The first call for a gear set and :data:`_SOLID_FIELDS` builds them at
     the pitch point with no gap (roll angle 0, ``gap = 0``), whatever its own
-    position, and writes them as BRep; every call imports that file and turn the pinion
-    sector about the pinion's axis and the face-gear sector about the face
-    gear's to their places, then find the volumes and the surface groups'
+    position, and writes them as BRep; every call imports that file, turns
+    the pinion sector about the pinion's axis and the face-gear sector about
+    the face gear's to their places, then finds the volumes and the surface groups'
     faces by their centres of mass. Built at one placement and turned, a
     sector differs from one built in place only between its loft sections,
     by the lofts' interpolation (below 0.01 um on the flanks, which the

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import functools
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -392,6 +392,25 @@ class GapState:
 
 
 @dataclass(frozen=True, eq=False)
+class _SlaveLayout:
+    """What :meth:`ContactPair.gap_state` needs of a slave face subset that the
+    deformation does not change: quadrature points, test weights, nodes."""
+
+    faces: np.ndarray    # (nf, nn) point indices
+    N: np.ndarray        # (1, nq, nn) shape functions at the quadrature points
+    snodes: np.ndarray   # (nf nq, nn) each quadrature point's face nodes
+    Ns: np.ndarray       # (nf nq, nn) their shape functions
+    W: sp.csr_matrix     # (n, nf nq) phi_a(q) w_q of the tested nodes
+    nodes: np.ndarray    # (n,) tested nodes
+    area: np.ndarray     # (n,) their tributary areas
+
+
+#: Face subsets whose layout a pair keeps (the zone, and the ring the growth
+#: check projects; a zone that grows replaces them).
+_LAYOUTS_KEPT = 4
+
+
+@dataclass(frozen=True, eq=False)
 class ContactPair:
     """A slave/master surface pair with its penalty (Pa/m) and pressure interpolation."""
 
@@ -399,45 +418,61 @@ class ContactPair:
     master: ContactSurface
     penalty: float
     multiplier: str = "linear"
+    _layouts: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def _layout(self, mesh: FEMesh, slave_faces: np.ndarray) -> _SlaveLayout:
+        """The layout of ``slave_faces``, computed once per subset (the solvers
+        project the same zone at every iteration)."""
+        key = (id(mesh), np.asarray(slave_faces).tobytes())
+        kept = self._layouts.get(key)
+        if kept is not None and kept[0] is mesh:
+            return kept[1]
+        sp_ = slave_points(self.slave, mesh.points, slave_faces, self.multiplier)
+        f = self.slave.faces[slave_faces]
+        N, _ = tri_shape(sp_.xi[None, :], sp_.eta[None, :], self.slave.nodes_per_face)
+        nq = sp_.xi.size
+        n_pts = len(f) * nq
+        snodes = np.repeat(f, nq, axis=0)  # (n, nns)
+        Ns = np.broadcast_to(N, (len(slave_faces), nq, N.shape[-1])).reshape(n_pts, -1)
+        # Aggregate quadrature points onto nodes: W[a, q] = phi_a(q) w_q.
+        nodes, inv = np.unique(f, return_inverse=True)
+        inv = inv.reshape(f.shape)
+        c = sp_.phi[None, :, :] * sp_.weight[:, :, None]           # (nf, nq, nn)
+        rows = np.broadcast_to(inv[:, None, :], c.shape).ravel()
+        cols = np.broadcast_to(np.arange(n_pts).reshape(len(f), nq)[:, :, None],
+                               c.shape).ravel()
+        W = sp.csr_matrix((c.ravel(), (rows, cols)), shape=(len(nodes), n_pts))
+        area = np.asarray(W.sum(axis=1)).ravel()
+        # Mid-side nodes carry no test function with "linear"; nodes on the
+        # edge of the face subset have a cut support and are left out.
+        tested = (area > 0.0) & np.isin(nodes, self.slave.complete_nodes(slave_faces))
+        layout = _SlaveLayout(f, N, snodes, Ns, W[tested], nodes[tested], area[tested])
+        while len(self._layouts) >= _LAYOUTS_KEPT:
+            self._layouts.pop(next(iter(self._layouts)))
+        self._layouts[key] = (mesh, layout)
+        return layout
 
     def gap_state(self, mesh: FEMesh, u: np.ndarray, slave_faces: np.ndarray,
                   master_faces: np.ndarray) -> GapState:
         """Gaps of the deformed configuration ``x = X + u`` (u: (n_points, 3))."""
         x = mesh.points + u
-        sp_ = slave_points(self.slave, mesh.points, slave_faces, self.multiplier)
-        f = self.slave.faces[slave_faces]
-        pos, _, _, Ns = self.slave.geometry(x, sp_.xi[None, :], sp_.eta[None, :], f[:, None, :])
-        nq = sp_.xi.size
-        pts = pos.reshape(-1, 3)
+        lay = self._layout(mesh, slave_faces)
+        pts = np.einsum("...a,...ai->...i", lay.N, x[lay.faces[:, None, :]]).reshape(-1, 3)
         proj = project(pts, self.master, x, master_faces)
         Nm, _ = tri_shape(proj.xi, proj.eta, self.master.nodes_per_face)
-        snodes = np.repeat(f, nq, axis=0)  # (n, nns)
-        Ns = np.broadcast_to(Ns, (len(slave_faces), nq, Ns.shape[-1])).reshape(len(pts), -1)
-        Bq = _gap_jacobian(mesh, snodes, Ns, self.master.faces[proj.face], Nm,
+        Bq = _gap_jacobian(mesh, lay.snodes, lay.Ns, self.master.faces[proj.face], Nm,
                            proj.normal, proj.valid)
-        # Aggregate quadrature points onto nodes: W[a, q] = phi_a(q) w_q.
-        nodes, inv = np.unique(f, return_inverse=True)
-        inv = inv.reshape(f.shape)
-        c = sp_.phi[None, :, :] * sp_.weight[:, :, None]           # (nf, nq, nn)
-        cv = c * proj.valid.reshape(len(f), nq)[:, :, None]
-        rows = np.broadcast_to(inv[:, None, :], c.shape).ravel()
-        cols = np.broadcast_to(np.arange(len(pts)).reshape(len(f), nq)[:, :, None],
-                               c.shape).ravel()
-        Wv = sp.csr_matrix((cv.ravel(), (rows, cols)), shape=(len(nodes), len(pts)))
-        area = np.asarray(sp.csr_matrix((c.ravel(), (rows, cols)),
-                                        shape=(len(nodes), len(pts))).sum(axis=1)).ravel()
-        # Mid-side nodes carry no test function with "linear"; nodes on the
-        # edge of the face subset have a cut support and are left out.
-        tested = (area > 0.0) & np.isin(nodes, self.slave.complete_nodes(slave_faces))
-        nodes, Wv, area = nodes[tested], Wv[tested], area[tested]
+        # the points projected inside a master face only
+        Wv = lay.W.copy()
+        Wv.data = Wv.data * proj.valid[Wv.indices]
         valid_area = np.asarray(Wv.sum(axis=1)).ravel()
-        ok = valid_area > 1e-3 * area
+        ok = valid_area > 1e-3 * lay.area
         scale = np.where(ok, 1.0 / np.where(ok, valid_area, 1.0), 0.0)
         Wn = sp.diags(scale) @ Wv
         gap = np.where(ok, Wn @ np.where(proj.valid, proj.gap, 0.0), np.inf)
         normal = Wn @ proj.normal
         normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
-        return GapState(nodes, gap, area, (Wn @ Bq).tocsr(), x[nodes], normal)
+        return GapState(lay.nodes, gap, lay.area, (Wn @ Bq).tocsr(), x[lay.nodes], normal)
 
 
 def _gap_jacobian(mesh: FEMesh, snodes, Ns, mnodes, Nm, normal, valid) -> sp.csr_matrix:

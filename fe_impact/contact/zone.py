@@ -134,9 +134,13 @@ class ContactZone:
             if len(outside) == 0:
                 continue
             # Watch every node the zone does not hold a whole support of (those
-            # on its edge too), with its gap over its whole support.
-            st = pair.gap_state(mesh, up, np.arange(len(pair.slave.faces)),
-                                np.arange(len(pair.master.faces)))
+            # on its edge too), with its gap over its whole support: the
+            # outside faces and the zone's faces that share a node with them
+            # (the zone's inside, most of the fine faces, need no projection).
+            edge = np.isin(pair.slave.faces[self.slave_faces[k]],
+                           pair.slave.faces[outside]).any(axis=1)
+            ring = np.union1d(outside, self.slave_faces[k][edge])
+            st = pair.gap_state(mesh, up, ring, np.arange(len(pair.master.faces)))
             watched = ~np.isin(st.nodes, pair.slave.complete_nodes(self.slave_faces[k]))
             close = st.nodes[watched & (st.gap < margin)]
             bad = outside[np.isin(pair.slave.faces[outside], close).any(axis=1)]

@@ -91,8 +91,10 @@ import hashlib
 import json
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -112,6 +114,8 @@ from fe_impact.meshing.sizing import (
 )
 
 logger = logging.getLogger(__name__)
+
+D = TypeVar("D")   # a mesh design (PairDesign, TwoPairDesign)
 
 __all__ = [
     "LEVELS",
@@ -610,25 +614,44 @@ def _nearest(centres: NDArray, c: NDArray, name: str) -> int:
 _RETRY_STRETCH = (None, 5.0, 2.5, 1.0)
 
 
-def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
-                       started: float) -> tuple[PairDesign, MeshStats]:
-    """Mesh, lowering the anisotropy if an element comes out inverted."""
+def mesh_with_retries(where: str, session: str, design_for: Callable[[float | None], D],
+                      mesh: Callable[[object, D], MeshStats], factor: Callable[[D], float],
+                      verbose: bool, started: float) -> tuple[D, MeshStats]:
+    """Mesh, lowering the anisotropy while an element comes out inverted.
+
+    ``design_for(cap)`` designs the mesh for a stretch cap of
+    :data:`_RETRY_STRETCH` (None: the level's own), ``mesh(model, design)``
+    meshes it in a gmsh session named ``session`` and raises
+    :class:`_InvertedMesh` on a turned-over element, ``factor(design)`` is
+    the stretch factor the design took. ``where`` names the pair in the
+    warnings and in the :class:`MeshError` raised when the isotropic mesh
+    fails too.
+    """
     from fe_impact.meshing.session import gmsh_session
 
-    for cap in _RETRY_STRETCH:
-        design = design_pair(gearset, spec, cap)
+    for i, cap in enumerate(_RETRY_STRETCH):
+        design = design_for(cap)
         try:
-            with gmsh_session(f"pair_{key}", verbose=verbose) as model:
-                stats = _mesh(model, design, spec, path, started, gearset)
+            with gmsh_session(session, verbose=verbose) as model:
+                stats = mesh(model, design)
         except _InvertedMesh as exc:
-            where = f"stage {spec.stage} at {spec.roll_angle_deg:+.3f} deg roll"
-            if design.sizes["factor"] <= 1.0:
+            if factor(design) <= 1.0 or i + 1 == len(_RETRY_STRETCH):
                 raise MeshError(f"{where}: {exc}") from exc
             logger.warning("%s: %s; meshing again with a stretch factor of at most %s", where,
-                           exc, _RETRY_STRETCH[_RETRY_STRETCH.index(cap) + 1])
+                           exc, _RETRY_STRETCH[i + 1])
             continue
-        return design, MeshStats(**{**asdict(stats), "seconds": time.perf_counter() - started})
-    raise AssertionError("unreachable: the isotropic mesh either passes or raises")
+        return design, replace(stats, seconds=time.perf_counter() - started)
+    raise AssertionError("unreachable: the last cap either passes or raises")
+
+
+def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
+                       started: float) -> tuple[PairDesign, MeshStats]:
+    """:func:`mesh_with_retries` for one tooth pair."""
+    return mesh_with_retries(
+        f"stage {spec.stage} at {spec.roll_angle_deg:+.3f} deg roll", f"pair_{key}",
+        lambda cap: design_pair(gearset, spec, cap),
+        lambda model, design: _mesh(model, design, spec, path, started, gearset),
+        lambda design: design.sizes["factor"], verbose, started)
 
 
 def _cached(paths: tuple[Path, ...], key: str) -> dict | None:

@@ -75,13 +75,13 @@ from fe_impact.meshing.sizing import (
     design_pair,
 )
 from fe_impact.meshing.toothpair import (
-    _RETRY_STRETCH,
     MIN_SICN,
     MeshStats,
     _InvertedMesh,
     _map_nodes,
     _reload_as_discrete,
     _statistics,
+    mesh_with_retries,
 )
 
 logger = logging.getLogger(__name__)
@@ -372,23 +372,12 @@ def _mesh(model, design: TwoPairDesign, spec: PairSpec, path: Path, started: flo
 
 def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
                        started: float) -> tuple[TwoPairDesign, MeshStats]:
-    """Mesh, lowering the anisotropy if an element comes out inverted (as ``build_pair``)."""
-    from fe_impact.meshing.session import gmsh_session
-
-    for cap in _RETRY_STRETCH:
-        design = design_two_pair(gearset, spec, cap)
-        try:
-            with gmsh_session(f"two_pair_{key}", verbose=verbose) as model:
-                stats = _mesh(model, design, spec, path, started)
-        except _InvertedMesh as exc:
-            where = f"stage {spec.stage} two pairs at {spec.roll_angle_deg:+.3f} deg roll"
-            if design.factor <= 1.0:
-                raise MeshError(f"{where}: {exc}") from exc
-            logger.warning("%s: %s; meshing again with a stretch factor of at most %s", where,
-                           exc, _RETRY_STRETCH[_RETRY_STRETCH.index(cap) + 1])
-            continue
-        return design, replace(stats, seconds=time.perf_counter() - started)
-    raise AssertionError("unreachable: the isotropic mesh either passes or raises")
+    """:func:`~fe_impact.meshing.toothpair.mesh_with_retries` for two tooth pairs."""
+    return mesh_with_retries(
+        f"stage {spec.stage} two pairs at {spec.roll_angle_deg:+.3f} deg roll",
+        f"two_pair_{key}", lambda cap: design_two_pair(gearset, spec, cap),
+        lambda model, design: _mesh(model, design, spec, path, started),
+        lambda design: design.factor, verbose, started)
 
 
 def _summary(gearset, design: TwoPairDesign, key: str, stats: MeshStats) -> dict:

@@ -2,7 +2,9 @@
 
 ``build_pair`` maps the contact zone into a stretched space, meshes there and
 maps back; a mesh with a nearly inverted element (quality below MIN_SICN) is
-made again with the stretch capped at 5, 2.5 and finally 1 (isotropic). Here
+made again with the stretch capped at 5, 2.5 (with the map's compensation
+ending 4, then 2.5 zone half-lengths from the contact) and finally 1
+(isotropic). Here
 the first attempts are made to fail by wrapping the builder's meshing step.
 """
 
@@ -19,14 +21,16 @@ from fe_impact.meshing import toothpair
 GAP, SPEED = 2e-6, 0.1
 
 
-def _failing_mesh(monkeypatch, failures: int) -> list[float]:
+def _failing_mesh(monkeypatch, failures: int) -> list[tuple[float, float]]:
     """Make the first ``failures`` meshing attempts report an inverted element; return
-    the stretch factor of every attempt as it is made."""
+    the stretch factor and the map's reach (in zone half-lengths) of every attempt
+    as it is made."""
     real = toothpair._mesh
-    factors: list[float] = []
+    factors: list[tuple[float, float]] = []
 
     def mesh(model, design, *args, **kwargs):
-        factors.append(design.sizes["factor"])
+        st = design.stretch
+        factors.append((design.sizes["factor"], round(st.reach / st.half_length, 12)))
         if len(factors) <= failures:
             raise toothpair._InvertedMesh(
                 f"the mesh has an element of quality -0.1 at stretch factor "
@@ -39,16 +43,19 @@ def _failing_mesh(monkeypatch, failures: int) -> list[float]:
 
 def test_every_attempt_inverted_ends_in_a_mesh_error(tmp_path, monkeypatch, caplog):
     # The coarse level's design stretch, (a/3) / (b/2) = 11-22 for b/a = 0.03-0.06, is
-    # capped at the level's 8, then at 5, 2.5 and 1; after the isotropic attempt the
-    # error reaches the caller.
+    # capped at the level's 8, then at 5, 2.5 (compensation to 4 and to 2.5 zone
+    # half-lengths) and 1; after the isotropic attempt the error reaches the caller.
     factors = _failing_mesh(monkeypatch, failures=10)
     with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"), \
             pytest.raises(MeshError, match=r"^stage 1 at \+0\.000 deg roll: .*quality"):
         toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path)
-    assert factors == [toothpair.LEVELS["coarse"].max_stretch, 5.0, 2.5, 1.0]
+    assert factors == [(toothpair.LEVELS["coarse"].max_stretch, 4.0), (5.0, 4.0), (2.5, 4.0),
+                       (2.5, 2.5), (1.0, 4.0)]
     retries = [r.getMessage() for r in caplog.records if "meshing again" in r.getMessage()]
-    assert len(retries) == 3
+    assert len(retries) == 4
     assert "at most 5.0" in retries[0] and "at most 1.0" in retries[-1]
+    assert retries[2].endswith("at most 2.5 and the map's compensation ending 2.5 zone "
+                               "half-lengths from the contact")
     assert not (tmp_path / "pair.msh").exists()
 
 
@@ -59,7 +66,7 @@ def test_one_inverted_attempt_is_meshed_again_with_less_stretch(tmp_path, monkey
     with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"):
         pair = toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED,
                                     tmp_path)
-    assert factors == [toothpair.LEVELS["coarse"].max_stretch, 5.0]
+    assert factors == [(toothpair.LEVELS["coarse"].max_stretch, 4.0), (5.0, 4.0)]
     (warning,) = [r for r in caplog.records if "meshing again" in r.getMessage()]
     assert warning.levelno == logging.WARNING and "at most 5.0" in warning.getMessage()
     assert warning.getMessage().startswith("stage 1 at +0.000 deg roll: ")   # which pair

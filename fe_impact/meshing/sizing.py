@@ -74,6 +74,22 @@ if tuple(LEVELS) != LEVEL_NAMES:  # PairSpec accepts exactly these names
 
 
 # -- design: sizes and stretch -----------------------------------------------------------
+#: End of the stretch map's compensation, in zone half-lengths from the contact.
+#: The compensation gives back the zone's shift at slope ``c``, half as steep
+#: at 4 as at 2.5 (``c = k (2a - r) / (2 (reach - a))``), and the map's bend
+#: where it ends turns fewer of the large far-field elements over: a mesh
+#: comes back from the map with a turned-over element (all four nodes on the
+#: surface, 6.6 mm long, across the compensation's end at stage 1, -5.4 deg)
+#: and is made again with less stretch in 14 of the seed set's 60 coarse
+#: positions (9 and 11 per stage) at 4, against 32 at 2.5 (13 and 10 of 27 at
+#: 3.5 and 6). The compensation's elements are longer too: 9% fewer nodes on
+#: the positions, 8-31% fewer on the default level's impacts. A mesh that
+#: fails at 4 can pass at 2.5 (the stage-2 ratio switch at 4.2 m/s, whose
+#: ellipse is longer than the face: isotropic, 67k DOFs, at 4; stretch 2.5,
+#: 40k DOFs, at 2.5), so the retries try both (``toothpair._RETRIES``).
+REACH = 4.0
+#: The compensation's end of the map before :data:`REACH`.
+SHORT_REACH = 2.5
 @dataclass(frozen=True)
 class PairDesign:
     """Everything computed before meshing (SI units, mesh frame).
@@ -92,9 +108,11 @@ class PairDesign:
         return self.analysis.design_ellipse
 
 
-def design_pair(gearset, spec: PairSpec, max_stretch: float | None = None) -> PairDesign:
+def design_pair(gearset, spec: PairSpec, max_stretch: float | None = None,
+                reach: float = REACH) -> PairDesign:
     """The analysis of ``spec``'s pair, its element sizes and the stretch; the
-    stretch factor capped at ``max_stretch`` too if given."""
+    stretch factor capped at ``max_stretch`` too if given, the map's
+    compensation ending ``reach`` zone half-lengths from the contact."""
     pair, analysis = analyse_stage_pair(gearset, spec)
     ellipse = analysis.design_ellipse
     level = LEVELS[spec.level]
@@ -104,20 +122,20 @@ def design_pair(gearset, spec: PairSpec, max_stretch: float | None = None) -> Pa
     sizes = {"minor": minor, "major": factor * minor, "factor": factor,
              "far": level.far_modules * pair.pinion.module}
     return PairDesign(pair=pair, analysis=analysis, sizes=sizes,
-                      stretch=_stretch(analysis.contact, spec, ellipse, sizes))
+                      stretch=_stretch(analysis.contact, spec, ellipse, sizes, reach))
 
 
 def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllipse,
-             sizes: dict[str, float]) -> ContactStretch:
+             sizes: dict[str, float], reach: float = REACH) -> ContactStretch:
     """The anisotropic map for this contact (see
     :class:`~fe_impact.meshing.contactstretch.ContactStretch`).
 
     The zone covers the ellipse with 30 % to spare; its outer half is the
     ramp back from full compression (the size field keeps the elements there
-    short, so they follow the map closely); the compensation takes 1.5 zone
-    lengths; the core radius reaches where the graded size has grown to the
-    major-axis size, and the fall-off is twice the largest shift wide (shear
-    below about 1).
+    short, so they follow the map closely); the compensation takes 3 zone
+    lengths (``reach`` half-lengths from the centre); the core radius
+    reaches where the graded size has grown to the major-axis size, and the
+    fall-off is twice the largest shift wide (shear below about 1).
     """
     level = LEVELS[spec.level]
     e1 = ellipse.major if ellipse.major[2] > 0 else -ellipse.major  # towards larger radius
@@ -131,7 +149,7 @@ def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllip
         axes=np.stack([e1, np.cross(n, e1), n]),
         factor=sizes["factor"],
         half_length=half,
-        reach=2.5 * half,
+        reach=reach * half,
         ramp=ramp,
         core_radius=core,
         outer_radius=core + max(2.0 * shift, core),

@@ -79,7 +79,7 @@ inside out where it varies fast. The stretched mesh is first optimised by
 gmsh (its default tetrahedral optimisation) and a mesh that still comes back
 with a turned-over element gets gmsh's vertex relocation; if an element is
 still below :data:`MIN_SICN` after the flanks are snapped, the mesh is made
-again with less stretch (``_RETRY_STRETCH``), down to the isotropic mesh.
+again with less stretch (``_RETRIES``), down to the isotropic mesh.
 Faces other than the flanks are only as exact as the reference surface
 mesh, and their P2 mid-edge nodes are straight (e.g. up to ~0.1 mm chord on
 the pinion's rim arc, a hub face).
@@ -107,6 +107,8 @@ from fe_impact.meshing.paircase import case_header, impact_case
 from fe_impact.meshing.pairgeometry import MM, add_sectors, free_entities, snap_flanks
 from fe_impact.meshing.sizing import (
     LEVELS,
+    REACH,
+    SHORT_REACH,
     PairDesign,
     design_pair,
     reference_size_field,
@@ -609,18 +611,23 @@ def _nearest(centres: NDArray, c: NDArray, name: str) -> int:
     return i
 
 
-#: Stretch caps tried in turn when a mesh comes out with an element turned
-#: inside out by the map (the last, 1, is the plain isotropic mesh).
-_RETRY_STRETCH = (None, 5.0, 2.5, 1.0)
+#: Stretch caps and ends of the map's compensation (in zone half-lengths)
+#: tried in turn when a mesh comes out with an element turned inside out by
+#: the map; the last, a cap of 1, is the plain isotropic mesh (no map). At
+#: the cap of 2.5 the shorter compensation is tried too before the isotropic
+#: mesh, which costs 1.5-2 times the DOFs (:data:`~fe_impact.meshing.sizing.REACH`).
+_RETRIES = ((None, REACH), (5.0, REACH), (2.5, REACH), (2.5, SHORT_REACH), (1.0, REACH))
 
 
-def mesh_with_retries(where: str, session: str, design_for: Callable[[float | None], D],
+def mesh_with_retries(where: str, session: str,
+                      design_for: Callable[[float | None, float], D],
                       mesh: Callable[[object, D], MeshStats], factor: Callable[[D], float],
                       verbose: bool, started: float) -> tuple[D, MeshStats]:
     """Mesh, lowering the anisotropy while an element comes out inverted.
 
-    ``design_for(cap)`` designs the mesh for a stretch cap of
-    :data:`_RETRY_STRETCH` (None: the level's own), ``mesh(model, design)``
+    ``design_for(cap, reach)`` designs the mesh for a stretch cap and an end
+    of the map's compensation of :data:`_RETRIES` (cap None: the level's
+    own), ``mesh(model, design)``
     meshes it in a gmsh session named ``session`` and raises
     :class:`_InvertedMesh` on a turned-over element, ``factor(design)`` is
     the stretch factor the design took. ``where`` names the pair in the
@@ -629,16 +636,20 @@ def mesh_with_retries(where: str, session: str, design_for: Callable[[float | No
     """
     from fe_impact.meshing.session import gmsh_session
 
-    for i, cap in enumerate(_RETRY_STRETCH):
-        design = design_for(cap)
+    for i, (cap, reach) in enumerate(_RETRIES):
+        design = design_for(cap, reach)
         try:
             with gmsh_session(session, verbose=verbose) as model:
                 stats = mesh(model, design)
         except _InvertedMesh as exc:
-            if factor(design) <= 1.0 or i + 1 == len(_RETRY_STRETCH):
+            if factor(design) <= 1.0 or i + 1 == len(_RETRIES):
                 raise MeshError(f"{where}: {exc}") from exc
-            logger.warning("%s: %s; meshing again with a stretch factor of at most %s", where,
-                           exc, _RETRY_STRETCH[i + 1])
+            cap_next, reach_next = _RETRIES[i + 1]
+            logger.warning("%s: %s; meshing again with a stretch factor of at most %s%s",
+                           where, exc, cap_next,
+                           "" if reach_next == reach or cap_next <= 1.0 else
+                           f" and the map's compensation ending {reach_next:g} zone "
+                           "half-lengths from the contact")
             continue
         return design, replace(stats, seconds=time.perf_counter() - started)
     raise AssertionError("unreachable: the last cap either passes or raises")
@@ -649,7 +660,7 @@ def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: b
     """:func:`mesh_with_retries` for one tooth pair."""
     return mesh_with_retries(
         f"stage {spec.stage} at {spec.roll_angle_deg:+.3f} deg roll", f"pair_{key}",
-        lambda cap: design_pair(gearset, spec, cap),
+        lambda cap, reach: design_pair(gearset, spec, cap, reach),
         lambda model, design: _mesh(model, design, spec, path, started, gearset),
         lambda design: design.sizes["factor"], verbose, started)
 

@@ -68,6 +68,7 @@ from fe_impact.meshing.contactstretch import ContactStretch
 from fe_impact.meshing.pairgeometry import MM, add_sectors, snap_flanks
 from fe_impact.meshing.sizing import (
     LEVELS,
+    REACH,
     PairDesign,
     _box_distance,
     _set_size_field,
@@ -237,20 +238,22 @@ class TwoPairDesign:
         return {**out, "far": self.designs[0].sizes["far"]}
 
 
-def design_two_pair(gearset, spec: PairSpec, max_stretch: float | None = None) -> TwoPairDesign:
+def design_two_pair(gearset, spec: PairSpec, max_stretch: float | None = None,
+                    reach: float = REACH) -> TwoPairDesign:
     """Designs of both pairs when one is at ``spec.roll_angle_deg`` (:func:`pair_roll_angles`).
 
     Each pair is designed as :func:`~fe_impact.meshing.sizing.design_pair`
     designs a single pair at its roll angle (same level, gap and design
-    force); the stretch factors are capped at ``max_stretch`` too if given.
+    force); the stretch factors are capped at ``max_stretch`` too if given,
+    the maps' compensation ending ``reach`` zone half-lengths from each contact.
     """
     if spec.n_face_teeth < 2:
         raise MeshError(f"n_face_teeth = {spec.n_face_teeth}: a two-pair sector needs 2 or 3 "
                         "face-gear teeth")
     r1, r2 = pair_roll_angles(gearset, spec.stage, spec.roll_angle_deg,
                               spec.pinion_axial_position)
-    d1 = design_pair(gearset, replace(spec, roll_angle_deg=r1), max_stretch)
-    d2 = design_pair(gearset, replace(spec, roll_angle_deg=r2), max_stretch)
+    d1 = design_pair(gearset, replace(spec, roll_angle_deg=r1), max_stretch, reach)
+    d2 = design_pair(gearset, replace(spec, roll_angle_deg=r2), max_stretch, reach)
     a1, a2 = d1.analysis, d2.analysis
     l1, l2 = a1.masses.pinion_lever, a2.masses.pinion_lever
     if l1 * l2 <= 0.0:
@@ -375,7 +378,7 @@ def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: b
     """:func:`~fe_impact.meshing.toothpair.mesh_with_retries` for two tooth pairs."""
     return mesh_with_retries(
         f"stage {spec.stage} two pairs at {spec.roll_angle_deg:+.3f} deg roll",
-        f"two_pair_{key}", lambda cap: design_two_pair(gearset, spec, cap),
+        f"two_pair_{key}", lambda cap, reach: design_two_pair(gearset, spec, cap, reach),
         lambda model, design: _mesh(model, design, spec, path, started),
         lambda design: design.factor, verbose, started)
 

@@ -90,6 +90,8 @@ if tuple(LEVELS) != LEVEL_NAMES:  # PairSpec accepts exactly these names
 REACH = 4.0
 #: The compensation's end of the map before :data:`REACH`.
 SHORT_REACH = 2.5
+
+
 @dataclass(frozen=True)
 class PairDesign:
     """Everything computed before meshing (SI units, mesh frame).
@@ -132,8 +134,9 @@ def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllip
 
     The zone covers the ellipse with 30 % to spare; its outer half is the
     ramp back from full compression (the size field keeps the elements there
-    short, so they follow the map closely); the compensation takes 3 zone
-    lengths (``reach`` half-lengths from the centre); the core radius
+    short, so they follow the map closely); the compensation takes
+    ``reach - 1`` zone half-lengths on each side (it ends ``reach``
+    half-lengths from the centre); the core radius
     reaches where the graded size has grown to the major-axis size, and the
     fall-off is twice the largest shift wide (shear below about 1).
     """

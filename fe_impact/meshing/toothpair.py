@@ -472,9 +472,9 @@ def _rotate(occ, tag: int, matrix: NDArray) -> None:
     affine map, which OCC applies by converting every surface to a B-spline
     (measured: 0.46 s per sector; the seed set's 33 coarse positions at 11
     per stage meshed in 208 s instead of 228 s, 15 meshes made again with
-    either). The axis passes
-    through the fixed point the matrix keeps (its translation solves
-    ``(I - R) c = t``; the centre given to :func:`_affine` is one).
+    either). The axis passes through the fixed point the matrix keeps (its
+    translation solves ``(I - R) c = t``; the centre given to :func:`_affine`
+    is one).
     """
     from scipy.spatial.transform import Rotation
 
@@ -627,32 +627,40 @@ def mesh_with_retries(where: str, session: str,
 
     ``design_for(cap, reach)`` designs the mesh for a stretch cap and an end
     of the map's compensation of :data:`_RETRIES` (cap None: the level's
-    own), ``mesh(model, design)``
-    meshes it in a gmsh session named ``session`` and raises
-    :class:`_InvertedMesh` on a turned-over element, ``factor(design)`` is
-    the stretch factor the design took. ``where`` names the pair in the
-    warnings and in the :class:`MeshError` raised when the isotropic mesh
-    fails too.
+    own); ``mesh(model, design)`` meshes it in a gmsh session named
+    ``session`` and raises :class:`_InvertedMesh` on a turned-over element;
+    ``factor(design)`` is the stretch factor the design took. A design equal
+    to one already tried (a cap above the level's own factor) is skipped:
+    the mesher is deterministic. ``where`` names the pair in the warnings
+    and in the :class:`MeshError` raised when the isotropic mesh fails too.
     """
     from fe_impact.meshing.session import gmsh_session
 
-    for i, (cap, reach) in enumerate(_RETRIES):
+    tried: set[tuple[float, float | None]] = set()
+    failed: tuple[_InvertedMesh, float] | None = None   # the last failure, its reach
+    for cap, reach in _RETRIES:
         design = design_for(cap, reach)
+        stretch = factor(design)
+        attempt = (stretch, reach if stretch > 1.0 else None)   # no map: no reach
+        if attempt in tried:
+            continue
+        tried.add(attempt)
+        if failed is not None:
+            logger.warning("%s: %s; meshing again with a stretch factor of at most %s%s",
+                           where, failed[0], cap,
+                           "" if reach == failed[1] or stretch <= 1.0 else
+                           f" and the map's compensation ending {reach:g} zone "
+                           "half-lengths from the contact")
         try:
             with gmsh_session(session, verbose=verbose) as model:
                 stats = mesh(model, design)
         except _InvertedMesh as exc:
-            if factor(design) <= 1.0 or i + 1 == len(_RETRIES):
+            if stretch <= 1.0:
                 raise MeshError(f"{where}: {exc}") from exc
-            cap_next, reach_next = _RETRIES[i + 1]
-            logger.warning("%s: %s; meshing again with a stretch factor of at most %s%s",
-                           where, exc, cap_next,
-                           "" if reach_next == reach or cap_next <= 1.0 else
-                           f" and the map's compensation ending {reach_next:g} zone "
-                           "half-lengths from the contact")
+            failed = (exc, reach)
             continue
         return design, replace(stats, seconds=time.perf_counter() - started)
-    raise AssertionError("unreachable: the last cap either passes or raises")
+    raise AssertionError("unreachable: the isotropic mesh either passes or raises")
 
 
 def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,

@@ -88,7 +88,8 @@ if tuple(LEVELS) != LEVEL_NAMES:  # PairSpec accepts exactly these names
 #: ellipse is longer than the face: isotropic, 67k DOFs, at 4; stretch 2.5,
 #: 40k DOFs, at 2.5), so the retries try both (``toothpair._RETRIES``).
 REACH = 4.0
-#: The compensation's end of the map before :data:`REACH`.
+#: The compensation's end used before :data:`REACH`, tried again when a mesh
+#: at the stretch cap of 2.5 fails with :data:`REACH`.
 SHORT_REACH = 2.5
 
 
@@ -128,7 +129,7 @@ def design_pair(gearset, spec: PairSpec, max_stretch: float | None = None,
 
 
 def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllipse,
-             sizes: dict[str, float], reach: float = REACH) -> ContactStretch:
+             sizes: dict[str, float], reach: float) -> ContactStretch:
     """The anisotropic map for this contact (see
     :class:`~fe_impact.meshing.contactstretch.ContactStretch`).
 

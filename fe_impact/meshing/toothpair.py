@@ -101,7 +101,7 @@ from numpy.typing import NDArray
 
 from fe_impact.errors import MeshError
 from fe_impact.fe.case import Case
-from fe_impact.gears.pairanalysis import PairAnalysis, PairSpec
+from fe_impact.gears.pairanalysis import PairAnalysis, PairSpec, analyse_stage_pair
 from fe_impact.gears.tca import ContactEllipse, ContactPoint
 from fe_impact.meshing.paircase import case_header, impact_case
 from fe_impact.meshing.pairgeometry import MM, add_sectors, free_entities, snap_flanks
@@ -519,8 +519,6 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         # a mesh then depends on its own parameters only, not on which case
         # the process happened to build the solids for (measured before: a
         # coarse stage-3 position meshed to 82.5k or 159k DOFs by the order).
-        from fe_impact.gears.pairanalysis import analyse_stage_pair
-
         home = replace(spec, roll_angle_deg=0.0, gap=0.0)
         pair_home, analysis_home = ((pair, analysis) if home == spec
                                     else analyse_stage_pair(gearset, home))

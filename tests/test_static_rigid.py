@@ -70,6 +70,27 @@ def test_load_control_recovers_the_motion(specimen, by_motion):
         assert got.rigid_reactions[0] == pytest.approx(want.rigid_reactions[0], rel=1e-8)
 
 
+def test_the_estimated_error_holds_the_tolerance(specimen, by_motion):
+    # The projection iteration stops when its contraction bounds the error
+    # left (TRUSTED_RATE), not when the last change does. Independent truth:
+    # the same load steps iterated to 1e-12. The tolerance is on the zone's
+    # displacement relative to the contact displacement, so the body's
+    # motion (the contact displacement plus the sphere's bulk compliance)
+    # must agree to 1e-6 of it; a factor 2 covers the two quantities not
+    # being the same norm.
+    case, mesh = specimen
+    loads = tuple(s.rigid_reactions[0] for s in by_motion.steps)
+    runs = {}
+    for tol in (1e-6, 1e-12):
+        analysis = replace(case.analysis, tolerance=tol, max_iterations=60)
+        runs[tol] = StaticSolver(replace(case, analysis=analysis,
+                                         rigid_bodies=(_body(loads=loads),)), mesh).run()
+    for got, full in zip(runs[1e-6].steps, runs[1e-12].steps, strict=True):
+        assert got.iterations < full.iterations
+        assert abs(got.rigid_values[0] - full.rigid_values[0]) <= \
+            2e-6 * abs(full.rigid_values[0])
+
+
 def test_case_file_round_trip(tmp_path, specimen):
     case, _ = specimen
     for body in (_body(values=(1e-6, 2e-6)), _body(loads=(-10.0, -20.0))):

@@ -28,6 +28,7 @@ SI units throughout; roll angles in degrees where named so.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
@@ -142,6 +143,10 @@ class PositionRecord:
 
 
 # -- planning ----------------------------------------------------------------------------
+# The gear set is frozen (hashable): the planning, the sweep's cases and the
+# report ask for the same stages' path ends and nominal force again and again
+# (18 path searches of 0.4 s each where 3 are needed, measured).
+@functools.lru_cache(maxsize=64)
 def path_of_contact(gearset, stage: int) -> tuple[float, float]:
     """First and last point of contact of a stage, pinion roll angle in degrees."""
     from fe_impact.gears.report import contact_path_ends
@@ -161,11 +166,14 @@ def path_positions(gearset, stage: int, n: int = DEFAULT_POSITIONS) -> list[floa
     return [float(v) for v in np.linspace(first + inset, last - inset, n)]
 
 
+@functools.lru_cache(maxsize=64)
 def nominal_force(gearset, stage: int) -> float:
-    """Normal force per mesh (N) at the seed presets' largest load torque on the output."""
-    from fe_impact.gears.report import stage_geometry
+    """Normal force per mesh (N) at the seed presets' largest load torque on the output
+    (:func:`~fe_impact.gears.report.stage_geometry`'s, for this stage alone)."""
+    from fe_impact.gears.report import pitch_point, seed_load_torque
 
-    return float(stage_geometry(gearset)[stage - 1]["pitch_point"]["normal_force_N"])
+    return float(pitch_point(gearset, stage, seed_load_torque())[1]["pitch_point"]
+                 ["normal_force_N"])
 
 
 def curve_forces(top: float | None = None) -> tuple[float, ...]:
@@ -401,9 +409,19 @@ def pair_force(record: PositionRecord, approach: float) -> tuple[float, float]:
     ``log delta``), continued beyond the first and last point with the end
     segments' powers.
     """
+    return _power_pieces(_log_curve(record), approach)
+
+
+def _log_curve(record: PositionRecord) -> tuple[np.ndarray, np.ndarray]:
+    """``(log delta, log F)`` of a position's FE points, in increasing approach."""
     order = np.argsort(record.approaches)
-    d = np.log(np.asarray(record.approaches)[order])
-    f = np.log(np.asarray(record.forces)[order])
+    return (np.log(np.asarray(record.approaches)[order]),
+            np.log(np.asarray(record.forces)[order]))
+
+
+def _power_pieces(curve: tuple[np.ndarray, np.ndarray], approach: float) -> tuple[float, float]:
+    """:func:`pair_force` on a curve from :func:`_log_curve`."""
+    d, f = curve
     x = math.log(approach)
     j = int(np.clip(np.searchsorted(d, x) - 1, 0, len(d) - 2))
     slope = (f[j + 1] - f[j]) / (d[j + 1] - d[j])
@@ -436,6 +454,7 @@ def mesh_cycle(records: list[PositionRecord], pitch_deg: float, torque: float,
                                "separates the pairs, has no loaded transmission error)")
     recs = sorted(records, key=lambda r: r.roll_angle_deg)
     roll = np.array([r.roll_angle_deg for r in recs])
+    curves = [_log_curve(r) for r in recs]   # read once: the root search asks ~1e4 times
     lo, hi = (roll[0], roll[-1]) if path is None else sorted(path)
     if hi - lo < pitch_deg:
         raise CalibrationError(
@@ -447,7 +466,7 @@ def mesh_cycle(records: list[PositionRecord], pitch_deg: float, torque: float,
         """Force, stiffness and lever of the pair at roll ``t`` closed by ``d``."""
         j = int(np.clip(np.searchsorted(roll, t) - 1, 0, len(roll) - 2))
         w = min(max((t - roll[j]) / (roll[j + 1] - roll[j]), 0.0), 1.0)
-        (f0, k0), (f1, k1) = pair_force(recs[j], d), pair_force(recs[j + 1], d)
+        (f0, k0), (f1, k1) = _power_pieces(curves[j], d), _power_pieces(curves[j + 1], d)
         f = math.exp((1.0 - w) * math.log(f0) + w * math.log(f1))
         k = f * ((1.0 - w) * k0 / f0 + w * k1 / f1)
         return f, k, (1.0 - w) * recs[j].lever + w * recs[j + 1].lever

@@ -46,6 +46,7 @@ __all__ = [
     "ROLL_TOLERANCE",
     "TOP_LAND_MIN",
     "contact_path_ends",
+    "pitch_point",
     "radius_at_top_land",
     "seed_load_torque",
     "stage_geometry",
@@ -243,7 +244,9 @@ def seed_load_torque() -> float:
                for seg in case.schedule.segments)
 
 
-def _pitch_point(gearset: GearSet, number: int, torque: float) -> tuple[GearPair, dict]:
+def pitch_point(gearset: GearSet, number: int, torque: float) -> tuple[GearPair, dict]:
+    """The stage's pair and its pitch-point rows of :func:`stage_geometry` (``pitch_point``,
+    ``masses``, and ``_contact``: the contact there) under ``torque`` on the output."""
     pair = GearPair.from_gearset(gearset, number)
     contact = pair.contact(0.0)
     if not contact.on_flank:
@@ -307,7 +310,7 @@ def stage_geometry(gearset: GearSet, torque: float | None = None) -> list[dict]:
         raise GeometryError(f"load torque = {torque!r} N m; must be a number > 0")
     rows = []
     for index, stage in enumerate(gearset.stages):
-        pair, pitch = _pitch_point(gearset, index + 1, torque)
+        pair, pitch = pitch_point(gearset, index + 1, torque)
         rows.append({
             "stage": index + 1,
             "teeth": stage.teeth,

@@ -96,6 +96,25 @@ def test_zone_solver_solves_and_condenses_from_one_factorisation(schur_solves):
     solver.release()
 
 
+def test_condensed_response_is_the_solve_of_a_force_on_the_zone():
+    # A force on the condensed coordinates, R_c f: K^-1 R_c f from its condensed
+    # part S^-1 f and one backward substitution equals numpy's solve; it counts
+    # as a solve, and once the plain factorisation has taken over it is refused.
+    K = _spd()
+    R, dofs = _frames()
+    solver = ZoneSolver(K, 2)
+    S = solver.condense(R, dofs)
+    f = np.random.default_rng(3).standard_normal(len(dofs))
+    expected = np.linalg.solve(K.toarray(), R[:, dofs] @ f)
+    x = solver.condensed_response(np.linalg.solve(S, f))
+    np.testing.assert_allclose(x, expected, rtol=0, atol=TOL * np.abs(expected).max())
+    assert solver.solves == 1
+    solver.solve(np.ones(K.shape[0]))
+    solver.solve(np.ones(K.shape[0]))      # the third solve: the plain factorisation
+    with pytest.raises(RuntimeError, match="kept Schur factorisation"):
+        solver.condensed_response(np.zeros(len(dofs)))
+
+
 def test_zone_solver_without_zone_and_errors():
     K = _spd()
     solver = ZoneSolver(K)

@@ -133,6 +133,7 @@ class ZoneSolver:
             S, solver.schur = solver.schur, None
         if keep:
             self._R, self._RT, self._rotated = R, R.T.tocsr(), solver
+            self._condensed = np.asarray(dofs)
         elif solver is not None:
             solver.release()
         return S
@@ -153,6 +154,21 @@ class ZoneSolver:
     def backward(self, y: np.ndarray) -> np.ndarray:
         """``x`` from :meth:`forward`'s ``y`` holding the condensed solution in place."""
         return self._R @ self._rotated.backward(y)
+
+    def condensed_response(self, x_c: np.ndarray) -> np.ndarray:
+        """``x`` solving ``K_eff x = b`` for a ``b`` on the condensed coordinates alone,
+        given their part of the solution ``x_c`` (``S^-1`` of ``b``'s condensed entries).
+
+        Such a ``b`` passes the forward substitution unchanged, so only the
+        backward one is made: half a solve (counted as one). Needs
+        :attr:`partial`.
+        """
+        if not self.partial:
+            raise RuntimeError("condensed_response needs the kept Schur factorisation")
+        self.solves += 1
+        y = np.zeros(self.n)
+        y[self._condensed] = x_c
+        return self.backward(y)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """Solve ``K_eff x = b`` for one (n,) or several (n, k) right-hand sides."""

@@ -272,7 +272,7 @@ class StaticSolver:
                                         reaction if load is not None else None, q)
             total += n_as
             base = u0 if load is None else u0 + q * self.w
-            z_new = base + self.solver.solve(c.BT @ lam)
+            z_new = base + self._contact_response(rows.B, lam)
             zone = c.T_zone
             change = float(np.abs(zone @ (z_new - z)).max(initial=0.0))
             scale = float(np.abs(zone @ (z_new - base)).max(initial=0.0))
@@ -309,6 +309,18 @@ class StaticSolver:
             f"zone's displacement {change:.3g} m, {change / max(scale, 1e-30):.2g} of the "
             f"contact displacement {scale:.3g} m; tolerance {a.tolerance:g}): "
             f"{_diagnosis(history, scale, face_size(self.mesh, self.pairs[0].slave))}")
+
+    def _contact_response(self, Bc: sp.csr_matrix, lam: np.ndarray) -> np.ndarray:
+        """``K^-1 B^T lambda``, the displacement of the contact forces ``lambda``.
+
+        The forces act on the zone's condensed coordinates alone (``B^T lambda
+        = R_c B_c^T lambda``), where the solution is ``G B_c^T lambda``: while
+        the kept Schur factorisation serves, one backward substitution makes
+        the rest (0.072 -> 0.04 s a projection on a 40k-DOF coarse pair).
+        """
+        if not self.solver.partial or self.G.size == 0:
+            return self.solver.solve(self.contact.BT @ lam)
+        return self.solver.condensed_response(self.G @ (Bc.T @ lam))
 
     def _forces(self, rows: _RowCompliance, h, hw, eps_w, valid, seed, load, reaction, q):
         """Contact forces (and the load-controlled coordinate) of one projection.

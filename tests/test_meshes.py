@@ -48,3 +48,29 @@ def test_spring_column_has_its_corners_only():
     assert len(column) == 8
     on_faces = np.union1d(mesh.surface_points("column_top"), mesh.surface_points("column_bottom"))
     assert np.array_equal(column, on_faces)
+
+
+def test_set_nodes_moves_nodes_as_gmsh_set_node_does():
+    # session.set_nodes calls gmsh's C entry point row by row; the nodes must
+    # read back exactly where they were put, and a bad tag is a MeshError.
+    import gmsh
+    import numpy as np
+
+    from fe_impact.errors import MeshError
+    from fe_impact.meshing.session import gmsh_session, set_nodes
+
+    with gmsh_session("set_nodes") as model:
+        model.occ.addBox(0, 0, 0, 1, 1, 1)
+        model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        model.mesh.generate(3)
+        tags, coords, _ = model.mesh.getNodes()
+        moved = coords.reshape(-1, 3) * 2.0 + np.array([0.1, -0.2, 0.3])
+        set_nodes(tags, moved)
+        tags2, coords2, _ = model.mesh.getNodes()
+        order = np.argsort(tags2)
+        np.testing.assert_array_equal(tags2[order], np.sort(tags))
+        np.testing.assert_array_equal(coords2.reshape(-1, 3)[order],
+                                      moved[np.argsort(tags)])
+        with pytest.raises(MeshError, match="could not move node"):
+            set_nodes([int(tags.max()) + 1000], [[0.0, 0.0, 0.0]])

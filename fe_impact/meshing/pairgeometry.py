@@ -26,6 +26,7 @@ from fe_impact.errors import MeshError
 from fe_impact.gears.facegear import FaceGearTooth
 from fe_impact.gears.pairanalysis import PairAnalysis
 from fe_impact.gears.tca import GearPair
+from fe_impact.meshing.session import set_nodes
 
 __all__ = ["MM", "add_sectors", "snap_flanks"]
 
@@ -417,8 +418,7 @@ def snap_flanks(model, pair: GearPair, analysis: PairAnalysis,
         x = np.concatenate(coords)[first] / MM
         exact = snap(pair, analysis, x)
         moves.append(float(np.linalg.norm(exact - x, axis=1).max()))
-        for tag, coord in zip(nodes, exact * MM, strict=True):
-            model.mesh.setNode(int(tag), coord.tolist(), [])
+        set_nodes(nodes, exact * MM)
     return np.array(moves)
 
 

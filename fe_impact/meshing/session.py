@@ -61,3 +61,33 @@ def write_msh(path: str | Path) -> Path:
         if os.path.exists(tmp):
             os.remove(tmp)
     return path
+
+
+def set_nodes(tags, coords) -> None:
+    """Move the nodes ``tags`` to ``coords`` (shape (n, 3), model units), no parametric
+    coordinates.
+
+    gmsh's Python ``setNode`` converts its two lists for every node, about 15 us
+    a call (0.26 s a coarse tooth-pair mesh); this calls the same C API entry
+    (``gmshModelMeshSetNode``) on the rows of one array.
+    """
+    import ctypes
+
+    import gmsh
+    import numpy as np
+
+    x = np.ascontiguousarray(coords, dtype=np.float64).reshape(-1, 3)
+    tags = np.asarray(tags, dtype=np.uint64).ravel()
+    if len(tags) != len(x):
+        raise ValueError(f"{len(tags)} node tags for {len(x)} coordinate rows")
+    fn = gmsh.lib.gmshModelMeshSetNode
+    ierr = ctypes.c_int()
+    three, none = ctypes.c_size_t(3), ctypes.c_size_t(0)
+    base, stride = x.ctypes.data, x.strides[0]
+    for i, tag in enumerate(tags.tolist()):
+        fn(ctypes.c_size_t(tag), ctypes.c_void_p(base + i * stride), three, None, none,
+           ctypes.byref(ierr))
+        if ierr.value != 0:
+            from fe_impact.errors import MeshError
+
+            raise MeshError(f"gmsh could not move node {tag}: {gmsh.logger.getLastError()}")

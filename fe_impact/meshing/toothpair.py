@@ -105,6 +105,7 @@ from fe_impact.gears.pairanalysis import PairAnalysis, PairSpec, analyse_stage_p
 from fe_impact.gears.tca import ContactEllipse, ContactPoint
 from fe_impact.meshing.paircase import case_header, impact_case
 from fe_impact.meshing.pairgeometry import MM, add_sectors, free_entities, snap_flanks
+from fe_impact.meshing.session import set_nodes
 from fe_impact.meshing.sizing import (
     LEVELS,
     REACH,
@@ -223,8 +224,7 @@ def _map_nodes(model, mapping) -> tuple[NDArray, NDArray]:
     """Apply ``mapping`` (metres -> metres) to every node; returns tags and new mm coordinates."""
     tags, coords, _ = model.mesh.getNodes()
     x = mapping(coords.reshape(-1, 3) / MM) * MM
-    for tag, coord in zip(tags, x, strict=True):
-        model.mesh.setNode(int(tag), coord.tolist(), [])
+    set_nodes(tags, x)
     return tags, x
 
 
@@ -551,8 +551,9 @@ def _turned_solids(model, design: PairDesign, solids: _Solids
                    ) -> tuple[dict[str, int], dict[str, list[int]]]:
     """Import ``solids`` and turn each sector into the place ``design`` says."""
     pair, analysis, occ = design.pair, design.analysis, model.occ
-    occ.importShapes(str(solids.brep))
-    occ.synchronize()
+    # OCC's own entities serve until the turns are made: one synchronisation
+    # (0.13 s on a coarse pair) instead of one before and one after them
+    tags = [t for d, t in occ.importShapes(str(solids.brep)) if d == 3]
     turns = {
         "pinion": _affine(pair.pinion_rotation(analysis.pinion_roll_placed)
                           @ pair.pinion_rotation(solids.pinion_roll).T,
@@ -560,7 +561,6 @@ def _turned_solids(model, design: PairDesign, solids: _Solids
         "face_gear": _affine(pair.face_rotation(analysis.contact.face_angle)
                              @ pair.face_rotation(solids.face_angle).T, np.zeros(3)),
     }
-    tags = [t for _, t in model.getEntities(3)]
     centres = np.array([occ.getCenterOfMass(3, t) for t in tags])
     volumes = {k: tags[_nearest(centres, c, k)] for k, c in solids.volumes.items()}
     for name, tag in volumes.items():

@@ -86,3 +86,17 @@ def test_local_workers_compile_into_caches_of_their_own(tmp_path):
         cluster.close()
     assert sorted(dirs.values()) == [str(tmp_path / "numba" / "w0"),
                                      str(tmp_path / "numba" / "w1")]
+
+
+def test_runs_at_the_same_time_take_numba_slots_of_their_own(tmp_path, monkeypatch):
+    # The kernels live in the user's cache, one slot per running calibration: a
+    # second run while the first holds slot0 gets slot1, a later run slot0 again.
+    from fe_impact.calibration.sweep import numba_folder
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "user"))
+    root = tmp_path / "user" / "fe-impact" / "numba"
+    with numba_folder(tmp_path / "cache") as first:
+        with numba_folder(tmp_path / "cache") as second:
+            assert (first, second) == (root / "slot0", root / "slot1")
+    with numba_folder(tmp_path / "cache") as later:
+        assert later == root / "slot0"

@@ -178,3 +178,25 @@ def test_solids_that_cannot_be_matched_are_built_again(tmp_path, monkeypatch, ca
         pair = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED, tmp_path / "again")
     assert any("building the sectors again" in r.getMessage() for r in caplog.records)
     assert pair.mesh_path.is_file() and np.isfinite(pair.stats.min_sicn)
+
+
+@pytest.mark.slow
+def test_solids_shared_through_a_folder_mesh_the_same(tmp_path, monkeypatch):
+    # A sweep's workers share their solids through the cache (share_solids): a
+    # process that finds a stage's solids there does not build them (building is
+    # refused here) and its mesh is the very mesh of the process that built them.
+    monkeypatch.setattr(toothpair, "_SOLIDS", {})
+    monkeypatch.setattr(toothpair, "_SHARED", [])
+    toothpair.share_solids(tmp_path / "solids")
+    gs = default_gearset()
+    built = toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "built")
+    assert len(list((tmp_path / "solids").glob("*.brep"))) == 1
+    toothpair._SOLIDS.clear()          # another process: nothing in memory
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the shared solids were built again")
+
+    monkeypatch.setattr(toothpair, "add_sectors", refuse)
+    shared = toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "shared")
+    assert shared.mesh_path.read_bytes() == built.mesh_path.read_bytes()
+    toothpair.share_solids(None)

@@ -441,6 +441,57 @@ class _Solids:
 #: its gear's axis) and in the mesh.
 _SOLIDS: dict[str, _Solids] = {}
 _SOLIDS_DIR: list[Path] = []
+#: A folder the processes of a sweep share their solids through (see
+#: :func:`share_solids`); empty: each process builds its own.
+_SHARED: list[Path] = []
+
+
+def share_solids(folder: str | Path | None) -> None:
+    """Share the solids through ``folder`` (None: stop sharing).
+
+    A process that needs a stage's solids takes them from there if another
+    one has built them (``<key>.brep`` and ``<key>.json``, each written
+    whole), and otherwise builds and leaves them there. Building them costs
+    about 4.5 s a stage (two lofts and a cut); a sweep on two workers built
+    each stage twice.
+    """
+    _SHARED.clear()
+    if folder is not None:
+        _SHARED.append(Path(folder))
+
+
+def _shared_solids(key: str) -> _Solids | None:
+    """The solids of ``key`` in the shared folder, if complete there."""
+    if not _SHARED:
+        return None
+    meta, brep = _SHARED[0] / f"{key}.json", _SHARED[0] / f"{key}.brep"
+    try:
+        data = json.loads(meta.read_text())
+    except (OSError, ValueError):
+        return None
+    if not brep.is_file():
+        return None
+    return _Solids(brep, float(data["pinion_roll"]), float(data["face_angle"]),
+                   {k: np.array(v) for k, v in data["volumes"].items()},
+                   {k: [np.array(c) for c in cs] for k, cs in data["faces"].items()})
+
+
+def _leave_shared(key: str, solids: _Solids) -> None:
+    """Copy freshly built solids into the shared folder (the BRep first, then the
+    metadata that makes the entry valid)."""
+    if not _SHARED:
+        return
+    import shutil
+
+    from fe_impact.atomic import atomic_path, write_json
+
+    folder = _SHARED[0]
+    with atomic_path(folder / f"{key}.brep") as tmp:
+        shutil.copyfile(solids.brep, tmp)
+    write_json(folder / f"{key}.json", {
+        "pinion_roll": solids.pinion_roll, "face_angle": solids.face_angle,
+        "volumes": {k: v.tolist() for k, v in solids.volumes.items()},
+        "faces": {k: [c.tolist() for c in cs] for k, cs in solids.faces.items()}})
 
 
 def _solids_dir() -> Path:
@@ -505,12 +556,19 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
     """
     import gmsh
 
-    blob = json.dumps({"gearset": asdict(gearset),
+    from fe_impact import __version__
+
+    # the version too: solids shared on disk (share_solids) outlive the process
+    blob = json.dumps({"gearset": asdict(gearset), "version": __version__,
                        **{k: getattr(spec, k) for k in _SOLID_FIELDS}},
                       sort_keys=True, default=repr)
     key = hashlib.sha256(blob.encode()).hexdigest()[:16]
     pair, analysis, occ = design.pair, design.analysis, model.occ
     solids = _SOLIDS.get(key)
+    if solids is None or not solids.brep.is_file():
+        solids = _shared_solids(key)
+        if solids is not None:
+            _SOLIDS[key] = solids
     if solids is None or not solids.brep.is_file():
         # Built from the sections, written without the lofts' leftover points and
         # curves (hidden: removing 20k entities from OCC costs seconds), then
@@ -535,6 +593,7 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
             {k: np.array(occ.getCenterOfMass(3, t)) for k, t in volumes.items()},
             {k: [np.array(occ.getCenterOfMass(2, f)) for f in faces]
              for k, faces in groups.items()})
+        _leave_shared(key, solids)
         name = model.getCurrent()
         gmsh.clear()
         model.add(name)

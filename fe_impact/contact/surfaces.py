@@ -234,7 +234,8 @@ class Projection:
 
 
 def project(points: np.ndarray, master: ContactSurface, x: np.ndarray,
-            faces: np.ndarray, k: int = 8, iterations: int = 6) -> Projection:
+            faces: np.ndarray, k: int = 8, iterations: int = 6,
+            hint: Projection | None = None) -> Projection:
     """Project points on the master faces ``faces`` of the configuration ``x``.
 
     The ``k`` faces with the nearest centroids are tried, each by
@@ -242,7 +243,29 @@ def project(points: np.ndarray, master: ContactSurface, x: np.ndarray,
     centroid; the closest projection falling inside a face wins. Points with
     no such projection (beyond the master's edge) are marked invalid. The
     loop over points and faces is compiled (:func:`_project_kernel`).
+
+    ``hint``, the projection of the same points on the same faces in a
+    nearby configuration, is tried first: a point whose Gauss-Newton
+    iteration from its previous face and coordinates ends inside that face
+    by :data:`_HINT_MARGIN` keeps it (:func:`_project_hinted`); the others
+    are searched as above. Within a gap much smaller than the surface's radii
+    of curvature a point's closest-point projection is unique, so a
+    projection well inside a face is the one the search would find.
     """
+    if hint is not None and len(hint.face) == len(points):
+        kept, xi, eta, point, nrm, gap = _project_hinted(
+            np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(x, dtype=float),
+            np.ascontiguousarray(master.faces, dtype=np.int64),
+            np.where(hint.valid, hint.face, -1).astype(np.int64), hint.xi, hint.eta,
+            iterations, _HINT_MARGIN)
+        rest = np.flatnonzero(~kept)
+        valid, face = kept.copy(), np.where(kept, hint.face, 0)
+        if len(rest):
+            other = project(points[rest], master, x, faces, k, iterations)
+            valid[rest], face[rest] = other.valid, other.face
+            xi[rest], eta[rest], point[rest] = other.xi, other.eta, other.point
+            nrm[rest], gap[rest] = other.normal, other.gap
+        return Projection(valid, face, xi, eta, point, nrm, gap)
     k = int(min(k, len(faces)))
     nodes = x[master.faces[faces]]
     cent = nodes[:, :3].mean(axis=1)
@@ -369,6 +392,89 @@ def _project_kernel(points, x, mfaces, fidx, cdist, reach, iterations, tol):
     return best, xi_o, eta_o, pt_o, nrm_o, gap_o
 
 
+#: A hinted projection is kept if it ends this far inside its face (in each
+#: reference coordinate): between the iterations of a load step the flanks move
+#: by about a thousandth of a face, so the points that may change face are
+#: searched again. On three coarse tooth-pair positions 75% of the points kept
+#: theirs, and the load steps took 24% less time (stage 2's nine positions:
+#: 22.5 -> 17.2 s). The kept projections are the searched ones (same face, gaps
+#: within 1e-17 m), but for 59 of 976k points that the search missed: on
+#: faces stretched 8 to 1 the nearest centroids can miss the face that holds
+#: the projection, which the hint keeps (approach at 1 kN changed by 1e-5).
+_HINT_MARGIN = 0.02
+
+
+@njit(cache=True)
+def _project_hinted(points, x, mfaces, face0, xi0, eta0, iterations, margin):
+    """Projection of each point on its hinted face ``face0`` (-1: none) from the
+    hinted coordinates; ``kept`` where it ends inside by ``margin``. The other
+    outputs as :func:`_project_kernel`'s, for the kept points."""
+    n = points.shape[0]
+    nn = mfaces.shape[1]
+    kept = np.zeros(n, dtype=np.bool_)
+    xi_o = np.zeros(n)
+    eta_o = np.zeros(n)
+    pt_o = np.zeros((n, 3))
+    nrm_o = np.zeros((n, 3))
+    gap_o = np.full(n, np.inf)
+    N = np.empty(nn)
+    dxi = np.empty(nn)
+    deta = np.empty(nn)
+    pos = np.empty(3)
+    t1 = np.empty(3)
+    t2 = np.empty(3)
+    for i in range(n):
+        f = face0[i]
+        if f < 0:
+            continue
+        xi, eta = xi0[i], eta0[i]
+        last = False
+        step = np.inf
+        for it in range(iterations + 1):
+            _shape(xi, eta, nn, N, dxi, deta)
+            for d in range(3):
+                pos[d] = 0.0
+                t1[d] = 0.0
+                t2[d] = 0.0
+                for a in range(nn):
+                    xa = x[mfaces[f, a], d]
+                    pos[d] += N[a] * xa
+                    t1[d] += dxi[a] * xa
+                    t2[d] += deta[a] * xa
+            if it == iterations or last:
+                break
+            a11 = t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]
+            a12 = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]
+            a22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2]
+            b1 = 0.0
+            b2 = 0.0
+            for d in range(3):
+                r = points[i, d] - pos[d]
+                b1 += t1[d] * r
+                b2 += t2[d] * r
+            det = a11 * a22 - a12 * a12
+            dxi_, deta_ = (a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det
+            xi, eta = xi + dxi_, eta + deta_
+            step = abs(dxi_) + abs(deta_)
+            last = step < 1e-14
+        # converged: the last step at the round-off of coordinates in metres
+        if not step < 1e-9 or xi < margin or eta < margin or xi + eta > 1.0 - margin:
+            continue
+        kept[i] = True
+        xi_o[i], eta_o[i] = xi, eta
+        nx = t1[1] * t2[2] - t1[2] * t2[1]
+        ny = t1[2] * t2[0] - t1[0] * t2[2]
+        nz = t1[0] * t2[1] - t1[1] * t2[0]
+        s = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
+        nrm_o[i, 0], nrm_o[i, 1], nrm_o[i, 2] = nx * s, ny * s, nz * s
+        g = 0.0
+        for d in range(3):
+            pt_o[i, d] = pos[d]
+            g += nrm_o[i, d] * (points[i, d] - pos[d])
+        gap_o[i] = g
+    return kept, xi_o, eta_o, pt_o, nrm_o, gap_o
+
+
 @dataclass(frozen=True, eq=False)
 class GapState:
     """Weighted gaps at the slave nodes and their linearisation ``dg = B du``.
@@ -419,6 +525,7 @@ class ContactPair:
     penalty: float
     multiplier: str = "linear"
     _layouts: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    _hints: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def _layout(self, mesh: FEMesh, slave_faces: np.ndarray) -> _SlaveLayout:
         """The layout of ``slave_faces``, computed once per subset (the solvers
@@ -458,7 +565,14 @@ class ContactPair:
         x = mesh.points + u
         lay = self._layout(mesh, slave_faces)
         pts = np.einsum("...a,...ai->...i", lay.N, x[lay.faces[:, None, :]]).reshape(-1, 3)
-        proj = project(pts, self.master, x, master_faces)
+        # the last projection of these points on these faces starts this one
+        key = (id(mesh), np.asarray(slave_faces).tobytes(), np.asarray(master_faces).tobytes())
+        kept = self._hints.get(key)
+        hint = kept[1] if kept is not None and kept[0] is mesh else None
+        proj = project(pts, self.master, x, master_faces, hint=hint)
+        while len(self._hints) >= _LAYOUTS_KEPT and key not in self._hints:
+            self._hints.pop(next(iter(self._hints)))
+        self._hints[key] = (mesh, proj)
         Nm, _ = tri_shape(proj.xi, proj.eta, self.master.nodes_per_face)
         Bq = _gap_jacobian(mesh, lay.snodes, lay.Ns, self.master.faces[proj.face], Nm,
                            proj.normal, proj.valid)

@@ -200,3 +200,27 @@ def test_solids_shared_through_a_folder_mesh_the_same(tmp_path, monkeypatch):
     shared = toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "shared")
     assert shared.mesh_path.read_bytes() == built.mesh_path.read_bytes()
     toothpair.share_solids(None)
+
+
+@pytest.mark.slow
+def test_a_retry_from_the_kept_surface_mesh_is_the_mesh_built_afresh(tmp_path, monkeypatch):
+    # A retry starts from the first attempt's physical surface mesh (it does not
+    # depend on the stretch cap): its mesh must be byte for byte the one of a
+    # build whose first attempt made no surface mesh, and the kept file is gone.
+    real = toothpair._mesh
+    gs = default_gearset()
+
+    def after_meshing(model, design, *args, **kwargs):   # meshes, then fails once
+        stats = real(model, design, *args, **kwargs)
+        if design.sizes["factor"] == toothpair.LEVELS["coarse"].max_stretch:
+            raise toothpair._InvertedMesh("inverted (test)")
+        return stats
+
+    monkeypatch.setattr(toothpair, "_mesh", after_meshing)
+    kept = toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "kept")
+    assert not list((tmp_path / "kept").rglob(".*physical*"))
+    monkeypatch.setattr(toothpair, "_mesh", real)
+    _failing_mesh(monkeypatch, failures=1)               # fails before meshing
+    afresh = toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "afresh")
+    assert kept.stats.element_sizes["factor"] == afresh.stats.element_sizes["factor"] == 5.0
+    assert kept.mesh_path.read_bytes() == afresh.mesh_path.read_bytes()

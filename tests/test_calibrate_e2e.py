@@ -95,6 +95,12 @@ def test_calibration_outputs(calibrated):
     for name in ("calibration.csv", "report.md", "force_time.png", "parameters.png"):
         assert (out / "run" / name).stat().st_size > 100, name
     assert (out / "run" / "cases" / case["id"] / "fe" / "impact.pvd").exists()
+    # the worker rendered the case's row of stress.png; the report stacked it as is
+    from PIL import Image
+
+    row = np.asarray(Image.open(out / "run" / "cases" / case["id"] / "contact.png"))
+    stress = np.asarray(Image.open(out / "run" / "stress.png"))
+    np.testing.assert_array_equal(stress[:row.shape[0], :row.shape[1]], row)
 
 
 def _quasi_static_tooth_pair(case_file, max_approach):

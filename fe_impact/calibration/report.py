@@ -101,15 +101,18 @@ def write_calibration_report(out: Path, calibration: Calibration) -> Path:
                 _fmt(chis[m].chi if m in chis else None, ".4g") for m in models) + " |")
     lines += ["", "## Time per case (s)", "",
               "FE = set-up (assembly, factorisation, contact condensation) + time steps + "
-              "output (stress fields and VTU frames).", "",
-              "| case | DOFs | steps | mesh | FE set-up | FE steps | FE output | fit | total |",
-              "|---|---|---|---|---|---|---|---|---|"]
+              "output (stress fields and VTU frames); picture: the case's row of "
+              f"stress.png (cases/<id>/{CONTACT_PICTURE}).", "",
+              "| case | DOFs | steps | mesh | FE set-up | FE steps | FE output | fit | "
+              "picture | total |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for c in cases:
         t = c.timings_s or {}
         lines.append(f"| {c.id} | {c.model.n_dofs} | {c.model.steps} | "
                      f"{_fmt(t.get('mesh'), '.1f')} | {_fmt(t.get('fe_setup'), '.1f')} | "
                      f"{_fmt(t.get('fe_steps'), '.1f')} | {_fmt(t.get('fe_output'), '.1f')} | "
-                     f"{_fmt(t.get('fit'), '.1f')} | {_fmt(t.get('total'), '.1f')} |")
+                     f"{_fmt(t.get('fit'), '.1f')} | {_fmt(t.get('picture'), '.1f')} | "
+                     f"{_fmt(t.get('total'), '.1f')} |")
     if cases:
         total = sum((c.timings_s or {}).get("total", 0.0) for c in cases)
         lines += ["", f"Sum over cases {total:.0f} s; wall time of this run "
@@ -542,6 +545,46 @@ def _peak_frame(out: Path, case: CalibrationRecord,
             float(np.interp(times[k], t, f)))
 
 
+#: Each impact's row of the stress picture, rendered by the worker that ran
+#: the case (:func:`write_contact_picture`) so the report only stacks them.
+CONTACT_PICTURE = "contact.png"
+
+
+def _contact_row(out: Path, c: CalibrationRecord) -> np.ndarray | None:
+    """One impact's row of the stress picture (RGB), or None (warned) without frames."""
+    import pyvista as pv
+
+    s = _history(out, c)
+    if s is None or c.fe is None:
+        return None
+    try:
+        found = _peak_frame(out, c, s)
+        if found is None:
+            return None
+        frame, t, force = found
+        grid = pv.read(frame)
+        model = s.get("model") or {}
+        w = _contact_window(grid, model.get("contact_normal"), model.get("contact_point"))
+    except (OSError, KeyError, ValueError, CalibrationError) as exc:
+        logger.warning("stress picture of %s skipped: %s", c.id, exc)
+        return None
+    return _render_contact(grid, w, _titles(c, s, w, t, force))[0]
+
+
+def write_contact_picture(out: Path, c: CalibrationRecord) -> Path | None:
+    """``cases/<id>/contact.png``: the impact's contact at the frame of peak force
+    (the row :func:`_plot_stress` shows for it); None if it has no frames."""
+    from PIL import Image
+
+    row = _contact_row(Path(out), c)
+    if row is None:
+        return None
+    path = Path(out) / "cases" / c.id / CONTACT_PICTURE
+    with atomic_path(path) as tmp:
+        Image.fromarray(row).save(tmp, format="png")
+    return path
+
+
 def _plot_stress(out: Path, cases: tuple[CalibrationRecord, ...], path: Path) -> bool:
     """von Mises at the contact of each impact, at the frame of peak contact force.
 
@@ -549,28 +592,26 @@ def _plot_stress(out: Path, cases: tuple[CalibrationRecord, ...], path: Path) ->
     flank seen along the contact normal in a window around the footprint, the
     colour scale from 0 to the _STRESS_PERCENTILE percentile of the cells in
     that window; the contact pressure there; the section across the footprint.
-    A case whose frames are missing or unreadable is left out with a warning.
+    A row the case's worker rendered (:data:`CONTACT_PICTURE`, not older than
+    the FE results it shows) is read back; the others are rendered here. A
+    case whose frames are missing or unreadable is left out with a warning.
     """
-    import pyvista as pv
     from PIL import Image
 
     rows = []
     for c in sorted(cases, key=lambda c: (c.stage, c.kind, c.impact_speed)):
-        s = _history(out, c)
-        if s is None or c.fe is None:
-            continue
-        try:
-            found = _peak_frame(out, c, s)
-            if found is None:
-                continue
-            frame, t, force = found
-            grid = pv.read(frame)
-            model = s.get("model") or {}
-            w = _contact_window(grid, model.get("contact_normal"), model.get("contact_point"))
-        except (OSError, KeyError, ValueError, CalibrationError) as exc:
-            logger.warning("stress picture of %s skipped: %s", c.id, exc)
-            continue
-        rows.append(_render_contact(grid, w, _titles(c, s, w, t, force))[0])
+        folder = out / "cases" / c.id
+        png, fe = folder / CONTACT_PICTURE, folder / "fe" / "summary.json"
+        row = None
+        if png.is_file() and fe.is_file() and png.stat().st_mtime >= fe.stat().st_mtime:
+            try:
+                row = np.asarray(Image.open(png).convert("RGB"))
+            except OSError as exc:
+                logger.info("contact picture of %s rendered again: %s", c.id, exc)
+        if row is None:
+            row = _contact_row(out, c)
+        if row is not None:
+            rows.append(row)
     if not rows:
         return False
     width = max(r.shape[1] for r in rows)

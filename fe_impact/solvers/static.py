@@ -83,7 +83,7 @@ class StepResult:
     reaction_force: list[float]
     u: np.ndarray = field(repr=False)          # (n_points, 3)
     pressure: np.ndarray = field(repr=False)   # (n_points,)
-    von_mises: np.ndarray = field(repr=False)  # (n_elements,)
+    von_mises: np.ndarray | None = field(repr=False)  # (n_elements,); None: not asked
     #: Each rigid body's coordinate (m or rad) and the force or torque along
     #: it (N or N m), in the case's order.
     rigid_values: list[float] = field(default_factory=list)
@@ -125,10 +125,16 @@ class _Equilibrium:
 
 
 class StaticSolver:
-    """Set up once per case; :meth:`run` solves the load steps."""
+    """Set up once per case; :meth:`run` solves the load steps.
 
-    def __init__(self, case: Case, mesh: FEMesh) -> None:
+    ``stress=False`` leaves each step's von Mises field out (None): a caller
+    that reads only forces, displacements and pressures saves its evaluation
+    (56 ms a step on a 40k-DOF coarse tooth pair).
+    """
+
+    def __init__(self, case: Case, mesh: FEMesh, stress: bool = True) -> None:
         self.case = case
+        self.stress = stress
         self.timings: dict[str, float] = {"condensation": 0.0}
         t = time.perf_counter()
         self.mesh = mesh
@@ -513,7 +519,8 @@ class StaticSolver:
             value = float(coords[0]) if len(coords) else 0.0
         return StepResult(value, forces, areas, pmax, pen, eq.iterations,
                           eq.active_set_iterations, reactions,
-                          self.model.point_values(u), pressure, von_mises(self.model, u),
+                          self.model.point_values(u), pressure,
+                          von_mises(self.model, u) if self.stress else None,
                           [float(v) for v in coords], rigid_reactions)
 
 

@@ -100,3 +100,20 @@ def test_runs_at_the_same_time_take_numba_slots_of_their_own(tmp_path, monkeypat
             assert (first, second) == (root / "slot0", root / "slot1")
     with numba_folder(tmp_path / "cache") as later:
         assert later == root / "slot0"
+
+
+def test_the_sweep_hands_out_impacts_stage_by_stage_then_positions():
+    # Largest first (the slowest impact of each stage, stage 3's bigger face gear
+    # first), the stages in turn so that two workers start on different stages'
+    # solids; the quasi-static positions after every impact.
+    from fe_impact.calibration.meshcycle import PositionCase, plan_positions
+    from fe_impact.calibration.sweep import _sweep_order, plan_cases
+    from fe_impact.gears import default_gearset
+
+    gs = default_gearset()
+    order = _sweep_order(plan_positions(gs, positions=3) + plan_cases(gs))
+    impacts = [c for c in order if not isinstance(c, PositionCase)]
+    assert [c.stage for c in impacts] == [3, 2, 1] * 3
+    assert [c.speed_rpm for c in impacts] == [100.0] * 3 + [300.0] * 3 + [1000.0] * 3
+    assert all(isinstance(c, PositionCase) for c in order[len(impacts):])
+    assert order[len(impacts)].stage == 3

@@ -642,11 +642,7 @@ def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
         cluster, client = _local_cluster(workers or max(1, min(len(todo), _cores())), numba)
     stop_name = f"fe-impact-stop-{uuid.uuid4().hex}"
     try:
-        # Largest models first (impacts before the quasi-static positions, bigger
-        # face gears, then slower impacts: finer meshes), so the last case to
-        # finish is a small one.
-        order = sorted(todo, key=lambda c: (isinstance(c, PositionCase), -c.face_teeth,
-                                            c.impact_speed))
+        order = _sweep_order(todo)
         futures = {client.submit(run_locked_case, c, settings, gearset_text, str(out),
                                  str(cache), stop_name,
                                  key=f"fe-impact-{c.id}-{case_hash(c, settings, gearset_text)}",
@@ -669,6 +665,26 @@ def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
             if cluster is not None:
                 cluster.close()
         _clean_cases(out, todo)
+
+
+def _sweep_order(cases: list) -> list:
+    """The order the cases are handed out in.
+
+    Largest models first (impacts before the quasi-static positions, slower
+    impacts: finer meshes), so the last case to finish is a small one; the
+    impacts' stages taken in turn (the slowest of each stage, then the next
+    speed), so that the workers start on different stages and build different
+    sector solids, which they then share (:func:`~fe_impact.meshing.toothpair.share_solids`):
+    with the stages one after the other both workers built stage 3's at once.
+    """
+    rank: dict[int, list] = {}
+    for c in sorted((c for c in cases if not isinstance(c, PositionCase)),
+                    key=lambda c: c.impact_speed):
+        rank.setdefault(c.stage, []).append(c.id)
+    return sorted(cases, key=lambda c: (
+        isinstance(c, PositionCase),
+        0 if isinstance(c, PositionCase) else rank[c.stage].index(c.id),
+        -c.face_teeth, c.impact_speed))
 
 
 def _collect(futures: dict, sweep: Sweep, failures: list[str], progress,

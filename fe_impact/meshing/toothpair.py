@@ -507,25 +507,23 @@ def _shared_solids(key: str) -> _Solids | None:
 
 
 def _leave_shared(key: str, solids: _Solids) -> None:
-    """Copy freshly built solids into the shared folder (the BRep first, then the
-    metadata that makes the entry valid)."""
+    """Write the metadata that makes freshly built solids, whose BRep is already in
+    the shared folder (:func:`_solids_dir`), a valid entry there."""
     if not _SHARED:
         return
-    import shutil
+    from fe_impact.atomic import write_json
 
-    from fe_impact.atomic import atomic_path, write_json
-
-    folder = _SHARED[0]
-    with atomic_path(folder / f"{key}.brep") as tmp:
-        shutil.copyfile(solids.brep, tmp)
-    write_json(folder / f"{key}.json", {
+    write_json(_SHARED[0] / f"{key}.json", {
         "pinion_roll": solids.pinion_roll, "face_angle": solids.face_angle,
         "volumes": {k: v.tolist() for k, v in solids.volumes.items()},
         "faces": {k: [c.tolist() for c in cs] for k, cs in solids.faces.items()}})
 
 
 def _solids_dir() -> Path:
-    """This process's scratch folder for the solids (removed when it exits)."""
+    """Where built solids are written: the shared folder (:func:`share_solids`), or
+    else this process's scratch folder (removed when it exits)."""
+    if _SHARED:
+        return _SHARED[0]
     if not _SOLIDS_DIR:
         import atexit
         import shutil
@@ -587,6 +585,7 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
     import gmsh
 
     from fe_impact import __version__
+    from fe_impact.atomic import atomic_path
 
     # the version too: solids shared on disk (share_solids) outlive the process
     blob = json.dumps({"gearset": asdict(gearset), "version": __version__,
@@ -615,7 +614,8 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         model.setVisibility(free_entities(model, [(3, t) for t in volumes.values()]), 0)
         gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 1)
         try:
-            gmsh.write(str(brep))
+            with atomic_path(brep) as tmp:   # whole: another process may read it
+                gmsh.write(str(tmp))
         finally:
             gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 0)
         solids = _SOLIDS[key] = _Solids(

@@ -60,8 +60,8 @@ MAX_ZONE_GROWTH = 8
 #: displacement is the last one times a rate (about 1e-3 on a tooth pair:
 #: 2.8e-6, 1.4e-8, 1.2e-11 m). Below this rate the error left after a change
 #: ``c`` is bounded by ``c rate / (1 - rate)``, and that bound, not ``c``
-#: itself, is held to the tolerance: one iteration fewer per load step (22
-#: -> 18 on a coarse tooth pair at six loads), the answer within the same
+#: itself, is held to the tolerance: about one iteration fewer per load step
+#: (22 -> 16 on a coarse tooth pair at six loads), the answer within the same
 #: tolerance of the fully converged one.
 TRUSTED_RATE = 0.1
 #: Iterations of the load-controlled coordinate per projection; the reaction

@@ -310,6 +310,62 @@ def _shape(xi, eta, nn, N, dxi, deta):
 
 
 @njit(cache=True)
+def _gauss_newton(p, x, face, xi, eta, iterations, N, dxi, deta, pos, t1, t2):
+    """Closest point of point ``p`` on the face with nodes ``face`` from ``(xi, eta)``.
+
+    At most ``iterations`` Gauss-Newton steps on the reference coordinates,
+    stopping once a step is below 1e-14; ``pos``, ``t1``, ``t2`` are left
+    holding the point and the tangents at the returned coordinates. Returns
+    ``xi``, ``eta`` and the size of the last step (inf if none was made).
+    """
+    nn = face.shape[0]
+    step = np.inf
+    for it in range(iterations + 1):
+        _shape(xi, eta, nn, N, dxi, deta)
+        for d in range(3):
+            pos[d] = 0.0
+            t1[d] = 0.0
+            t2[d] = 0.0
+            for a in range(nn):
+                xa = x[face[a], d]
+                pos[d] += N[a] * xa
+                t1[d] += dxi[a] * xa
+                t2[d] += deta[a] * xa
+        if it == iterations or step < 1e-14:
+            break
+        a11 = t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]
+        a12 = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]
+        a22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2]
+        b1 = 0.0
+        b2 = 0.0
+        for d in range(3):
+            r = p[d] - pos[d]
+            b1 += t1[d] * r
+            b2 += t2[d] * r
+        det = a11 * a22 - a12 * a12
+        dxi_, deta_ = (a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det
+        xi, eta = xi + dxi_, eta + deta_
+        step = abs(dxi_) + abs(deta_)
+    return xi, eta, step
+
+
+@njit(cache=True)
+def _store(i, p, pos, t1, t2, pt_o, nrm_o, gap_o):
+    """Row ``i`` of the outputs: the projected point, the unit normal ``t1 x t2``
+    and the gap of point ``p``."""
+    nx = t1[1] * t2[2] - t1[2] * t2[1]
+    ny = t1[2] * t2[0] - t1[0] * t2[2]
+    nz = t1[0] * t2[1] - t1[1] * t2[0]
+    s = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
+    nrm_o[i, 0], nrm_o[i, 1], nrm_o[i, 2] = nx * s, ny * s, nz * s
+    g = 0.0
+    for d in range(3):
+        pt_o[i, d] = pos[d]
+        g += nrm_o[i, d] * (p[d] - pos[d])
+    gap_o[i] = g
+
+
+@njit(cache=True)
 def _project_kernel(points, x, mfaces, fidx, cdist, reach, iterations, tol):
     """Closest in-face projection of each point over its candidate faces.
 
@@ -340,35 +396,8 @@ def _project_kernel(points, x, mfaces, fidx, cdist, reach, iterations, tol):
         for c in range(k):
             if cdist[i, c] - reach[i, c] > np.sqrt(dbest):
                 continue
-            f = fidx[i, c]
-            xi, eta = 1.0 / 3.0, 1.0 / 3.0
-            last = False
-            for it in range(iterations + 1):
-                _shape(xi, eta, nn, N, dxi, deta)
-                for d in range(3):
-                    pos[d] = 0.0
-                    t1[d] = 0.0
-                    t2[d] = 0.0
-                    for a in range(nn):
-                        xa = x[mfaces[f, a], d]
-                        pos[d] += N[a] * xa
-                        t1[d] += dxi[a] * xa
-                        t2[d] += deta[a] * xa
-                if it == iterations or last:
-                    break
-                a11 = t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]
-                a12 = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]
-                a22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2]
-                b1 = 0.0
-                b2 = 0.0
-                for d in range(3):
-                    r = points[i, d] - pos[d]
-                    b1 += t1[d] * r
-                    b2 += t2[d] * r
-                det = a11 * a22 - a12 * a12
-                dxi_, deta_ = (a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det
-                xi, eta = xi + dxi_, eta + deta_
-                last = abs(dxi_) + abs(deta_) < 1e-14
+            xi, eta, _ = _gauss_newton(points[i], x, mfaces[fidx[i, c]], 1.0 / 3.0, 1.0 / 3.0,
+                                       iterations, N, dxi, deta, pos, t1, t2)
             if xi < -tol or eta < -tol or xi + eta > 1.0 + tol:
                 continue
             dist = 0.0
@@ -378,16 +407,7 @@ def _project_kernel(points, x, mfaces, fidx, cdist, reach, iterations, tol):
                 dbest = dist
                 best[i] = c
                 xi_b, eta_b = xi, eta
-                nx = t1[1] * t2[2] - t1[2] * t2[1]
-                ny = t1[2] * t2[0] - t1[0] * t2[2]
-                nz = t1[0] * t2[1] - t1[1] * t2[0]
-                s = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
-                nrm_o[i, 0], nrm_o[i, 1], nrm_o[i, 2] = nx * s, ny * s, nz * s
-                g = 0.0
-                for d in range(3):
-                    pt_o[i, d] = pos[d]
-                    g += nrm_o[i, d] * (points[i, d] - pos[d])
-                gap_o[i] = g
+                _store(i, points[i], pos, t1, t2, pt_o, nrm_o, gap_o)
         xi_o[i], eta_o[i] = xi_b, eta_b
     return best, xi_o, eta_o, pt_o, nrm_o, gap_o
 
@@ -427,51 +447,14 @@ def _project_hinted(points, x, mfaces, face0, xi0, eta0, iterations, margin):
         f = face0[i]
         if f < 0:
             continue
-        xi, eta = xi0[i], eta0[i]
-        last = False
-        step = np.inf
-        for it in range(iterations + 1):
-            _shape(xi, eta, nn, N, dxi, deta)
-            for d in range(3):
-                pos[d] = 0.0
-                t1[d] = 0.0
-                t2[d] = 0.0
-                for a in range(nn):
-                    xa = x[mfaces[f, a], d]
-                    pos[d] += N[a] * xa
-                    t1[d] += dxi[a] * xa
-                    t2[d] += deta[a] * xa
-            if it == iterations or last:
-                break
-            a11 = t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]
-            a12 = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]
-            a22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2]
-            b1 = 0.0
-            b2 = 0.0
-            for d in range(3):
-                r = points[i, d] - pos[d]
-                b1 += t1[d] * r
-                b2 += t2[d] * r
-            det = a11 * a22 - a12 * a12
-            dxi_, deta_ = (a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det
-            xi, eta = xi + dxi_, eta + deta_
-            step = abs(dxi_) + abs(deta_)
-            last = step < 1e-14
+        xi, eta, step = _gauss_newton(points[i], x, mfaces[f], xi0[i], eta0[i], iterations,
+                                      N, dxi, deta, pos, t1, t2)
         # converged: the last step at the round-off of coordinates in metres
         if not step < 1e-9 or xi < margin or eta < margin or xi + eta > 1.0 - margin:
             continue
         kept[i] = True
         xi_o[i], eta_o[i] = xi, eta
-        nx = t1[1] * t2[2] - t1[2] * t2[1]
-        ny = t1[2] * t2[0] - t1[0] * t2[2]
-        nz = t1[0] * t2[1] - t1[1] * t2[0]
-        s = 1.0 / np.sqrt(nx * nx + ny * ny + nz * nz)
-        nrm_o[i, 0], nrm_o[i, 1], nrm_o[i, 2] = nx * s, ny * s, nz * s
-        g = 0.0
-        for d in range(3):
-            pt_o[i, d] = pos[d]
-            g += nrm_o[i, d] * (points[i, d] - pos[d])
-        gap_o[i] = g
+        _store(i, points[i], pos, t1, t2, pt_o, nrm_o, gap_o)
     return kept, xi_o, eta_o, pt_o, nrm_o, gap_o
 
 

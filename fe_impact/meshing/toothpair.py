@@ -324,18 +324,23 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
 def _keep_reference(path: Path) -> Path:
     """Write the physical reference surface mesh next to ``path`` for the retries
     (binary MSH: the coordinates come back exact)."""
+    return _write_scratch(path.with_name(f".{path.stem}-physical.msh"), binary=True)
+
+
+def _write_scratch(path: Path, binary: bool = False) -> Path:
+    """Write the whole model's mesh (every entity, MSH 4.1) to ``path``, to be merged
+    again."""
     import gmsh
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    kept = path.with_name(f".{path.stem}-physical.msh")
     gmsh.option.setNumber("Mesh.SaveAll", 1)
     gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", 1)
+    gmsh.option.setNumber("Mesh.Binary", int(binary))
     try:
-        gmsh.write(str(kept))
+        gmsh.write(str(path))
     finally:
         gmsh.option.setNumber("Mesh.Binary", 0)
-    return kept
+    return path
 
 
 def _reload_as_discrete(model, path: Path) -> None:
@@ -346,12 +351,9 @@ def _reload_as_discrete(model, path: Path) -> None:
     """
     import gmsh
 
-    path.parent.mkdir(parents=True, exist_ok=True)
     reference = path.with_name(f".{path.stem}-reference.msh")
-    gmsh.option.setNumber("Mesh.SaveAll", 1)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
     try:
-        gmsh.write(str(reference))
+        _write_scratch(reference)
         gmsh.clear()
         gmsh.merge(str(reference))
     finally:

@@ -174,10 +174,36 @@ def test_solids_that_cannot_be_matched_are_built_again(tmp_path, monkeypatch, ca
     toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "built")
     (solids,) = toothpair._SOLIDS.values()
     solids.volumes = {k: c + 1.0 for k, c in solids.volumes.items()}   # 1 mm off
+    solids.index = None             # not where an earlier import found them either
     with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"):
         pair = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED, tmp_path / "again")
     assert any("building the sectors again" in r.getMessage() for r in caplog.records)
     assert pair.mesh_path.is_file() and np.isfinite(pair.stats.min_sicn)
+
+
+@pytest.mark.slow
+def test_faces_taken_where_the_first_import_found_them_mesh_as_searched(tmp_path, monkeypatch,
+                                                                        caplog):
+    # Later imports of a stage's solids take the volumes and the groups' faces at the
+    # places the first import's search by centres of mass found them (_Solids.index):
+    # the mesh must be byte for byte the mesh of a search. A wrong place is noticed
+    # (the face's bounding box does not hold the group face's turned centre) and
+    # searched again, to the same mesh.
+    monkeypatch.setattr(toothpair, "_SOLIDS", {})
+    gs = default_gearset()
+    toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "built")
+    (solids,) = toothpair._SOLIDS.values()
+    assert solids.index is not None
+    volumes, places = solids.index
+    indexed = toothpair.build_pair(gs, 1, 4.0, "coarse", 2, GAP, SPEED, tmp_path / "indexed")
+    solids.index = None
+    searched = toothpair.build_pair(gs, 1, 4.0, "coarse", 2, GAP, SPEED, tmp_path / "searched")
+    assert indexed.mesh_path.read_bytes() == searched.mesh_path.read_bytes()
+    solids.index = (volumes, {g: [0] * len(p) for g, p in places.items()})   # all wrong
+    with caplog.at_level(logging.INFO, logger="fe_impact.meshing.toothpair"):
+        wrong = toothpair.build_pair(gs, 1, 4.0, "coarse", 2, GAP, SPEED, tmp_path / "wrong")
+    assert any("searching them by their centres" in r.getMessage() for r in caplog.records)
+    assert wrong.mesh_path.read_bytes() == searched.mesh_path.read_bytes()
 
 
 @pytest.mark.slow

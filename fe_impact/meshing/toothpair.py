@@ -465,6 +465,11 @@ class _Solids:
     face_angle: float              # contact.face_angle of the build, rad
     volumes: dict[str, NDArray]
     faces: dict[str, list[NDArray]]
+    #: Where the first import found them: each volume's place among the imported
+    #: volumes and each group face's among its volume's boundary faces. A BRep
+    #: reads back in the same order, and a turn keeps the topology, so later
+    #: imports take the same places (checked against the bounding boxes).
+    index: tuple[dict[str, int], dict[str, list[int]]] | None = None
 
 
 #: Solids built in this process, by gear set and :data:`_SOLID_FIELDS`: the
@@ -579,7 +584,8 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
     position, and writes them as BRep; every call imports that file, turns
     the pinion sector about the pinion's axis and the face-gear sector about
     the face gear's to their places, then finds the volumes and the surface groups'
-    faces by their centres of mass. Built at one placement and turned, a
+    faces by their centres of mass (the first import; later ones take the places
+    it found, :attr:`_Solids.index`). Built at one placement and turned, a
     sector differs from one built in place only between its loft sections,
     by the lofts' interpolation (below 0.01 um on the flanks, which the
     mesh's flank nodes are snapped onto anyway).
@@ -652,8 +658,11 @@ def _turned_solids(model, design: PairDesign, solids: _Solids
         "face_gear": _affine(pair.face_rotation(analysis.contact.face_angle)
                              @ pair.face_rotation(solids.face_angle).T, np.zeros(3)),
     }
-    centres = np.array([occ.getCenterOfMass(3, t) for t in tags])
-    volumes = {k: tags[_nearest(centres, c, k)] for k, c in solids.volumes.items()}
+    if solids.index is not None and len(tags) == len(solids.volumes):
+        volumes = {k: tags[i] for k, i in solids.index[0].items()}
+    else:
+        centres = np.array([occ.getCenterOfMass(3, t) for t in tags])
+        volumes = {k: tags[_nearest(centres, c, k)] for k, c in solids.volumes.items()}
     for name, tag in volumes.items():
         _rotate(occ, tag, turns[name])
     occ.synchronize()
@@ -661,6 +670,18 @@ def _turned_solids(model, design: PairDesign, solids: _Solids
              for name, tag in volumes.items()}
     boxes = {name: np.array([model.getBoundingBox(2, f) for f in fs]).reshape(-1, 2, 3)
              for name, fs in faces.items()}
+    turned = {group: [_apply(turns[_body(group)], c) for c in cs]
+              for group, cs in solids.faces.items()}
+    if solids.index is not None:
+        groups = _indexed_groups(solids.index[1], faces, boxes, turned)
+        if groups is not None:
+            return volumes, groups
+        logger.info("the reloaded sectors' faces are not where the first import found "
+                    "them: searching them by their centres")
+        solids.index = None
+        occ.remove(model.getEntities(3), recursive=True)
+        occ.synchronize()
+        return _turned_solids(model, design, solids)
     centres: dict[tuple[str, int], NDArray] = {}   # computed once, when needed
 
     def centre(name: str, i: int) -> NDArray:
@@ -668,20 +689,51 @@ def _turned_solids(model, design: PairDesign, solids: _Solids
             centres[name, i] = np.array(occ.getCenterOfMass(2, faces[name][i]))
         return centres[name, i]
 
-    groups = {}
-    for group, cs in solids.faces.items():
-        name = "pinion" if group.startswith("pinion") else "face_gear"
-        groups[group] = []
+    groups: dict[str, list[int]] = {}
+    places: dict[str, list[int]] = {}
+    for group, cs in turned.items():
+        name = _body(group)
+        groups[group], places[group] = [], []
         for c in cs:
-            c = _apply(turns[name], c)
             # a face's centre of mass lies in its bounding box (OCC pads the box):
             # the costly centres are computed for those faces only
-            near = np.flatnonzero(np.all((boxes[name][:, 0] - 1e-3 <= c)
-                                         & (c <= boxes[name][:, 1] + 1e-3), axis=1))
+            near = np.flatnonzero(_in_boxes(boxes[name], c))
             pool = near if len(near) else np.arange(len(faces[name]))
             d = np.array([centre(name, int(i)) for i in pool])
-            groups[group].append(faces[name][int(pool[_nearest(d, c, group)])])
+            i = int(pool[_nearest(d, c, group)])
+            groups[group].append(faces[name][i])
+            places[group].append(i)
+    solids.index = ({k: tags.index(t) for k, t in volumes.items()}, places)
     return volumes, groups
+
+
+def _body(group: str) -> str:
+    """The sector a surface group belongs to."""
+    return "pinion" if group.startswith("pinion") else "face_gear"
+
+
+def _in_boxes(boxes: NDArray, c: NDArray) -> NDArray:
+    """Which of the (padded by 1 um) bounding boxes ``boxes`` (n, 2, 3) [mm] hold ``c``."""
+    return np.all((boxes[:, 0] - 1e-3 <= c) & (c <= boxes[:, 1] + 1e-3), axis=1)
+
+
+def _indexed_groups(places: dict[str, list[int]], faces: dict[str, list[int]],
+                    boxes: dict[str, NDArray], turned: dict[str, list[NDArray]]
+                    ) -> dict[str, list[int]] | None:
+    """The groups' faces at the places the first import found them (:attr:`_Solids.index`),
+    or None unless each such face's box holds the group face's turned centre of mass
+    (then the centres are searched again). 0.2 s a mesh less than the search: OCC
+    integrates every centre of mass afresh."""
+    groups = {}
+    for group, where in places.items():
+        name = _body(group)
+        if max(where) >= len(faces[name]):
+            return None
+        if not all(_in_boxes(boxes[name][i:i + 1], c)[0]
+                   for i, c in zip(where, turned[group], strict=True)):
+            return None
+        groups[group] = [faces[name][i] for i in where]
+    return groups
 
 
 def _nearest(centres: NDArray, c: NDArray, name: str) -> int:

@@ -15,19 +15,23 @@
 - ``transmission_error.png``: loaded TE and mesh stiffness over one cycle.
 
 It returns the position-dependent law for ``calibration.json``
-(:func:`position_law`). :func:`report_lines` gives the report's section.
+(:func:`position_law`); the pictures are drawn by a
+:data:`~fe_impact.output.drawing.Draw` (the sweep's workers in a
+calibration). :func:`report_lines` gives the report's section.
 """
 
 from __future__ import annotations
 
 import logging
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from fe_impact.atomic import atomic_path, write_csv, write_json
 from fe_impact.calibration.meshcycle import SCHEMA, PositionRecord, mesh_cycle, path_of_contact
+from fe_impact.output.drawing import Draw, draw_here
 
 logger = logging.getLogger(__name__)
 
@@ -73,8 +77,13 @@ def cycles(records: list[PositionRecord], pitch_deg: float,
     return out
 
 
-def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str) -> dict:
-    """Write the mesh-cycle files and pictures to ``out``; return :func:`position_law`."""
+def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str,
+                     draw: Draw = draw_here) -> tuple[dict, Callable[[], list[str]]]:
+    """Write the mesh-cycle files to ``out`` and start its pictures on ``draw``.
+
+    Returns :func:`position_law` and what waits for the pictures (the names of
+    those written).
+    """
     from fe_impact.gears import gearset_from_dict
 
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
@@ -95,14 +104,11 @@ def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str
          r.nominal_force, r.nominal_stiffness, r.lever, r.edge, r.n_dofs,
          r.timings_s.get("total")] for r in sorted(records, key=lambda r: (r.stage,
                                                                            r.roll_angle_deg))])
-    for name, plot in (("contact_pattern.png", _plot_pattern),
-                       ("stiffness_along_path.png", _plot_stiffness),
-                       ("transmission_error.png", _plot_cycle)):
-        try:
-            plot(records, results, out / name)
-        except Exception as exc:   # a missing picture must not lose the tables
-            logger.warning("plot %s skipped: %s", name, exc)
-    return position_law(records)
+    wait = draw([(name, plot, (records, results, out / name))
+                 for name, plot in (("contact_pattern.png", _plot_pattern),
+                                    ("stiffness_along_path.png", _plot_stiffness),
+                                    ("transmission_error.png", _plot_cycle))])
+    return position_law(records), wait
 
 
 def report_lines(section: dict) -> list[str]:

@@ -11,6 +11,7 @@ import numpy as np
 from fe_impact.calibration.records import Calibration, CalibrationRecord
 from fe_impact.errors import CalibrationError
 from fe_impact.inputs import read_document
+from fe_impact.output.drawing import Draw, draw_here
 from fe_impact.output.files import atomic_path
 
 logger = logging.getLogger(__name__)
@@ -29,18 +30,18 @@ def _gap(gap: float | None) -> str:
     return f"{gap * 1e6:g} um"
 
 
-def write_calibration_report(out: Path, calibration: Calibration) -> Path:
-    """Write ``report.md`` and its plots for a calibration (records with every section)."""
+def write_calibration_report(out: Path, calibration: Calibration,
+                             draw: Draw = draw_here) -> Path:
+    """Write ``report.md`` and its plots for a calibration (records with every section).
+
+    The plots are drawn by ``draw`` while the tables are written.
+    """
     cases = calibration.cases
     settings = calibration.settings or {}
-    plots = []
-    for name, fn in (("force_time.png", _plot_histories), ("parameters.png", _plot_parameters),
-                     ("stress.png", _plot_stress)):
-        try:
-            if fn(out, cases, out / name):
-                plots.append(name)
-        except Exception as exc:  # a missing plot must not lose the tables
-            logger.warning("plot %s skipped: %s", name, exc)
+    wait = draw([(name, fn, (out, cases, out / name))
+                 for name, fn in (("force_time.png", _plot_histories),
+                                  ("parameters.png", _plot_parameters),
+                                  ("stress.png", _plot_stress))])
     cycle_level = settings.get("cycle_level") or settings.get("level")
     cycle = f", mesh cycle at level `{cycle_level}`" if calibration.mesh_cycle else ""
     lines = ["# fe-impact calibration", "",
@@ -118,7 +119,7 @@ def write_calibration_report(out: Path, calibration: Calibration) -> Path:
         lines += ["", f"Sum over cases {total:.0f} s; wall time of this run "
                   f"{_fmt(calibration.wall_time_s, '.0f')} s (resumed cases cost nothing "
                   "the second time)."]
-    lines += [""] + [f"![{p}]({p})" for p in plots] + [""]
+    lines += [""] + [f"![{p}]({p})" for p in wait()] + [""]
     if calibration.mesh_cycle:
         from fe_impact.calibration.meshcycle_report import report_lines
 

@@ -80,6 +80,7 @@ from fe_impact.fe.case import INTEGRATORS
 from fe_impact.gears.pairanalysis import LEVEL_NAMES
 from fe_impact.inputs import Reader, read_document
 from fe_impact.interrupts import Interrupted, handle_signals, ignore_signals
+from fe_impact.output.drawing import Draw, draw_here, draw_on
 from fe_impact.output.files import folder_lock, remove_temporaries
 
 if TYPE_CHECKING:
@@ -559,18 +560,27 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     if busy:
         logger.warning("cases %s are being computed by another run on %s: this run waits for "
                        "them and takes their results", busy, out)
-    stopped = None
+    stopped, written = None, []
+
+    def finish(draw: Draw) -> None:
+        """The files of a completed sweep, the pictures drawn by ``draw``."""
+        written.append(_write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
+                                      "completed", gearset_text, draw))
+
     if todo:
         try:
+            # the report's pictures are drawn on the sweep's workers before they stop
             _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-                      progress)
+                      progress, finish)
         except KeyboardInterrupt as exc:
             stopped = exc
-    path = _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
-                          "stopped" if stopped is not None else "completed", gearset_text)
     if stopped is not None:
+        _write_summary(out, cases, sweep, settings, time.perf_counter() - t0, "stopped",
+                       gearset_text)
         raise stopped
-    return path
+    if not written:   # nothing to compute, or interrupted after the last case
+        finish(draw_here)
+    return written[0]
 
 
 def _held_elsewhere(folder: Path) -> bool:
@@ -582,8 +592,10 @@ def _held_elsewhere(folder: Path) -> bool:
 
 
 def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Sweep,
-                   settings: Settings, wall: float, status: str, gearset_text: str) -> Path:
-    """summary.json and, for a completed run, calibration.json/.csv and report.md."""
+                   settings: Settings, wall: float, status: str, gearset_text: str,
+                   draw: Draw = draw_here) -> Path:
+    """summary.json and, for a completed run, calibration.json/.csv and report.md (its
+    pictures drawn by ``draw`` while the tables are written)."""
     from fe_impact.calibration.report import write_calibration_report
     from fe_impact.output.files import write_json
 
@@ -597,17 +609,19 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
         if status == "completed":
             records = [sweep.done[c.id] for c in cases if isinstance(c, ImpactCase)]
             positions = [sweep.done[c.id] for c in cases if isinstance(c, PositionCase)]
-            cycle = None
+            cycle, drawing = None, None
             if positions:
                 from fe_impact.calibration.meshcycle_report import write_mesh_cycle
 
-                cycle = write_mesh_cycle(out, positions, gearset_text)
+                cycle, drawing = write_mesh_cycle(out, positions, gearset_text, draw)
             calibration = Calibration(cases=records, settings=settings.to_dict(),
                                       wall_time_s=wall, fe_impact_version=__version__,
                                       notes=NOTES, mesh_cycle=cycle)
             path = write_calibration(out / "calibration.json", calibration)
             write_calibration_csv(out / "calibration.csv", records)
-            write_calibration_report(out, calibration)
+            write_calibration_report(out, calibration, draw)
+            if drawing is not None:
+                drawing()
         summary_path = write_json(out / "summary.json", summary)
     return path or summary_path
 
@@ -617,7 +631,7 @@ class CaseStopped(CalibrationError):
 
 
 def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-              progress) -> None:
+              progress, finish: Callable[[Draw], None] | None = None) -> None:
     log = logging.getLogger("distributed")
     level = log.level
     import dask.distributed  # noqa: F401
@@ -629,11 +643,14 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
 
     with contextlib.ExitStack() as stack:
         _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-                       progress, stack)
+                       progress, stack, finish)
 
 
 def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-                   progress, stack: contextlib.ExitStack) -> None:
+                   progress, stack: contextlib.ExitStack,
+                   finish: Callable[[Draw], None] | None = None) -> None:
+    """Run ``todo`` on a local cluster or ``scheduler``; then, every case done,
+    ``finish(draw)`` with a :data:`~fe_impact.output.drawing.Draw` on the same workers."""
     from dask.distributed import Client, Event
 
     if scheduler:
@@ -664,6 +681,8 @@ def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
         if failures:
             raise CalibrationError(f"{len(failures)} case(s) failed (finished cases are kept; "
                                    "rerun to retry): " + "; ".join(failures))
+        if finish is not None:
+            finish(draw_on(client))
     finally:
         with ignore_signals():
             client.close()

@@ -355,3 +355,48 @@ def test_plain_factorisation_taking_the_solves_over_changes_nothing(tmp_path):
     for key in ("contact_force", "approach", "kinetic_energy"):
         scale = np.abs(a.history[key]).max()
         np.testing.assert_allclose(b.history[key], a.history[key], rtol=0, atol=1e-9 * scale)
+
+
+def test_step_linearisation_is_the_solves_derivative_on_either_factorisation(tmp_path):
+    """The plastic Newton's products ``w -> dz`` (a Newmark step's response at a fixed
+    active set) come from one forward and one backward substitution through the
+    kept Schur factorisation, or from two solves once the plain factorisation
+    serves. Both must be the derivative of the step's own contact solve: at a
+    fixed active set the penalty LCP's solution is linear in the right-hand side,
+    so a finite difference of two solves is exact to round-off (and the LCP
+    solver's stop, 1e-12 of the forces), checked to 1e-7; the two ways agree to
+    1e-9 (one backward-stable factorisation against another)."""
+    mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
+    ref = hertz.impact(0.5, 1.0, R, hertz.effective_modulus(E, NU))
+    case = load_case(write_sphere_impact(tmp_path, mesh, 1.0, 1e-6 + 1.2 * ref.contact_time,
+                                         rigid_mass=0.5, time_step=ref.contact_time / 20,
+                                         frames=2))
+    solver = DynamicSolver(case, load_mesh(mesh))
+    last = {"steps": 0}
+
+    def in_contact(state, row):   # the third step in contact: loading, about 10 nodes on
+        last["state"] = state
+        last["steps"] += row["contact_force"] > 0.0
+        return last["steps"] == 3
+
+    solver.run(step_hook=in_contact)
+    condensed, state = solver.condensed, last["state"]
+    assert condensed.solver.partial
+    nm, s = solver.scheme, state                   # the next step's right-hand side
+    c0, c1 = 1.0 / (nm.beta * nm.dt ** 2), 1.0 / (nm.beta * nm.dt)
+    c2 = 1.0 / (2.0 * nm.beta) - 1.0
+    rhs0 = nm.M @ (c0 * s.z + c1 * s.v + c2 * s.a) + nm.alpha * (
+        nm.K @ s.z - s.f_plastic - s.f_contact)
+    base = condensed.solve(rhs0, s.active)
+    assert base.lam.any()
+    w = np.random.default_rng(1).standard_normal(len(state.z))
+    w *= 1e-3 * np.linalg.norm(state.f_contact) / np.linalg.norm(w)   # keeps the active set
+    lin = condensed.linearisation(base.lam)
+    partial = lin(w)
+    moved = condensed.solve(rhs0 + w, base.active)
+    assert np.array_equal(moved.lam > 0, base.lam > 0)        # the same active set
+    scale = np.abs(partial).max()
+    assert np.abs((moved.z - base.z) - partial).max() < 1e-7 * scale
+    condensed.solver.solves = condensed.solver.schur_solves   # the plain one takes over
+    assert not condensed.solver.partial
+    np.testing.assert_allclose(lin(w), partial, rtol=0, atol=1e-9 * scale)

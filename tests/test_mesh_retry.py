@@ -188,10 +188,11 @@ def test_faces_taken_where_the_first_import_found_them_mesh_as_searched(tmp_path
                                                                         caplog):
     # Later imports of a stage's solids take the volumes and the groups' faces at the
     # places the first import's search by centres of mass found them (_Solids.index):
-    # the same mesh as the first import's, byte for byte (at 3 deg: no retry, at this
-    # gap none of 2, 4 and 6 deg meshes on the first attempt). A wrong place is noticed (the face's bounding box does not hold the group
-    # face's turned centre) and the faces are searched again: that mesh, from the
-    # search, must be byte for byte the mesh made from the places.
+    # the same mesh as the first import's, byte for byte (at 3 deg: no retry; at this
+    # gap none of 2, 4 and 6 deg meshes on the first attempt). A wrong place is
+    # noticed (the face's bounding box does not hold the group face's turned
+    # centre) and the faces are searched again: that mesh, from the search, must be
+    # byte for byte the mesh made from the places.
     monkeypatch.setattr(toothpair, "_SOLIDS", {})
     gs = default_gearset()
     first = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED, tmp_path / "first")

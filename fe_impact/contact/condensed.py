@@ -361,22 +361,37 @@ class CondensedContact:
 
     def _solve_partial(self, rhs: np.ndarray, active: np.ndarray | None) -> StepContact:
         c = self.contact
-        cond = self.frames.condensed
         Bc, Bz_ref = self._condensed_jacobian()
-        y = self.solver.forward(rhs)
-        x_c = self.compliance.apply(y[cond])
-        h = c.g_ref + Bc @ x_c - Bz_ref
-        lam = np.zeros(len(h))
-        if np.any(h < 0) or (active is not None and active.any()):
+        lam = np.zeros(Bc.shape[0])
+
+        def contact_forces(x_c: np.ndarray) -> np.ndarray | None:
+            h = c.g_ref + Bc @ x_c - Bz_ref
+            if not (np.any(h < 0) or (active is not None and active.any())):
+                return None
             ok = c.active_rows
             lam[ok], _ = solve_penalty_lcp(None, None, h[ok], c.eps_w[ok],
                                            None if active is None or len(active) != len(h)
                                            else active[ok], C=self._delassus_matrix())
-            if np.any(lam > 0):
-                x_c = x_c + self.force_factor * self.compliance.apply(Bc.T @ lam)
-        y[cond] = x_c
-        z = self.solver.backward(y)
+            return Bc.T @ lam if np.any(lam > 0) else None
+
+        z = self._through_schur(rhs, contact_forces)
         return StepContact(lam, z, (lam > 0) if lam.any() else None)
+
+    def _through_schur(self, b: np.ndarray,
+                       forces: Callable[[np.ndarray], np.ndarray | None],
+                       count: bool = True) -> np.ndarray:
+        """``K_eff^-1 (b + f g)`` by one forward and one backward substitution through
+        the kept Schur factorisation: ``g``, a force on the condensed coordinates, is
+        what ``forces(x_c)`` returns for the condensed part ``x_c`` of ``K_eff^-1 b``
+        (None: no force). ``count``: see :meth:`ZoneSolver.forward`."""
+        cond = self.frames.condensed
+        y = self.solver.forward(b, count)
+        x_c = self.compliance.apply(y[cond])
+        g = forces(x_c)
+        if g is not None:
+            x_c = x_c + self.force_factor * self.compliance.apply(g)
+        y[cond] = x_c
+        return self.solver.backward(y)
 
     def linearisation(self, lam: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
         """``w -> dz``: the step's response to a force ``w`` at a fixed active set.
@@ -391,7 +406,7 @@ class CondensedContact:
         a product costs what a step's solve costs, one forward and one
         backward substitution: ``B_S`` and the forces ``B_S^T dlam`` act on
         the condensed coordinates only, so both corrections are made on the
-        Schur system (:meth:`_solve_partial`'s sequence), about half the
+        Schur system (:meth:`_through_schur`, as :meth:`_solve_partial`), about half the
         cost of the two solves it takes otherwise. These products do not
         count towards :data:`SCHUR_SOLVES`: the plain factorisation would
         make them dearer, not cheaper (measured on the coarse stage-2 ratio
@@ -410,15 +425,11 @@ class CondensedContact:
         BT_S = B_S.T.tocsr()
         Bc = self._condensed_jacobian()[0][rows]
         BcT = Bc.T.tocsr()
-        cond = self.frames.condensed
 
         def apply(w):
             if self.solver.partial:
-                y = self.solver.forward(w, count=False)
-                x_c = self.compliance.apply(y[cond])
-                dlam = -cho_solve(fac, Bc @ x_c)
-                y[cond] = x_c + f * self.compliance.apply(BcT @ dlam)
-                return self.solver.backward(y)
+                return self._through_schur(w, lambda x_c: BcT @ -cho_solve(fac, Bc @ x_c),
+                                           count=False)
             dz = self.solver.solve(w)
             dlam = -cho_solve(fac, B_S @ dz)
             return dz + f * self.solver.solve(BT_S @ dlam)

@@ -366,6 +366,21 @@ def _store(i, p, pos, t1, t2, pt_o, nrm_o, gap_o):
 
 
 @njit(cache=True)
+def _outputs(n):
+    """The projection kernels' outputs for ``n`` points: reference coordinates,
+    point, normal (zero) and gap (+inf, as for a point with no projection)."""
+    return np.zeros(n), np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3)), np.full(n, np.inf)
+
+
+@njit(cache=True)
+def _scratch(nn):
+    """Work arrays of :func:`_gauss_newton` on ``nn``-node faces: shape functions and
+    their two derivatives, the point and its two tangents."""
+    return (np.empty(nn), np.empty(nn), np.empty(nn), np.empty(3), np.empty(3),
+            np.empty(3))
+
+
+@njit(cache=True)
 def _project_kernel(points, x, mfaces, fidx, cdist, reach, iterations, tol):
     """Closest in-face projection of each point over its candidate faces.
 
@@ -377,19 +392,9 @@ def _project_kernel(points, x, mfaces, fidx, cdist, reach, iterations, tol):
     and gap (+inf if none).
     """
     n, k = fidx.shape
-    nn = mfaces.shape[1]
     best = -np.ones(n, dtype=np.int64)
-    xi_o = np.empty(n)
-    eta_o = np.empty(n)
-    pt_o = np.zeros((n, 3))
-    nrm_o = np.zeros((n, 3))
-    gap_o = np.full(n, np.inf)
-    N = np.empty(nn)
-    dxi = np.empty(nn)
-    deta = np.empty(nn)
-    pos = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
+    xi_o, eta_o, pt_o, nrm_o, gap_o = _outputs(n)
+    N, dxi, deta, pos, t1, t2 = _scratch(mfaces.shape[1])
     for i in range(n):
         dbest = np.inf
         xi_b, eta_b = 1.0 / 3.0, 1.0 / 3.0
@@ -430,19 +435,9 @@ def _project_hinted(points, x, mfaces, face0, xi0, eta0, iterations, margin):
     hinted coordinates; ``kept`` where it ends inside by ``margin``. The other
     outputs as :func:`_project_kernel`'s, for the kept points."""
     n = points.shape[0]
-    nn = mfaces.shape[1]
     kept = np.zeros(n, dtype=np.bool_)
-    xi_o = np.zeros(n)
-    eta_o = np.zeros(n)
-    pt_o = np.zeros((n, 3))
-    nrm_o = np.zeros((n, 3))
-    gap_o = np.full(n, np.inf)
-    N = np.empty(nn)
-    dxi = np.empty(nn)
-    deta = np.empty(nn)
-    pos = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
+    xi_o, eta_o, pt_o, nrm_o, gap_o = _outputs(n)
+    N, dxi, deta, pos, t1, t2 = _scratch(mfaces.shape[1])
     for i in range(n):
         f = face0[i]
         if f < 0:

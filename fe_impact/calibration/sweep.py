@@ -560,27 +560,21 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     if busy:
         logger.warning("cases %s are being computed by another run on %s: this run waits for "
                        "them and takes their results", busy, out)
-    stopped, written = None, []
-
-    def finish(draw: Draw) -> None:
+    def finish(draw: Draw) -> Path:
         """The files of a completed sweep, the pictures drawn by ``draw``."""
-        written.append(_write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
-                                      "completed", gearset_text, draw))
+        return _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
+                              "completed", gearset_text, draw)
 
-    if todo:
-        try:
-            # the report's pictures are drawn on the sweep's workers before they stop
-            _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-                      progress, finish)
-        except KeyboardInterrupt as exc:
-            stopped = exc
-    if stopped is not None:
+    if not todo:
+        return finish(draw_here)
+    try:
+        # the report's pictures are drawn on the sweep's workers before they stop
+        return _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
+                         progress, finish)
+    except KeyboardInterrupt:
         _write_summary(out, cases, sweep, settings, time.perf_counter() - t0, "stopped",
                        gearset_text)
-        raise stopped
-    if not written:   # nothing to compute, or interrupted after the last case
-        finish(draw_here)
-    return written[0]
+        raise
 
 
 def _held_elsewhere(folder: Path) -> bool:
@@ -631,7 +625,7 @@ class CaseStopped(CalibrationError):
 
 
 def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-              progress, finish: Callable[[Draw], None] | None = None) -> None:
+              progress, finish: Callable[[Draw], Path] | None = None) -> Path | None:
     log = logging.getLogger("distributed")
     level = log.level
     import dask.distributed  # noqa: F401
@@ -642,14 +636,14 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
     log.setLevel(level)
 
     with contextlib.ExitStack() as stack:
-        _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-                       progress, stack, finish)
+        return _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
+                              sweep, progress, stack, finish)
 
 
 def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
                    progress, stack: contextlib.ExitStack,
-                   finish: Callable[[Draw], None] | None = None) -> None:
-    """Run ``todo`` on a local cluster or ``scheduler``; then, every case done,
+                   finish: Callable[[Draw], Path] | None = None) -> Path | None:
+    """Run ``todo`` on a local cluster or ``scheduler``; then, every case done, return
     ``finish(draw)`` with a :data:`~fe_impact.output.drawing.Draw` on the same workers."""
     from dask.distributed import Client, Event
 
@@ -681,8 +675,7 @@ def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
         if failures:
             raise CalibrationError(f"{len(failures)} case(s) failed (finished cases are kept; "
                                    "rerun to retry): " + "; ".join(failures))
-        if finish is not None:
-            finish(draw_on(client))
+        return None if finish is None else finish(draw_on(client))
     finally:
         with ignore_signals():
             client.close()

@@ -9,6 +9,7 @@ the seed's printed values), with the tolerance justified where it is set.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import math
@@ -16,6 +17,7 @@ import re
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from fe_impact.cli.switching import register
 from fe_impact.errors import CalibrationError, CaseError
@@ -61,30 +63,38 @@ def _law_set(k: float, cmax: float, d: float, exponent: float = 1.5) -> LawSet:
 
 # -- kinematics and geometry ------------------------------------------------------------------
 def test_contact_path_and_corner_gaps():
-    geo = mesh_geometry(GEARSET)
     p = GEARSET.pinion
+    sharp = dataclasses.replace(GEARSET, pinion=dataclasses.replace(p, tip_edge_radius=0.0),
+                                face_tip_edge_radius=0.0)
+    geo = mesh_geometry(sharp)
     m, alpha = p.module, math.radians(p.pressure_angle_deg)
     r_p, r_b, r_a = p.pitch_radius, p.pitch_radius * math.cos(alpha), p.pitch_radius + m
-    # Textbook contact ratio of a pinion on a rack (Litvin & Fuentes, ch. 10):
-    # [sqrt(r_a^2 - r_b^2) - r_p sin a + ha m / sin a] / (pi m cos a) = 1.7623 for z = 19.
+    # Textbook contact ratio of a pinion on a rack with sharp tips (Litvin & Fuentes,
+    # ch. 10): [sqrt(r_a^2 - r_b^2) - r_p sin a + ha m / sin a] / (pi m cos a) = 1.7623
+    # for z = 19.
     textbook = (math.sqrt(r_a**2 - r_b**2) - r_p * math.sin(alpha) + m / math.sin(alpha)) / (
         math.pi * m * math.cos(alpha))
     assert geo.contact_ratio == pytest.approx(textbook, rel=1e-12)  # same closed form: round-off
     # two pairs for the first (eps - 1) of each base pitch, one pair for the rest
     assert [geo.pair_count(f * geo.base_pitch) for f in (0.1, 0.7, 0.8, 0.95)] == [2, 2, 1, 1]
-    # The tables reproduce the exact planar geometry they are built from; the spline in
-    # sqrt(delta) is good to ~1e-5 relative, far below the um-level approaches it gates.
-    frame = _RackPinionFrame(r_p, alpha, m, r_a)
-    for table, exact in ((geo.approach, frame.approach_gap), (geo.recess, frame.recess_gap)):
-        delta = np.linspace(0.02, 1.0, 50) * table.delta_max
-        g, slope = table(delta)
-        np.testing.assert_allclose(g, exact(delta), rtol=1e-4)
-        # slope against a central difference of the exact gap (step 1e-9 m: truncation
-        # ~1e-9 relative, round-off ~1e-7)
-        fd = (exact(delta + 1e-9) - exact(delta - 1e-9)) / 2e-9
-        np.testing.assert_allclose(slope, fd, rtol=1e-3, atol=1e-6)
-        # A tip corner leaves the flank tangentially: the gap starts quadratically.
-        assert table(np.array(1e-7))[0] < 1e-12
+    # The tables reproduce the exact planar geometry they are built from, sharp and with
+    # the default set's rounded tip edges; the spline in sqrt(delta) is good to ~1e-5
+    # relative, far below the um-level approaches it gates.
+    rounded = _RackPinionFrame(r_p, alpha, m, r_a, GEARSET.face_tip_edge_radius,
+                               p.tip_edge_radius)
+    for gears, frame in ((sharp, _RackPinionFrame(r_p, alpha, m, r_a)), (GEARSET, rounded)):
+        geo = mesh_geometry(gears)
+        assert (geo.s_start, geo.s_end) == (frame.s_start, frame.s_end)
+        for table, exact in ((geo.approach, frame.approach_gap), (geo.recess, frame.recess_gap)):
+            delta = np.linspace(0.02, 1.0, 50) * table.delta_max
+            g, slope = table(delta)
+            np.testing.assert_allclose(g, exact(delta), rtol=1e-4)
+            # slope against a central difference of the exact gap (step 1e-9 m:
+            # truncation ~1e-9 relative, round-off ~1e-7)
+            fd = (exact(delta + 1e-9) - exact(delta - 1e-9)) / 2e-9
+            np.testing.assert_allclose(slope, fd, rtol=1e-3, atol=1e-6)
+            # A tip edge leaves the flank tangentially: the gap starts quadratically.
+            assert table(np.array(1e-7))[0] < 1e-12
 
 
 # -- conservation and balance laws ----------------------------------------------------------------
@@ -432,3 +442,130 @@ def test_benchmark_runs_on_a_coarse_setting():
     assert record["simulated_s"] == pytest.approx(0.6)
     assert record["impacts_by_kind"]["switch"] == 2
     assert record["steps"] > 0 and record["wall_s"] > 0.0
+
+
+# -- rounded tip edges: the planar gaps against a sampled profile --------------------------------
+def _inv(a):
+    return np.tan(a) - a
+
+
+def _rack_profile(frame, theta: float, n: int = 4000) -> np.ndarray:
+    """The rack tooth's drive side at pinion angle ``theta`` (world frame), sampled: the
+    straight flank, the tip rounding and the tip line, built here from their definitions
+    (flank: normal d through the line-of-action point the involute reaches at
+    ``theta``; rounding: the circle inside both lines, tangent to them)."""
+    a, r, rho = frame.alpha, frame.pitch_radius, frame.rack_edge_radius
+    d = np.array([-math.cos(a), math.sin(a)])
+    t = np.array([r * math.sin(a) * math.cos(a), r * math.cos(a) ** 2])
+    s_tip = r * math.sin(a) - frame.rack_addendum / math.sin(a)
+    foot = t + (s_tip + frame.base_radius * theta) * d   # flank point on the line of action
+    y_tip = r - frame.rack_addendum
+    # centre: (c - foot).d = rho and c_y = y_tip + rho, a 2x2 linear system
+    centre = np.linalg.solve(np.array([d, [0.0, 1.0]]), [rho + foot @ d, y_tip + rho])
+    along = np.array([d[1], -d[0]])                  # along the flank, pointing up
+    flank_end = centre - rho * d
+    flank = flank_end + np.multiply.outer(np.linspace(0.0, 3e-3, n), along)
+    # arc from the flank's tangency (normal -d) to the tip line's (normal (0, -1))
+    start, stop = math.atan2(-d[1], -d[0]), -0.5 * math.pi
+    phi = np.linspace(start, stop, n)
+    arc = centre + rho * np.stack([np.cos(phi), np.sin(phi)], axis=-1)
+    tip = np.stack([centre[0] - np.linspace(0.0, 3e-3, n), np.full(n, y_tip)], axis=-1)
+    return np.concatenate([flank, arc, tip])
+
+
+def _pinion_profile(frame, n: int = 4000) -> tuple[np.ndarray, float]:
+    """The pinion tooth's drive side near its tip (pinion frame at angle 0), sampled: the
+    involute from the involute function, the tip rounding found by bisection as the
+    circle of radius rho centred on the circle r_a - rho and tangent to the sampled
+    involute, and the tip circle; and the radius at which the involute ends."""
+    r_b, r_a, rho = frame.base_radius, frame.pinion_tip_radius, frame.pinion_edge_radius
+    p_ref = frame.on_line(frame.s_tip_line)           # on the involute at angle 0
+    r_ref = np.hypot(*p_ref)
+    # the polar angle of a point on_line(s) turned back by s / r_b falls as inv(alpha_r)
+    phi0 = math.atan2(p_ref[1], p_ref[0]) + _inv(math.acos(r_b / r_ref))
+
+    def involute(radius):
+        ang = phi0 - _inv(np.arccos(r_b / radius))
+        return np.stack([radius * np.cos(ang), radius * np.sin(ang)], axis=-1)
+
+    dense = involute(np.linspace(r_a - 4e-3, r_a, 20 * n))
+    tip_angle = phi0 - _inv(math.acos(r_b / r_a))
+    touch = dense[-1]
+    if rho == 0.0:
+        arc = dense[-1:]
+        end = tip_angle
+    else:
+        def clearance(angle):   # centre at angle: distance to the involute less rho
+            c = (r_a - rho) * np.array([math.cos(angle), math.sin(angle)])
+            return np.min(np.hypot(*(dense - c).T)) - rho
+        # the centre lies inside the tooth, at a smaller polar angle than the tip corner
+        end = brentq(clearance, tip_angle - 0.2, tip_angle, xtol=1e-14)
+        c = (r_a - rho) * np.array([math.cos(end), math.sin(end)])
+        touch = dense[np.argmin(np.hypot(*(dense - c).T))]
+        start = math.atan2(*(touch - c)[::-1])
+        phi = np.linspace(start, end, n)
+        arc = c + rho * np.stack([np.cos(phi), np.sin(phi)], axis=-1)
+        dense = dense[np.hypot(*dense.T) <= np.hypot(*touch)]
+    ang = np.linspace(end - 0.05, end, n)
+    tip = r_a * np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+    return np.concatenate([dense, arc, tip]), float(np.hypot(*touch))
+
+
+@pytest.mark.parametrize("radii", [(1e-4, 3e-4), (0.5e-3, 0.6e-3)])
+def test_rounded_tip_edge_gaps_match_sampled_profiles(radii):
+    # Two definitions of the same gaps. The frame: closed forms for the ends of the
+    # flanks and the gap of a rounding's centre less its radius (the involutes of a
+    # base circle are parallel curves). Here: each tooth's profile sampled from its
+    # own construction, and the gap as the least mesh-coordinate distance over the
+    # samples (the pinion turned onto the held rack, r_b times the polar angle to the
+    # involute; the rack moved along d onto the held pinion). 4000 samples on an arc
+    # of at most 0.6 mm miss its lowest point by under rho (pi/2/4000)^2/8 = 1e-11 m;
+    # the sampled involute's chords, 0.2 um apart, miss the circle's tangency by
+    # about 1e-11 m; tolerance 2e-9 m, 1e-4 of the 20 um gaps it checks.
+    p = GEARSET.pinion
+    a, r_p = math.radians(p.pressure_angle_deg), p.pitch_radius
+    frame = _RackPinionFrame(r_p, a, p.module, r_p + p.module, *radii)
+    r_b = frame.base_radius
+    phi_ref = (math.atan2(*frame.on_line(frame.s_tip_line)[::-1])
+               + _inv(math.acos(r_b / np.hypot(*frame.on_line(frame.s_tip_line)))))
+
+    def rack_gap(s):   # pinion turned by (s - s_tip_line) / r_b, rack held
+        theta = (s - frame.s_tip_line) / r_b
+        pts = _rack_profile(frame, theta)
+        c, sn = math.cos(-theta), math.sin(-theta)
+        q = pts @ np.array([[c, sn], [-sn, c]])          # into the pinion frame
+        radius = np.hypot(*q.T)
+        keep = radius > r_b
+        inv_angle = phi_ref - _inv(np.arccos(r_b / radius[keep]))
+        return np.min(r_b * (np.arctan2(q[keep, 1], q[keep, 0]) - inv_angle))
+
+    pinion, r_t = _pinion_profile(frame)
+    d = frame.direction
+
+    def pinion_gap(s):   # rack flank through on_line(s), pinion at the conjugate angle
+        theta = (s - frame.s_tip_line) / r_b
+        c, sn = math.cos(theta), math.sin(theta)
+        q = pinion @ np.array([[c, sn], [-sn, c]])
+        return np.min((frame.on_line(s) - q) @ d)
+
+    for delta in (5e-4, 1e-3, 1.5e-3):
+        assert frame.approach_gap(delta) == pytest.approx(rack_gap(frame.s_start - delta),
+                                                          abs=2e-9)
+        assert frame.recess_gap(delta) == pytest.approx(pinion_gap(frame.s_end + delta),
+                                                        abs=2e-9)
+    # The flanks' ends. The pinion's involute ends at the radius where the sampled
+    # rounding touches it (samples 50 nm apart in radius: s within 0.2 um). The rack's
+    # flank ends where the end of its sampled flank (the rounding's tangency) is on the
+    # line of action, found by bisection in the pinion angle (exact to round-off).
+    assert frame.s_end == pytest.approx(math.sqrt(r_t**2 - r_b**2), abs=2e-7)
+
+    def off_line(theta):   # the flank's end, across the line of action
+        v = _rack_profile(frame, theta, n=2)[0] - frame.on_line(0.0)
+        return float(v[0] * d[1] - v[1] * d[0])
+
+    theta = brentq(off_line, -0.05, 0.05, xtol=1e-15)
+    assert frame.s_start == pytest.approx(frame.s_tip_line + r_b * theta, abs=1e-12)
+    # inside them the pair is in flank contact, outside the rounding holds it off
+    for gap, end, inside in ((rack_gap, frame.s_start, 1.0), (pinion_gap, frame.s_end, -1.0)):
+        assert abs(gap(end + inside * 2e-4)) < 2e-9
+        assert gap(end - inside * 2e-4) > 1e-8

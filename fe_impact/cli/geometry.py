@@ -83,6 +83,20 @@ TABLE: dict[str, tuple[tuple[str, str, float, str], ...]] = {
         ("face_mass_kg", "face-gear mass I_2/l_2^2 [kg]", 1.0, ".4g"),
         ("effective_mass_kg", "effective mass [kg]", 1.0, ".4g"),
     ),
+    "tip_edges": (
+        ("face_radius_m", "face-gear tip-edge radius [mm]", 1e3, ".3f"),
+        ("face_limit_m", "  largest the top land takes [mm]", 1e3, ".3f"),
+        ("face_limit_at_radius_m", "  at radius [mm]", 1e3, ".2f"),
+        ("pinion_radius_m", "pinion tip-edge radius [mm]", 1e3, ".3f"),
+        ("pinion_tip_land_left_m", "  pinion tip land left [mm]", 1e3, ".3f"),
+        ("pinion_tip_land_sharp_m", "  pinion tip land, sharp edges [mm]", 1e3, ".3f"),
+        ("line_start_m", "flank contact starts at s [mm]", 1e3, ".4f"),
+        ("line_start_sharp_m", "  with sharp edges [mm]", 1e3, ".4f"),
+        ("line_end_m", "flank contact ends at s [mm]", 1e3, ".4f"),
+        ("line_end_sharp_m", "  with sharp edges [mm]", 1e3, ".4f"),
+        ("contact_ratio", "contact ratio on the line of action [-]", 1.0, ".4f"),
+        ("contact_ratio_sharp", "  with sharp edges [-]", 1.0, ".4f"),
+    ),
 }
 
 _TITLES = {
@@ -90,6 +104,8 @@ _TITLES = {
     "path_of_contact": "path of contact (pinion roll angle from the pitch point)",
     "pitch_point": "Hertz contact at the pitch point (roll angle 0), nominal load",
     "masses": "rotor masses reduced to the contact normal at the pitch point",
+    "tip_edges": "tip edges, and the line of action of the torsional model (s from the "
+                 "base-circle tangency)",
 }
 
 

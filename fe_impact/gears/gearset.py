@@ -29,10 +29,12 @@ of the records is the key without its suffix)::
     lengthwise_crowning_um = 10.0
     profile_crowning_um = 0.0
     inertia_kg_m2 = 1.95e-4
+    tip_edge_radius_mm = 0.3           # optional: rounding of the tip edges (0: sharp)
 
     [face_gear]
     module_mm = 3.0                    # must equal the pinion module
     inner_limit = "conjugate"          # or "undercut": the inner-radius rule
+    tip_edge_radius_mm = 0.1           # optional: rounding of the rings' tip edges
 
     [[face_gear.stages]]               # one table per stage, inner ring first
     teeth = 56
@@ -54,6 +56,8 @@ from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from fe_impact.errors import GeometryError
 from fe_impact.gears.facegear import (
@@ -100,6 +104,17 @@ SHAPER_TEETH_EXCESS = (1, 3)
 #: Crowning above this fraction of the module is taken for a unit mistake
 #: (micrometres entered as millimetres).
 MAX_CROWNING_PER_MODULE = 0.1
+
+#: Tip-edge rounding radii [m] when a gear set gives none. Finished teeth have
+#: their tip edges broken; the radius is a design input with no standard
+#: value. The defaults are chosen for the seed set (module 3): 0.3 mm = 0.1 m
+#: on the pinion, and 0.1 mm on the face gears, whose narrowest top land
+#: (0.2 mm, at stage 1's outer radius) takes two roundings of at most 0.19 mm.
+DEFAULT_PINION_TIP_EDGE_RADIUS = 0.3e-3
+DEFAULT_FACE_TIP_EDGE_RADIUS = 0.1e-3
+#: Radii at which a face gear's top land is checked against its two roundings
+#: (evenly over the face, ends included).
+_LAND_CHECKS = 9
 
 _MM = 1e-3
 _UM = 1e-6
@@ -182,6 +197,10 @@ class Pinion:
         Parabolic crowning amounts [m] (see :mod:`fe_impact.gears.pinion`).
     inertia : float
         Mass moment of inertia about the pinion axis [kg m^2].
+    tip_edge_radius : float
+        Radius [m] of the rounding between each flank and the tip land, >= 0
+        (0: sharp edges); it must leave a tip land
+        (:meth:`tip_edge_rounding`).
     """
 
     teeth: int
@@ -194,6 +213,7 @@ class Pinion:
     lengthwise_crowning: float
     profile_crowning: float
     inertia: float
+    tip_edge_radius: float = DEFAULT_PINION_TIP_EDGE_RADIUS
 
     def __post_init__(self) -> None:
         _positive("pinion.module", self.module)
@@ -228,6 +248,32 @@ class Pinion:
         self._check_tip_land()
         _crowning("pinion.lengthwise_crowning", self.lengthwise_crowning, self.module)
         _crowning("pinion.profile_crowning", self.profile_crowning, self.module)
+        self._check_tip_edge()
+
+    def tip_edge_rounding(self) -> tuple[float, float]:
+        """Where the tip-edge rounding leaves the involute, and what it leaves of the land:
+        :func:`pinion_tip_rounding` for this pinion."""
+        alpha = math.radians(self.pressure_angle_deg)
+        return pinion_tip_rounding(self.teeth, alpha, self.pitch_radius,
+                                   self.pitch_radius + self.addendum_coeff * self.module,
+                                   self.tip_edge_radius)
+
+    def _check_tip_edge(self) -> None:
+        check_number("pinion.tip_edge_radius", self.tip_edge_radius, low=0.0, unit="mm",
+                     scale=1e3, hint="(0: sharp edges)", error=GeometryError)
+        if self.tip_edge_rounding()[1] > 0.0:
+            return
+        alpha = math.radians(self.pressure_angle_deg)
+        r_a = self.pitch_radius + self.addendum_coeff * self.module
+        low, high = 0.0, self.tip_edge_radius    # the land shrinks as the radius grows
+        for _ in range(60):
+            mid = 0.5 * (low + high)
+            ok = pinion_tip_rounding(self.teeth, alpha, self.pitch_radius, r_a, mid)[1] > 0.0
+            low, high = (mid, high) if ok else (low, mid)
+        raise GeometryError(
+            f"pinion.tip_edge_radius = {self.tip_edge_radius * 1e3:g} mm: the two tip-edge "
+            f"roundings leave no tip land (sharp, the land is {self.tip_land() * 1e3:.3g} mm); "
+            f"allowed below {low * 1e3:.4g} mm")
 
     def _check_rack(self) -> None:
         """The generating rack's tooth, ``(ha* + c*) m`` deep, must not be pointed.
@@ -280,6 +326,36 @@ class Pinion:
     def pitch_radius(self) -> float:
         """``m z / 2`` [m]."""
         return 0.5 * self.module * self.teeth
+
+
+def pinion_tip_rounding(teeth: int, alpha: float, pitch_radius: float, tip_radius: float,
+                        rho: float) -> tuple[float, float]:
+    """Where a tip-edge rounding of radius ``rho`` leaves a pinion's involute.
+
+    The rounding circle touches the tip circle from inside (centre at
+    ``r_a - rho``) and the involute at radius ``r_t``, roll length
+    ``s_t = sqrt(r_t^2 - r_b^2)``. Its centre lies ``rho`` behind the involute
+    along the involute's normal, whose radial part is ``s_t / r_t`` and
+    tangential part ``r_b / r_t``, so ``r_t^2 + rho^2 - 2 rho s_t = (r_a - rho)^2``:
+
+        s_t = rho + sqrt(rho^2 + s_a^2 - 2 r_a rho),   s_a^2 = r_a^2 - r_b^2.
+
+    Returns ``(s_t, half_land)``: the roll length [m] at which the involute
+    ends, and the half angle [rad] of the tip land left between the tooth's
+    two roundings (negative: they overlap; ``-inf`` with ``s_t`` NaN when
+    no such circle exists). For ``rho = 0``: ``s_a`` and half the sharp tip
+    land's angle.
+    """
+    r_b = pitch_radius * math.cos(alpha)
+    root = rho**2 + tip_radius**2 - r_b**2 - 2.0 * tip_radius * rho
+    if root < 0.0:
+        return math.nan, -math.inf
+    s_t = rho + math.sqrt(root)
+    r_t = math.hypot(r_b, s_t)
+    # half the tooth's angle at r_t, less the angle by which the centre lies inside it
+    half = (math.pi / (2.0 * teeth) + float(involute_function(alpha))
+            - float(involute_function(math.acos(r_b / r_t))))
+    return s_t, half - math.atan2(rho * r_b / r_t, r_t - rho * s_t / r_t)
 
 
 @dataclass(frozen=True)
@@ -353,6 +429,10 @@ class GearSet:
     inner_limit : {"conjugate", "undercut"}
         Which inner limit the inner radii are checked against: the stricter
         conjugate-tip limit (default) or the undercut limit.
+    face_tip_edge_radius : float
+        Radius [m] of the rounding between each face-gear flank and its top
+        land, every ring, >= 0 (0: sharp edges); the top land must take both
+        roundings over the whole face (:meth:`face_tip_edge_limit`).
     """
 
     name: str
@@ -363,6 +443,7 @@ class GearSet:
     notes: str = ""
     face_gear_module: float | None = None
     inner_limit: str = "conjugate"
+    face_tip_edge_radius: float = DEFAULT_FACE_TIP_EDGE_RADIUS
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "stages", tuple(self.stages))
@@ -377,6 +458,7 @@ class GearSet:
             self._check_stage(number, stage)
         self._check_overlap()
         self._check_pinion_face()
+        self._check_face_tip_edge()
 
     # -- validation -----------------------------------------------------------------
     def _check_module(self) -> None:
@@ -478,6 +560,39 @@ class GearSet:
                 f"{(p.pitch_radius + p.addendum_coeff * p.module) * 1e3:.4g} mm); allowed at "
                 f"most {max(limit, 0.0) * 1e3:.4g} mm"
             )
+
+    def face_tip_edge_limit(self, index: int) -> tuple[float, float]:
+        """Largest face-gear tip-edge radius [m] stage ``index`` (0-based) takes, and where.
+
+        At radius ``L`` the face gear is a rack of pressure angle ``alpha_L``,
+        ``cos alpha_L = r_2 cos alpha0 / L``; its flank meets the top land at
+        ``90 deg + alpha_L``, so a rounding of radius ``rho`` takes
+        ``rho tan(45 deg - alpha_L / 2)`` of the land at each edge. The land
+        ``2 L psi(L)`` (``psi``: :meth:`FaceGearTooth.top_land_half_angle`)
+        is checked at :data:`_LAND_CHECKS` radii over the face. Returns the
+        smallest ``L psi / tan(45 deg - alpha_L / 2)`` and its ``L``.
+        """
+        stage, tooth = self.stages[index], self.face_gear_tooth(index)
+        radius = np.linspace(stage.inner_radius, stage.outer_radius, _LAND_CHECKS)
+        alpha0 = math.radians(self.pinion.pressure_angle_deg)
+        alpha = np.arccos(np.minimum(tooth.pitch_radius * math.cos(alpha0) / radius, 1.0))
+        limit = radius * tooth.top_land_half_angle(radius) / np.tan(0.25 * np.pi - 0.5 * alpha)
+        i = int(np.argmin(limit))
+        return float(limit[i]), float(radius[i])
+
+    def _check_face_tip_edge(self) -> None:
+        rho = check_number("face_gear.tip_edge_radius", self.face_tip_edge_radius, low=0.0,
+                           unit="mm", scale=1e3, hint="(0: sharp edges)", error=GeometryError)
+        if rho == 0.0:
+            return
+        for index in range(len(self.stages)):
+            limit, where = self.face_tip_edge_limit(index)
+            if rho >= limit:
+                raise GeometryError(
+                    f"face_gear.tip_edge_radius = {rho * 1e3:g} mm: {self._label(index + 1)}'s "
+                    f"top land at radius {where * 1e3:.2f} mm takes two roundings below "
+                    f"{limit * 1e3:.3g} mm only; give a smaller radius or an outer_radius "
+                    "where the land is wider")
 
     def _check_overlap(self) -> None:
         order = sorted(range(len(self.stages)), key=lambda i: self.stages[i].inner_radius)
@@ -593,10 +708,12 @@ _PINION_KEYS = {
     "lengthwise_crowning_um": ("lengthwise_crowning", _si(_UM)),
     "profile_crowning_um": ("profile_crowning", _si(_UM)),
     "inertia_kg_m2": ("inertia", _si(1.0)),
+    "tip_edge_radius_mm": ("tip_edge_radius", _si(_MM)),
 }
 _FACE_GEAR_KEYS = {
     "module_mm": ("face_gear_module", _si(_MM)),
     "inner_limit": ("inner_limit", _text),
+    "tip_edge_radius_mm": ("face_tip_edge_radius", _si(_MM)),
 }
 _STAGE_KEYS = {
     "teeth": ("teeth", _count),
@@ -607,7 +724,8 @@ _STAGE_KEYS = {
     "inertia_kg_m2": ("inertia", _si(1.0)),
     "force_shaper": ("force_shaper", _flag),
 }
-_OPTIONAL = {"notes", "n_pinions", "force_shaper", "inner_limit", "module_mm"}
+_OPTIONAL = {"notes", "n_pinions", "force_shaper", "inner_limit", "module_mm",
+             "tip_edge_radius_mm"}
 _READER = Reader(error=GeometryError, syntax="toml")
 
 
@@ -653,7 +771,8 @@ def gearset_from_dict(data: Mapping[str, Any]) -> GearSet:
     r = _READER
     top = _convert(data, _TOP_KEYS, "", _OPTIONAL, more=("material", "pinion", "face_gear"))
     material = Material(**_convert(r.table(data, "", "material"), _MATERIAL_KEYS, "material"))
-    pinion = Pinion(**_convert(r.table(data, "", "pinion"), _PINION_KEYS, "pinion"))
+    pinion = Pinion(**_convert(r.table(data, "", "pinion"), _PINION_KEYS, "pinion",
+                               _OPTIONAL))
     face_data = r.table(data, "", "face_gear")
     face = _convert(face_data, _FACE_GEAR_KEYS, "face_gear", _OPTIONAL, more=("stages",))
     raw_stages = r.array(face_data, "face_gear", "stages", required=True)

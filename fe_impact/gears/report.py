@@ -18,7 +18,12 @@
   relative curvatures, equivalent radius, ``E*``, ellipse semi-axes, peak
   pressure and approach;
 - the rotor inertias reduced to the contact normal there
-  (:class:`~fe_impact.gears.pairanalysis.ReducedMasses`).
+  (:class:`~fe_impact.gears.pairanalysis.ReducedMasses`);
+- the tip edges: the rounding radii, the largest the face gear's top land
+  takes and where, what the pinion's roundings leave of its tip land, and
+  the line of action as the torsional model sees it
+  (:func:`~fe_impact.switching.geometry.mesh_geometry`): where the flanks end
+  with sharp and with rounded edges, and the contact ratio of each.
 
 Nominal load: a torque on the output (all rings sit on it), shared by the
 ``n_pinions`` meshes of the engaged ring, gives each the normal force
@@ -318,5 +323,36 @@ def stage_geometry(gearset: GearSet, torque: float | None = None) -> list[dict]:
             "face_width": _face_width(gearset, index),
             "path_of_contact": contact_path_ends(pair, pitch.pop("_contact")),
             **pitch,
+            "tip_edges": _tip_edges(gearset, index),
         })
     return rows
+
+
+def _tip_edges(gearset: GearSet, index: int) -> dict:
+    """The tip-edge roundings of stage ``index`` and of the pinion, and the line of
+    action they leave (module docstring)."""
+    from dataclasses import replace
+
+    from fe_impact.switching.geometry import mesh_geometry
+
+    pinion = gearset.pinion
+    limit, where = gearset.face_tip_edge_limit(index)
+    half_land = pinion.tip_edge_rounding()[1]
+    r_a = pinion.pitch_radius + pinion.addendum_coeff * pinion.module
+    sharp = replace(gearset, pinion=replace(pinion, tip_edge_radius=0.0),
+                    face_tip_edge_radius=0.0)
+    line, sharp_line = mesh_geometry(gearset), mesh_geometry(sharp)
+    return {
+        "face_radius_m": gearset.face_tip_edge_radius,
+        "face_limit_m": limit,
+        "face_limit_at_radius_m": where,
+        "pinion_radius_m": pinion.tip_edge_radius,
+        "pinion_tip_land_left_m": 2.0 * half_land * r_a,
+        "pinion_tip_land_sharp_m": pinion.tip_land(),
+        "line_start_sharp_m": sharp_line.s_start,
+        "line_start_m": line.s_start,
+        "line_end_sharp_m": sharp_line.s_end,
+        "line_end_m": line.s_end,
+        "contact_ratio_sharp": sharp_line.contact_ratio,
+        "contact_ratio": line.contact_ratio,
+    }

@@ -72,6 +72,31 @@ def _rotate(angle: NDArray, points: NDArray) -> NDArray:
                      s * points[..., 0] + c * points[..., 1]], axis=-1)
 
 
+def _base_normal(points: NDArray, base_radius: float) -> NDArray:
+    """Unit normal, at ``points`` (..., 2), of the involutes of the base circle that
+    unwind counter-clockwise: the direction from the point's base-circle tangency
+    (the one behind it) to the point.
+
+    The involutes of one base circle are parallel curves: a point's distance to
+    any of them along this normal is ``r_b`` times their angle apart, and this
+    field is the gradient of that distance, the same whatever the involute.
+    """
+    radius = np.hypot(points[..., 0], points[..., 1])
+    behind = np.arctan2(points[..., 1], points[..., 0]) - np.arccos(base_radius / radius)
+    tangency = base_radius * np.stack([np.cos(behind), np.sin(behind)], axis=-1)
+    return (points - tangency) / np.sqrt(radius**2 - base_radius**2)[..., None]
+
+
+def _between(v: NDArray, a: NDArray, b: NDArray) -> NDArray:
+    """Whether the directions ``v`` lie in the angle from ``a`` to ``b`` (< 180 deg,
+    counter-clockwise or not), ends included to round-off."""
+    cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    side = np.sign(cross)
+    ta = side * (a[..., 0] * v[..., 1] - a[..., 1] * v[..., 0])
+    tb = side * (v[..., 0] * b[..., 1] - v[..., 1] * b[..., 0])
+    return (ta >= -1e-12) & (tb >= -1e-12)
+
+
 @dataclass(frozen=True)
 class _RackPinionFrame:
     """Planar pinion-on-rack geometry in the pinion's transverse plane.
@@ -80,12 +105,25 @@ class _RackPinionFrame:
     pitch line ``y = r_p`` moving towards ``-x``. The drive line of action
     leaves the base-circle tangency ``T`` in direction ``d``; the pinion
     pushes the rack along ``d``.
+
+    The tip edges may be rounded: the rack's (the face gear's) by a circle of
+    radius ``rack_edge_radius`` tangent to its flank and tip line, the
+    pinion's by one of ``pinion_edge_radius`` tangent to its involute and
+    tip circle. The straight flank and the involute then end where their
+    roundings begin (``s_start``, ``s_end``), and beyond these ends the pair
+    touches on a rounding. Radii of 0 are sharp corners.
+
+    The pinion angle is 0 when its drive involute crosses the line of action
+    at ``s_tip_line``, where the rack's tip line does; the rack is where the
+    involute's conjugate flank puts it.
     """
 
     pitch_radius: float
     alpha: float
     rack_addendum: float
     pinion_tip_radius: float
+    rack_edge_radius: float = 0.0
+    pinion_edge_radius: float = 0.0
 
     @property
     def base_radius(self) -> float:
@@ -101,56 +139,114 @@ class _RackPinionFrame:
         return np.array([r * math.sin(a) * math.cos(a), r * math.cos(a) ** 2])
 
     @property
-    def s_start(self) -> float:
+    def s_tip_line(self) -> float:
         """Where the rack tip line ``y = r_p - ha m`` crosses the line of action."""
         a = self.alpha
         return self.pitch_radius * math.sin(a) - self.rack_addendum / math.sin(a)
 
     @property
+    def s_start(self) -> float:
+        """Where the rack's straight flank ends: on the line of action, the flank
+        point below which the rounding begins. Its centre is ``rho`` inside the
+        flank and above the tip line, so the flank ends ``rho (1 - sin a)``
+        above the tip line, ``rho (1 - sin a) / sin a`` further along the line."""
+        a = self.alpha
+        return self.s_tip_line + self.rack_edge_radius * (1.0 - math.sin(a)) / math.sin(a)
+
+    @property
     def s_end(self) -> float:
-        """Where the pinion tip circle crosses the line of action."""
-        return math.sqrt(self.pinion_tip_radius**2 - self.base_radius**2)
+        """Where the pinion's involute ends: its tip circle, or where the tip
+        rounding begins (:func:`~fe_impact.gears.gearset.pinion_tip_rounding`)."""
+        rho, r_a, r_b = self.pinion_edge_radius, self.pinion_tip_radius, self.base_radius
+        return rho + math.sqrt(rho**2 + r_a**2 - r_b**2 - 2.0 * r_a * rho)
 
     def on_line(self, s: ArrayLike) -> NDArray:
         return self.tangency + np.multiply.outer(np.asarray(s, dtype=float), self.direction)
 
     def flank_polar_angle(self, radius: NDArray) -> NDArray:
-        """Polar angle, in the pinion frame at rotation 0, of the drive involute.
-
-        The involute is the one on the line of action at ``s_start`` when the
-        pinion angle is 0; the pinion frame is the fixed frame at that angle.
-        """
+        """Polar angle, in the pinion frame at rotation 0, of the drive involute."""
         s = np.sqrt(radius**2 - self.base_radius**2)
-        point = _rotate(-(s - self.s_start) / self.base_radius, self.on_line(s))
+        point = _rotate(-(s - self.s_tip_line) / self.base_radius, self.on_line(s))
         return np.arctan2(point[..., 1], point[..., 0])
 
-    def approach_gap(self, delta: ArrayLike) -> NDArray:
-        """Gap of the rack tip corner to the pinion involute, ``delta`` before ``s_start``.
-
-        In mesh-coordinate units: turning the pinion by ``dtheta`` moves its
-        involute by ``r_b dtheta`` along every base tangent, so the gap is
-        ``r_b`` times the polar angle between the corner and the involute at
-        the corner's radius.
-        """
-        theta = -np.asarray(delta, dtype=float) / self.base_radius
-        rack_shift = np.stack([-self.pitch_radius * theta, np.zeros_like(theta)], axis=-1)
-        corner = _rotate(-theta, self.on_line(self.s_start) + rack_shift)
-        radius = np.hypot(corner[..., 0], corner[..., 1])
-        angle = np.arctan2(corner[..., 1], corner[..., 0])
+    def involute_gap(self, points: NDArray) -> NDArray:
+        """Signed distance [m] of pinion-frame points ahead of the drive involute,
+        along its normal: ``r_b`` times the polar angle between the point and the
+        involute at the point's radius (in mesh-coordinate units: turning the
+        pinion by ``dtheta`` moves the involute by ``r_b dtheta``)."""
+        radius = np.hypot(points[..., 0], points[..., 1])
+        angle = np.arctan2(points[..., 1], points[..., 0])
         return self.base_radius * (angle - self.flank_polar_angle(radius))
 
+    @property
+    def rack_edge_centre(self) -> NDArray:
+        """Centre of the rack's tip rounding at pinion angle 0 (flank through
+        ``on_line(s_tip_line)``): ``rho`` on the rack's side of the flank
+        (``+d``) and above the tip line. For ``rho = 0`` the sharp corner."""
+        rho, d = self.rack_edge_radius, self.direction
+        foot = self.on_line(self.s_tip_line)
+        y = foot[1] + rho
+        x = foot[0] + (rho - (y - foot[1]) * d[1]) / d[0]
+        return np.array([x, y])
+
+    def approach_gap(self, delta: ArrayLike) -> NDArray:
+        """Gap of the rack's tip edge to the pinion involute, ``delta`` before ``s_start``.
+
+        The rounding touches first where the involute's normal through its
+        centre meets it: the gap is the centre's :meth:`involute_gap` less
+        the radius, while that normal points into the rounding's arc (between
+        the flank's and the tip line's normals); past the arc, its end.
+        """
+        delta = np.asarray(delta, dtype=float)
+        theta = (self.s_start - delta - self.s_tip_line) / self.base_radius
+        rack_shift = np.stack([-self.pitch_radius * theta, np.zeros_like(theta)], axis=-1)
+        centre = self.rack_edge_centre + rack_shift
+        rho = self.rack_edge_radius
+        gap = self.involute_gap(_rotate(-theta, centre)) - rho
+        if rho == 0.0:
+            return gap
+        # far from the path (the table's bracket search), parts of the rounding
+        # reach inside the base circle, where the involutes end: NaN there
+        with np.errstate(invalid="ignore"):
+            normal = _base_normal(centre, self.base_radius)
+            on_arc = _between(normal, self.direction, np.array([0.0, 1.0]))
+            ends = [centre - rho * np.broadcast_to(n, centre.shape)
+                    for n in (self.direction, np.array([0.0, 1.0]))]
+            end_gap = np.minimum(*(self.involute_gap(_rotate(-theta, e)) for e in ends))
+        return np.where(on_arc, gap, end_gap)
+
+    @property
+    def pinion_edge_centre(self) -> NDArray:
+        """Centre of the pinion's tip rounding in the pinion frame (``rho`` behind
+        the involute's end at ``s_end`` along its normal); the corner for 0."""
+        turn = -(self.s_end - self.s_tip_line) / self.base_radius
+        end = _rotate(np.array(turn), self.on_line(self.s_end))
+        return end - self.pinion_edge_radius * _rotate(np.array(turn), self.direction)
+
     def recess_gap(self, delta: ArrayLike) -> NDArray:
-        """Gap of the pinion tip corner to the rack flank, ``delta`` after ``s_end``.
+        """Gap of the pinion's tip edge to the rack flank, ``delta`` after ``s_end``.
 
         The rack flank is a plane normal to ``d``; moving the rack changes the
-        mesh coordinate and this distance equally.
+        mesh coordinate and this distance equally. The rounding's nearest
+        point is ``rho`` from its centre along ``d`` while ``d`` points into
+        its arc (between the involute's normal at ``s_end`` and the radius to
+        the tip circle); past the arc, its end.
         """
         d = self.direction
-        tip = _rotate(np.array(-(self.s_end - self.s_start) / self.base_radius),
-                      self.on_line(self.s_end))
         s = self.s_end + np.asarray(delta, dtype=float)
-        theta = (s - self.s_start) / self.base_radius
-        return self.on_line(s) @ d - _rotate(theta, np.broadcast_to(tip, theta.shape + (2,))) @ d
+        theta = (s - self.s_tip_line) / self.base_radius
+        rho = self.pinion_edge_radius
+        centre = _rotate(theta, np.broadcast_to(self.pinion_edge_centre, theta.shape + (2,)))
+        gap = self.on_line(s) @ d - centre @ d - rho
+        if rho == 0.0:
+            return gap
+        turn = np.array(-(self.s_end - self.s_tip_line) / self.base_radius)
+        flank_normal = _rotate(theta + turn, d)
+        radial = centre / np.hypot(centre[..., 0], centre[..., 1])[..., None]
+        on_arc = _between(np.broadcast_to(d, centre.shape), flank_normal, radial)
+        end_gap = np.minimum(*(self.on_line(s) @ d - (centre + rho * n) @ d
+                               for n in (flank_normal, radial)))
+        return np.where(on_arc, gap, end_gap)
 
 
 @dataclass(frozen=True)
@@ -274,6 +370,8 @@ def mesh_geometry(gearset: GearSet) -> MeshGeometry:
         alpha=alpha,
         rack_addendum=p.addendum_coeff * p.module,
         pinion_tip_radius=p.pitch_radius + p.addendum_coeff * p.module,
+        rack_edge_radius=gearset.face_tip_edge_radius,
+        pinion_edge_radius=p.tip_edge_radius,
     )
     if frame.s_start <= 0.0:
         raise ValueError(

@@ -74,6 +74,8 @@ def model_parameters(model: DriveModel) -> dict:
         "pinion_base_radius_m": geo.base_radius,
         "ring_base_levers_m": model.base_levers.tolist(),
         "contact_ratio": geo.contact_ratio,
+        "tip_edge_radii_m": {"pinion": model.gearset.pinion.tip_edge_radius,
+                             "face_gear": model.gearset.face_tip_edge_radius},
         "backlash_m": model.backlashes.tolist(),
         "coupling_stiffness_Nm_rad": model.couplings.tolist(),
         "coupling_damping_ratio": model.coupling_damping_ratio,
@@ -215,7 +217,11 @@ def _differences(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict]
         "speed does not depend on it; the time to the first contact does.",
         f"- Geometry: module {model.gearset.module * 1e3:g} mm for pinion and rings (the "
         "seed's m = 2 pinion cannot mesh with its m = 3 face gears); four pinions in phase, "
-        "values per mesh.",
+        "values per mesh. Tip edges rounded "
+        f"{model.gearset.pinion.tip_edge_radius * 1e3:g} mm (pinion) and "
+        f"{model.gearset.face_tip_edge_radius * 1e3:g} mm (rings): the flanks end where the "
+        f"roundings begin (contact ratio {model.geometry.contact_ratio:.4f} on the line of "
+        "action), and a pair entering or leaving mesh touches on a rounding.",
     ]
     if table.notes:
         lines += ["", f"Transcription notes on the seed's {table.source}:", ""]

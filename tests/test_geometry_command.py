@@ -210,3 +210,31 @@ def test_bad_input_is_one_line_and_exit_2(argv, expected, tmp_path, capsys):
     assert len(lines) == 1
     for text in expected:
         assert text in lines[0]
+
+
+# -- tip edges and the first touch on them ------------------------------------------------------
+def test_corner_rows_are_taken_where_the_planar_gap_is_the_reported_one(rows, gearset):
+    """Each side's roll angle is where the torsional model's exact planar gap (the
+    closed form of its frame, not the table the row was inverted from) equals
+    CORNER_REPORT_GAP: within the table's spline error, 1e-4 relative; the
+    three-dimensional gaps are positive and the touch lies on the rounding."""
+    from fe_impact.gears.report import CORNER_REPORT_GAP
+    from fe_impact.switching.geometry import _RackPinionFrame
+
+    p = gearset.pinion
+    a = math.radians(p.pressure_angle_deg)
+    frame = _RackPinionFrame(p.pitch_radius, a, p.addendum_coeff * p.module,
+                             p.pitch_radius + p.addendum_coeff * p.module,
+                             gearset.face_tip_edge_radius, p.tip_edge_radius)
+    s_pitch = p.pitch_radius * math.sin(a)
+    for row in rows:
+        for side, gap, end in (("approach", frame.approach_gap, frame.s_start),
+                               ("recess", frame.recess_gap, frame.s_end)):
+            corner = row["corners"][side]
+            delta = corner["line_beyond_end_m"]
+            assert float(gap(delta)) == pytest.approx(CORNER_REPORT_GAP, rel=1e-4)
+            s = end - delta if side == "approach" else end + delta
+            assert corner["roll_rad"] == pytest.approx((s_pitch - s) / frame.base_radius,
+                                                       rel=1e-12)
+            assert 0.0 < corner["gap_m"] <= corner["midplane_gap_m"] * (1.0 + 1e-9)
+            assert corner["on_rounding"] and corner["a_m"] > corner["b_m"] > 0.0

@@ -29,7 +29,8 @@ JSON_SCHEMA = "fe-impact/geometry/1"
 _DEG = 180.0 / math.pi
 
 #: Rows of the printed table, by section: (key, label with unit, scale from SI,
-#: format). A key ``name[i]`` takes item ``i`` of a list; strings print as they are.
+#: format). A key ``name[i]`` takes item ``i`` of a list, ``table.name`` a key of a
+#: sub-table (``-`` where it is None); strings print as they are.
 TABLE: dict[str, tuple[tuple[str, str, float, str], ...]] = {
     "face_width": (
         ("pitch_radius_m", "pitch radius r_2 [mm]", 1e3, ".3f"),
@@ -97,6 +98,18 @@ TABLE: dict[str, tuple[tuple[str, str, float, str], ...]] = {
         ("contact_ratio", "contact ratio on the line of action [-]", 1.0, ".4f"),
         ("contact_ratio_sharp", "  with sharp edges [-]", 1.0, ".4f"),
     ),
+    "corners": tuple(
+        row for side in ("approach", "recess") for row in (
+            (f"{side}.roll_rad", f"{side}: roll angle [deg]", _DEG, "+.4f"),
+            (f"{side}.line_beyond_end_m", "  beyond the flank's end [mm]", 1e3, ".4f"),
+            (f"{side}.planar_gap_m", "  gap, planar model [um]", 1e6, ".3g"),
+            (f"{side}.midplane_gap_m", "  gap, 3-D in the mid-face plane [um]", 1e6, ".3g"),
+            (f"{side}.gap_m", "  gap, 3-D over the face [um]", 1e6, ".3g"),
+            (f"{side}.section_m", "  touching at L (approach) / u (recess) [mm]", 1e3, ".3f"),
+            (f"{side}.a_m", "  Hertz semi-axis a, nominal load [mm]", 1e3, ".4g"),
+            (f"{side}.b_m", "  Hertz semi-axis b [mm]", 1e3, ".4g"),
+            (f"{side}.max_pressure_Pa", "  max pressure p0 [MPa]", 1e-6, ".4g"),
+        )),
 }
 
 _TITLES = {
@@ -106,6 +119,8 @@ _TITLES = {
     "masses": "rotor masses reduced to the contact normal at the pitch point",
     "tip_edges": "tip edges, and the line of action of the torsional model (s from the "
                  "base-circle tangency)",
+    "corners": "first touch on a rounded tip edge, where the planar corner gap is 10 um "
+               "(approach: face-gear edge on the pinion; recess: pinion edge on the face gear)",
 }
 
 
@@ -163,8 +178,10 @@ def _load(path: Path | None):
 
 def _cell(row: dict, section: str, key: str, scale: float, spec: str) -> str:
     name, _, item = key.partition("[")
-    value = row[section][name]
-    if item:
+    value = row[section]
+    for part in name.split("."):      # "side.key": a key of a sub-table (None: absent)
+        value = None if value is None else value[part]
+    if item and value is not None:
         value = value[int(item.rstrip("]"))]
     if value is None:
         return "-"

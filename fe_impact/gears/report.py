@@ -23,7 +23,14 @@
   takes and where, what the pinion's roundings leave of its tip land, and
   the line of action as the torsional model sees it
   (:func:`~fe_impact.switching.geometry.mesh_geometry`): where the flanks end
-  with sharp and with rounded edges, and the contact ratio of each.
+  with sharp and with rounded edges, and the contact ratio of each;
+- the first touch of a pair entering mesh (the face gear's rounded tip edge
+  on the pinion's involute) and leaving it (the pinion's rounded tip edge on
+  the face gear's flank), three-dimensional
+  (:func:`~fe_impact.gears.corner.corner_contact`), at the roll angle where
+  the torsional model's planar corner gap is :data:`CORNER_REPORT_GAP`:
+  the gap over the whole face and in the pinion's mid-face plane, where
+  along the edge it touches, and its Hertz contact under the nominal load.
 
 Nominal load: a torque on the output (all rings sit on it), shared by the
 ``n_pinions`` meshes of the engaged ring, gives each the normal force
@@ -61,6 +68,9 @@ __all__ = [
 #: Top-land width [m] the seed file's outer radii are chosen at (seed.toml: "outer
 #: = radius where the top land is 0.2 mm ... rounded down to 0.5 mm").
 TOP_LAND_MIN = 0.2e-3
+#: Planar corner gap [m] at which the report compares the three-dimensional first
+#: touch with the torsional model's tables (approaches under load reach ~30 um).
+CORNER_REPORT_GAP = 10e-6
 #: Width [rad] of the bracket the ends of the path of contact are bisected to
 #: (3e-12 m along the line of action of a 30 mm pinion).
 ROLL_TOLERANCE = 1e-10
@@ -324,7 +334,54 @@ def stage_geometry(gearset: GearSet, torque: float | None = None) -> list[dict]:
             "path_of_contact": contact_path_ends(pair, pitch.pop("_contact")),
             **pitch,
             "tip_edges": _tip_edges(gearset, index),
+            "corners": _corners(gearset, pair, pitch["pitch_point"]),
         })
+    return rows
+
+
+def _corners(gearset: GearSet, pair: GearPair, pitch: dict) -> dict:
+    """First touches beyond both ends of the path (module docstring)."""
+    from fe_impact.gears.corner import (
+        corner_contact,
+        face_edge_rounding,
+        midplane_rounding,
+        pinion_edge_rounding,
+    )
+    from fe_impact.switching.geometry import mesh_geometry
+
+    line = mesh_geometry(gearset)
+    r_b = pair.pinion.base_radius
+    s_pitch = pair.pinion.pitch_radius * math.sin(pair.pinion.pressure_angle)
+    force, e_star = pitch["normal_force_N"], pitch["effective_modulus_Pa"]
+    rows = {}
+    for side, table, radius, edge in (
+            ("approach", line.approach, gearset.face_tip_edge_radius, face_edge_rounding),
+            ("recess", line.recess, gearset.pinion.tip_edge_radius, pinion_edge_rounding)):
+        if radius <= 0.0:
+            rows[side] = None          # a sharp edge: no ball, no Hertz contact
+            continue
+        delta = brentq(lambda d, t=table: float(t(d)[0]) - CORNER_REPORT_GAP, 1e-9,
+                       table.delta_max, xtol=1e-13)
+        s = line.s_start - delta if side == "approach" else line.s_end + delta
+        roll = (s_pitch - s) / r_b
+        touch = corner_contact(pair, edge(pair, radius), side, roll)
+        plane = corner_contact(pair, midplane_rounding(pair, radius, side, roll), side, roll)
+        ellipse = touch.ellipse(force, e_star)
+        rows[side] = {
+            "roll_rad": roll,
+            "line_beyond_end_m": delta,
+            "planar_gap_m": CORNER_REPORT_GAP,
+            "midplane_gap_m": plane.gap,
+            "gap_m": touch.gap,
+            "section_m": touch.section,
+            "on_rounding": touch.on_rounding,
+            "at_edge_end": touch.at_edge_end,
+            "relative_curvatures_1_m": [touch.relative.lambda_min, touch.relative.lambda_max],
+            "normal_force_N": force,
+            "a_m": ellipse.a,
+            "b_m": ellipse.b,
+            "max_pressure_Pa": ellipse.p0,
+        }
     return rows
 
 

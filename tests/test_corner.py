@@ -1,0 +1,147 @@
+"""Tip-edge contact of a pair entering and leaving mesh (`fe_impact.gears.corner`).
+
+The corner gap is checked against a second computation that shares nothing
+with the module's projections and root finding: the rounded edge sampled as
+a surface (each section's arc between its flank and land normals), and the
+gap as the least rotation, over the samples, that brings the mating flank
+onto a sample (the pinion's: r_b times the polar angle to its involute, plus
+the crowning; the face gear's: r_b2 times the polar angle about its axis to
+its flank at the sample's radius and height). The rounding's own curvature
+is checked on a torus, where it is known in closed form.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fe_impact.errors import GeometryError
+from fe_impact.gears import default_gearset
+from fe_impact.gears.corner import (
+    CornerContact,
+    EdgeRounding,
+    _edge_curvatures,
+    corner_contact,
+    face_edge_rounding,
+    pinion_edge_rounding,
+)
+from fe_impact.gears.tca import GearPair
+from fe_impact.switching.geometry import mesh_geometry
+
+GEARSET = default_gearset()
+PAIR = GearPair.from_gearset(GEARSET, 1)
+
+
+def _roll(side: str, delta: float) -> float:
+    """Pinion roll angle ``delta`` [m] of line of action beyond the planar model's
+    end of flank contact (roll angles grow towards the face-gear tip end)."""
+    geo = mesh_geometry(GEARSET)
+    p = PAIR.pinion
+    s_pitch = p.pitch_radius * math.sin(p.pressure_angle)
+    s = geo.s_start - delta if side == "approach" else geo.s_end + delta
+    return (s_pitch - s) / p.base_radius
+
+
+def _arc_samples(edge: EdgeRounding, n: int = 400) -> np.ndarray:
+    """Points of the rounding: at each section, ``rho`` from the centre in the
+    directions between the flank's and the land's normals (spherical interpolation)."""
+    a, b = edge.flank_normals, edge.land_normals
+    angle = np.arccos(np.clip((a * b).sum(-1), -1.0, 1.0))[:, None]
+    t = np.linspace(0.0, 1.0, n)[None, :, None]
+    w_a = np.sin((1.0 - t) * angle[:, None]) / np.sin(angle[:, None])
+    w_b = np.sin(t * angle[:, None]) / np.sin(angle[:, None])
+    direction = w_a * a[:, None] + w_b * b[:, None]
+    return (edge.centres[:, None] + edge.radius * direction).reshape(-1, 3)
+
+
+def _pinion_turn_gap(points_face: np.ndarray, roll: float) -> float:
+    """Least pinion turn, times r_b, that brings its crowned involute onto the points."""
+    p = PAIR.pinion
+    mesh = PAIR.face_to_mesh(points_face, PAIR.nominal_face_angle(roll))
+    x = (mesh - [0.0, p.pitch_radius, PAIR.z0]) @ PAIR.pinion_rotation(roll)
+    radius = np.hypot(x[:, 0], x[:, 1])
+    x = x[radius > p.base_radius]          # no involute inside the base circle
+    radius = np.hypot(x[:, 0], x[:, 1])
+    involute = p.involute_point(np.sqrt(radius**2 / p.base_radius**2 - 1.0))
+    turn = np.arctan2(x[:, 1], x[:, 0]) - np.arctan2(involute[:, 1], involute[:, 0])
+    return float(np.min(np.abs(p.base_radius * turn) + p.lengthwise_relief(x[:, 2])))
+
+
+def _face_turn_gap(points_pinion: np.ndarray, roll: float) -> float:
+    """Least face-gear turn, times r_b2, that brings its flank onto the points."""
+    face = PAIR.face
+    mesh = PAIR.pinion_to_mesh(points_pinion, roll)
+    x = mesh @ PAIR.face_rotation(PAIR.nominal_face_angle(roll))
+    flank = face.flank(np.hypot(x[:, 0], x[:, 2]), x[:, 1], side=1).points
+    turn = np.arctan2(x[:, 0], x[:, 2]) - np.arctan2(flank[:, 0], flank[:, 2])
+    return float(np.min(np.abs(turn)) * face.pitch_radius * math.cos(face.pressure_angle))
+
+
+@pytest.mark.parametrize("delta", [2e-4, 1e-3])
+def test_approach_gap_is_the_least_pinion_turn_onto_the_rounded_face_edge(delta):
+    # 1201 sections over 13.5 mm (11 um apart) and 400 points over each ~110 deg arc of
+    # 0.1 mm: the sampled least gap lies above the true one by at most ~2e-10 m (the
+    # gap's curvature along the face, ~20 1/m, over 6 um: 7e-10 m at worst, 1e-10 m
+    # on average over where the touch falls between sections; the arc's chord error
+    # rho (pi/2/400)^2/8 = 2e-10 m mid-arc, less near its ends where it touches); the
+    # module's own brentq/Newton are at round-off.
+    roll = _roll("approach", delta)
+    edge = face_edge_rounding(PAIR, GEARSET.face_tip_edge_radius, n=1201)
+    contact = corner_contact(PAIR, edge, "approach", roll)
+    assert isinstance(contact, CornerContact) and contact.side == "approach"
+    brute = _pinion_turn_gap(_arc_samples(edge), roll)
+    assert contact.gap == pytest.approx(brute, abs=2e-10, rel=1e-5)
+    assert contact.gap > 0.0 and contact.on_rounding and not contact.at_edge_end
+
+
+@pytest.mark.parametrize("delta", [2e-4, 1e-3])
+def test_recess_gap_is_the_least_face_gear_turn_onto_the_rounded_pinion_edge(delta):
+    # as above: 1201 sections over the 13.5 mm the pinion face spans over the ring,
+    # 400 points on each arc of 0.3 mm (chord error up to 6e-10 m mid-arc, far less
+    # near the flank's end of the arc, where the recess touch lies)
+    roll = _roll("recess", delta)
+    edge = pinion_edge_rounding(PAIR, GEARSET.pinion.tip_edge_radius, n=1201)
+    contact = corner_contact(PAIR, edge, "recess", roll)
+    brute = _face_turn_gap(_arc_samples(edge), roll)
+    assert contact.gap == pytest.approx(brute, abs=2e-10, rel=1e-5)
+    assert contact.gap > 0.0 and contact.on_rounding and not contact.at_edge_end
+
+
+def test_the_first_touch_gives_a_hertz_contact_across_the_edge():
+    # The rounding is the sharper body: across the edge its curvature is 1/rho; the
+    # relative curvature across (the larger eigenvalue) is 1/rho plus the flank's
+    # normal curvature in that direction, and the ellipse is long along the edge.
+    contact = corner_contact(PAIR, face_edge_rounding(PAIR, 1e-4), "approach",
+                             _roll("approach", 5e-4))
+    assert contact.edge.kappa[1] == pytest.approx(1e4, rel=1e-12)
+    across = contact.edge.directions[1]
+    expected = 1e4 + contact.flank.normal_curvature(across)
+    assert contact.relative.lambda_max == pytest.approx(expected, rel=1e-3)
+    ellipse = contact.ellipse(500.0, 115e9)
+    assert ellipse.a > 5 * ellipse.b
+
+
+def test_rounding_curvature_along_a_circular_edge_is_the_torus_formula():
+    # A ball of radius rho swept along a circle of radius R is a torus; at a point whose
+    # normal makes the angle phi with the outward radius, the curvature along the
+    # parallel is cos(phi) / (R + rho cos(phi)) (do Carmo 1976, 3-3, example). Three
+    # centres 1 mrad apart: the chord formula's error is ~(1e-3)^2 / 24 relative.
+    big, rho = 0.05, 1e-3
+    angles = np.array([-1e-3, 0.0, 1e-3])
+    centres = big * np.stack([np.cos(angles), np.sin(angles), np.zeros(3)], axis=-1)
+    edge = EdgeRounding(rho, angles, centres, np.zeros((3, 3)), np.zeros((3, 3)))
+    for phi in (0.0, 0.7, 2.0):
+        outward = np.array([math.cos(phi), 0.0, math.sin(phi)])
+        curv = _edge_curvatures(edge, 1, np.eye(3), outward)
+        along = math.cos(phi) / (big + rho * math.cos(phi))
+        assert sorted(curv.kappa) == pytest.approx(sorted([along, 1.0 / rho]), rel=1e-6)
+
+
+def test_roll_angles_inside_the_path_and_unknown_sides_are_refused():
+    edge = face_edge_rounding(PAIR, 1e-4, n=21)
+    with pytest.raises(GeometryError, match="already touches or overlaps"):
+        corner_contact(PAIR, edge, "approach", 0.0)
+    with pytest.raises(GeometryError, match=r"corner side = 'tip'.*approach.*recess"):
+        corner_contact(PAIR, edge, "tip", 0.3)

@@ -81,31 +81,30 @@ def _face_turn_gap(points_pinion: np.ndarray, roll: float) -> float:
 
 @pytest.mark.parametrize("delta", [2e-4, 1e-3])
 def test_approach_gap_is_the_least_pinion_turn_onto_the_rounded_face_edge(delta):
-    # 1201 sections over 13.5 mm (11 um apart) and 400 points over each ~110 deg arc of
-    # 0.1 mm: the sampled least gap lies above the true one by at most ~2e-10 m (the
-    # gap's curvature along the face, ~20 1/m, over 6 um: 7e-10 m at worst, 1e-10 m
-    # on average over where the touch falls between sections; the arc's chord error
-    # rho (pi/2/400)^2/8 = 2e-10 m mid-arc, less near its ends where it touches); the
-    # module's own brentq/Newton are at round-off.
+    # Both sample the rounding; the module refines its least between sections by a
+    # parabola, the brute force takes the least sample, which lies above the true least
+    # by up to k (h/2)^2 between sections (k < 20 1/m, the clearance's curvature along
+    # the edge; h = 11 um for 1201 sections over 13.5 mm: 6e-10 m) plus rho dpsi^2 / 8
+    # on the arc (400 points over ~110 deg of rho = 0.1 mm: 2e-10 m). So
+    # 0 <= brute - module <= 1e-9 m; round-off of the Newton solutions ~1e-12 m.
     roll = _roll("approach", delta)
     edge = face_edge_rounding(PAIR, GEARSET.face_tip_edge_radius, n=1201)
     contact = corner_contact(PAIR, edge, "approach", roll)
     assert isinstance(contact, CornerContact) and contact.side == "approach"
     brute = _pinion_turn_gap(_arc_samples(edge), roll)
-    assert contact.gap == pytest.approx(brute, abs=2e-10, rel=1e-5)
+    assert -1e-11 <= brute - contact.gap <= 1e-9
     assert contact.gap > 0.0 and contact.on_rounding and not contact.at_edge_end
 
 
 @pytest.mark.parametrize("delta", [2e-4, 1e-3])
 def test_recess_gap_is_the_least_face_gear_turn_onto_the_rounded_pinion_edge(delta):
-    # as above: 1201 sections over the 13.5 mm the pinion face spans over the ring,
-    # 400 points on each arc of 0.3 mm (chord error up to 6e-10 m mid-arc, far less
-    # near the flank's end of the arc, where the recess touch lies)
+    # as above, on the 13.5 mm of pinion face over the ring: k < 10 1/m (3e-10 m) and
+    # 400 points on each arc of rho = 0.3 mm (6e-10 m): 0 <= brute - module <= 1e-9 m
     roll = _roll("recess", delta)
     edge = pinion_edge_rounding(PAIR, GEARSET.pinion.tip_edge_radius, n=1201)
     contact = corner_contact(PAIR, edge, "recess", roll)
     brute = _face_turn_gap(_arc_samples(edge), roll)
-    assert contact.gap == pytest.approx(brute, abs=2e-10, rel=1e-5)
+    assert -1e-11 <= brute - contact.gap <= 1e-9
     assert contact.gap > 0.0 and contact.on_rounding and not contact.at_edge_end
 
 

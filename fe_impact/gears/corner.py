@@ -36,7 +36,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import brentq
 
 from fe_impact.errors import GeometryError
 from fe_impact.gears.tca import (
@@ -54,6 +53,7 @@ __all__ = [
     "CornerContact",
     "EdgeRounding",
     "corner_contact",
+    "corner_gaps",
     "face_edge_rounding",
     "midplane_rounding",
     "pinion_edge_rounding",
@@ -70,6 +70,10 @@ _HALVINGS = 50
 #: Newton steps of a point's projection onto a flank (quadratic from an
 #: initial guess within a few um: round-off after four).
 _PROJECTION_STEPS = 8
+#: Newton steps on a ball's closing turn, and the step [rad] below which it
+#: has converged (1e-14 rad moves a flank by 3e-16 m).
+_TURN_STEPS = 20
+_TURN_TOL = 1e-14
 
 
 @dataclass(frozen=True)
@@ -181,15 +185,15 @@ def midplane_rounding(pair: GearPair, radius: float, side: str, roll_angle: floa
 
 
 # -- projections onto the flanks ---------------------------------------------------------------
-def _project(surface, x: NDArray, a: NDArray, b: NDArray, steps: tuple[float, float]
-             ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """Foot of points ``x`` (n, 3) on ``surface(a, b) -> (points, normals)`` by Newton
+def _project(surface, x: NDArray, a: NDArray, b: NDArray, steps: tuple[float, float],
+             iterations: int = _PROJECTION_STEPS) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Foot of points ``x`` (..., 3) on ``surface(a, b) -> (points, normals)`` by Newton
     on the tangency conditions ``(x - r) . r_a = (x - r) . r_b = 0`` (Gauss-Newton:
     the surface's second derivatives are dropped, exact at the solution);
     returns the parameters, the feet's signed distance along the outward normal
     and the normals."""
     ha, hb = steps
-    for _ in range(_PROJECTION_STEPS):
+    for _ in range(iterations):
         p, _ = surface(np.stack([a, a + ha, a - ha, a, a]), np.stack([b, b, b, b + hb, b - hb]))
         r, ra, rb = p[0], (p[1] - p[2]) / (2 * ha), (p[3] - p[4]) / (2 * hb)
         d = x - r
@@ -202,30 +206,34 @@ def _project(surface, x: NDArray, a: NDArray, b: NDArray, steps: tuple[float, fl
     return a, b, ((x - p) * normal).sum(-1), normal
 
 
-def _pinion_distance(pair: GearPair, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+def _pinion_distance(pair: GearPair, x: NDArray, start=None, iterations=_PROJECTION_STEPS):
     """Signed distance of pinion-frame points to the pinion's flank (outward positive)."""
     pinion = pair.pinion
-    radius = np.hypot(x[:, 0], x[:, 1])
-    theta = np.sqrt(np.maximum(radius**2 / pinion.base_radius**2 - 1.0, 1e-6))
+    if start is None:
+        radius = np.hypot(x[..., 0], x[..., 1])
+        start = (x[..., 2].copy(),
+                 np.sqrt(np.maximum(radius**2 / pinion.base_radius**2 - 1.0, 1e-6)))
     m = pinion.module
 
     def surface(u, t):
         s = pinion.flank_surface(u, t, side=1)
         return s.points, s.normals
 
-    return _project(surface, x, x[:, 2].copy(), theta, (1e-3 * m, 1e-3 * m / pinion.base_radius))
+    return _project(surface, x, *start, (1e-3 * m, 1e-3 * m / pinion.base_radius), iterations)
 
 
-def _face_distance(pair: GearPair, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+def _face_distance(pair: GearPair, x: NDArray, start=None, iterations=_PROJECTION_STEPS):
     """Signed distance of face-gear-frame points to its flank (outward positive)."""
     face = pair.face
+    if start is None:
+        start = (np.hypot(x[..., 0], x[..., 2]), x[..., 1].copy())
     m = face.module
 
     def surface(length, height):
         s = face.flank(length, height, side=1)
         return s.points, s.normals
 
-    return _project(surface, x, np.hypot(x[:, 0], x[:, 2]), x[:, 1].copy(), (1e-3 * m, 1e-3 * m))
+    return _project(surface, x, *start, (1e-3 * m, 1e-3 * m), iterations)
 
 
 def _rz(angle: float) -> NDArray:
@@ -312,37 +320,90 @@ def _between(v: NDArray, a: NDArray, b: NDArray) -> bool:
 
 
 class _Corner:
-    """One side's geometry at one roll angle: the held edge's ball centres, in the
-    moving member's frame, as functions of its extra turn."""
+    """One side's geometry at some roll angles: the held edge's ball centres in the
+    moving member's frame, shape (rolls, sections, 3), and each ball's closing turn."""
 
-    def __init__(self, pair: GearPair, edge: EdgeRounding, side: str, roll: float):
-        self.pair, self.edge, self.side, self.roll = pair, edge, side, roll
-        phi2 = pair.nominal_face_angle(roll)
-        self.phi2 = phi2
-        if side == "approach":   # face-gear centres into the pinion frame at roll
-            mesh = pair.face_to_mesh(edge.centres, phi2)
-            self.base = (mesh - [0.0, pair.pinion.pitch_radius, pair.z0]) @ pair.pinion_rotation(
-                roll)
-            self.lever = pair.pinion.base_radius
-        else:                    # pinion centres into the face-gear frame at phi2
-            mesh = pair.pinion_to_mesh(edge.centres, roll)
-            self.base = mesh @ pair.face_rotation(phi2)
-            self.lever = pair.face.pitch_radius * math.cos(pair.face.pressure_angle)
+    def __init__(self, pair: GearPair, edge: EdgeRounding, side: str, rolls: NDArray):
+        self.pair, self.edge, self.side = pair, edge, side
+        self.rolls = np.atleast_1d(np.asarray(rolls, float))
+        self.phi2 = pair.nominal_face_angle(self.rolls)
+        base = []
+        for roll, phi2 in zip(self.rolls, self.phi2, strict=True):
+            if side == "approach":   # face-gear centres into the pinion frame at roll
+                mesh = pair.face_to_mesh(edge.centres, phi2)
+                base.append((mesh - [0.0, pair.pinion.pitch_radius, pair.z0])
+                            @ pair.pinion_rotation(roll))
+            else:                    # pinion centres into the face-gear frame at phi2
+                base.append(pair.pinion_to_mesh(edge.centres, roll) @ pair.face_rotation(phi2))
+        self.base = np.stack(base)
+        self.lever = (pair.pinion.base_radius if side == "approach"
+                      else pair.face.pitch_radius * math.cos(pair.face.pressure_angle))
 
-    def turned(self, turn: float) -> NDArray:
-        """The centres as the moving member sees them after it turned by ``turn``."""
-        rot = _rz(-turn) if self.side == "approach" else _ry(-turn)
-        return self.base @ rot.T
+    def turned(self, turns: NDArray) -> tuple[NDArray, NDArray]:
+        """The centres as the moving member sees them after it turned by ``turns`` (one
+        per ball), and their rate of change with the turn."""
+        c, s = np.cos(turns), np.sin(turns)
+        x, y, z = np.moveaxis(self.base, -1, 0)
+        if self.side == "approach":      # Rz(-turn): the pinion turned by +turn
+            xt, yt = c * x + s * y, -s * x + c * y
+            return np.stack([xt, yt, z], -1), np.stack([yt, -xt, np.zeros_like(z)], -1)
+        xt, zt = c * x - s * z, s * x + c * z   # Ry(-turn): the face gear turned
+        return np.stack([xt, y, zt], -1), np.stack([-zt, np.zeros_like(y), xt], -1)
 
-    def distances(self, turn: float):
-        x = self.turned(turn)
-        if self.side == "approach":
-            return _pinion_distance(self.pair, x)
-        return _face_distance(self.pair, x)
+    def distances(self, turns: NDArray, start=None, iterations: int = _PROJECTION_STEPS):
+        x, _ = self.turned(turns)
+        measure = _pinion_distance if self.side == "approach" else _face_distance
+        return measure(self.pair, x, start, iterations)
 
-    def clearance(self, turn: float) -> float:
-        """Least distance of a ball to the moving flank, less ``rho``."""
-        return float(np.min(self.distances(turn)[2])) - self.edge.radius
+    def closing_turns(self) -> tuple[NDArray, NDArray]:
+        """Each ball's turn of the moving member that brings the flank to ``rho`` of its
+        centre (Newton on the signed distance, whose derivative is the flank normal's
+        component of the centre's motion; the projection warm-started), and the gap it
+        makes, ``lever * turn`` signed as the clearance at the conjugate position
+        (negative: the ball overlaps the flank there)."""
+        rho = self.edge.radius
+        turns = np.zeros(self.base.shape[:-1])
+        a, b, dist, normal = self.distances(turns)
+        first = dist - rho
+        for _ in range(_TURN_STEPS):
+            _, rate = self.turned(turns)
+            slope = (normal * rate).sum(-1)
+            step = -(dist - rho) / slope
+            turns = turns + step
+            a, b, dist, normal = self.distances(turns, (a, b), iterations=3)
+            if np.max(np.abs(step)) < _TURN_TOL:
+                break
+        a, b, dist, normal = self.distances(turns, (a, b))
+        self.feet = (a, b, normal)
+        return turns, np.sign(first) * np.abs(turns) * self.lever
+
+
+def _least(values: NDArray, parameter: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """Least of ``values`` (rolls, sections) over the sections: the sampled least's index,
+    and a parabola's least value and position through it and its two neighbours (the
+    sampled one at the ends of the edge)."""
+    i = np.argmin(values, axis=-1)
+    j = np.clip(i, 1, values.shape[-1] - 2)
+    rows = np.arange(values.shape[0])
+    y0, y1, y2 = values[rows, j - 1], values[rows, j], values[rows, j + 1]
+    curve = y0 - 2.0 * y1 + y2
+    inner = (i == j) & (curve > 0.0)
+    shift = np.where(inner, np.clip(0.5 * (y0 - y2) / np.where(inner, curve, 1.0), -1, 1), 0.0)
+    least = np.where(inner, y1 - 0.25 * (y0 - y2) * shift, values[rows, i])
+    step = parameter[1] - parameter[0] if len(parameter) > 1 else 0.0
+    where = np.where(inner, parameter[j] + shift * step, parameter[i])
+    return i, least, where
+
+
+def corner_gaps(pair: GearPair, edge: EdgeRounding, side: str, roll_angles) -> NDArray:
+    """Corner gaps [m] at several roll angles at once (module docstring): the least
+    over the edge's sections of each ball's closing gap, refined between sections by
+    a parabola; negative where the edge already overlaps the flank."""
+    if side not in CORNER_SIDES:
+        raise GeometryError(f"corner side = {side!r}: pick one of {list(CORNER_SIDES)}")
+    c = _Corner(pair, edge, side, roll_angles)
+    _, gaps = c.closing_turns()
+    return _least(gaps, edge.parameter)[1]
 
 
 def corner_contact(pair: GearPair, edge: EdgeRounding, side: str, roll_angle: float
@@ -350,78 +411,57 @@ def corner_contact(pair: GearPair, edge: EdgeRounding, side: str, roll_angle: fl
     """First touch of ``edge`` (held) and the mating flank at ``roll_angle`` [rad].
 
     ``edge``: :func:`face_edge_rounding` for the approach side,
-    :func:`pinion_edge_rounding` for the recess side. The closing turn is
-    bracketed from 0 and found by ``brentq`` on the least ball clearance (a
-    continuous, decreasing function of the turn while the balls approach);
-    the touching section is refined by a parabola through the least sampled
-    clearance and its neighbours.
+    :func:`pinion_edge_rounding` for the recess side. Each ball's closing turn
+    is found by Newton; the first to touch is the least, refined between
+    sections by a parabola through it and its neighbours.
 
     Raises
     ------
     GeometryError
-        For an unknown side, or when no turn of up to a tenth of a pitch
-        brings the edge onto the flank, or when the pair already overlaps
-        (the roll angle is inside the path of contact).
+        For an unknown side, or when the pair already overlaps there (the roll
+        angle is inside the path of contact).
     """
     if side not in CORNER_SIDES:
         raise GeometryError(f"corner side = {side!r}: pick one of {list(CORNER_SIDES)}")
-    c = _Corner(pair, edge, side, roll_angle)
-    if c.clearance(0.0) <= 0.0:
+    c = _Corner(pair, edge, side, [roll_angle])
+    turns, gaps = c.closing_turns()
+    i, least, section = _least(gaps, edge.parameter)
+    if least[0] <= 0.0:
         raise GeometryError(
             f"roll angle {math.degrees(roll_angle):.4f} deg: the {side} tip edge already "
             "touches or overlaps the mating flank there (inside the path of contact)")
-    # the closing sense: the one in which the least clearance falls
-    probe = 1e-6
-    sense = 1.0 if c.clearance(probe) < c.clearance(-probe) else -1.0
-    teeth = pair.pinion.teeth if side == "approach" else pair.face.teeth
-    limit = 0.1 * 2.0 * math.pi / teeth
-    hi = 1e-5
-    while c.clearance(sense * hi) > 0.0:
-        hi *= 2.0
-        if hi > limit:
-            raise GeometryError(
-                f"roll angle {math.degrees(roll_angle):.4f} deg: the {side} tip edge does not "
-                f"reach the mating flank within a tenth of a pitch; allowed roll angles lie "
-                "just outside the path of contact")
-    turn = sense * brentq(lambda t: c.clearance(sense * t), 0.0, hi, xtol=1e-15, rtol=1e-14)
-    return _touch(c, turn)
+    return _touch(c, int(i[0]), float(turns[0, i[0]]), float(least[0]), float(section[0]))
 
 
-def _touch(c: _Corner, turn: float) -> CornerContact:
-    """The contact record at the closing ``turn``."""
+def _touch(c: _Corner, i: int, turn: float, gap: float, section: float) -> CornerContact:
+    """The contact record of ball ``i`` touching at ``turn``."""
     pair, edge = c.pair, c.edge
-    a, b, dist, normals = c.distances(turn)
-    i = int(np.argmin(dist))
-    j = min(max(i, 1), len(dist) - 2)
-    # the touching section: a parabola through the least clearance and its neighbours
-    y0, y1, y2 = dist[j - 1], dist[j], dist[j + 1]
-    curve = y0 - 2.0 * y1 + y2
-    shift = float(np.clip(0.5 * (y0 - y2) / curve, -1.0, 1.0)) if curve > 0.0 else 0.0
-    section = float(edge.parameter[j] + shift * (edge.parameter[1] - edge.parameter[0]))
-    point = c.turned(turn)[i] - edge.radius * normals[i]   # moving member's frame
+    a, b, normals = (f[0] for f in c.feet)
+    roll, phi2 = float(c.rolls[0]), float(c.phi2[0])
+    x, _ = c.turned(np.full(c.base.shape[:-1], turn))
+    point = x[0, i] - edge.radius * normals[i]          # moving member's frame
     if c.side == "approach":      # the pinion moved; the face gear holds the edge
-        moved = pair.pinion_rotation(c.roll + turn)
-        point = pair.pinion_to_mesh(point[None], c.roll + turn)[0]
-        held = pair.face_rotation(c.phi2)
+        moved = pair.pinion_rotation(roll + turn)
+        point = pair.pinion_to_mesh(point[None], roll + turn)[0]
+        held = pair.face_rotation(phi2)
         flank = principal_curvatures(
             lambda u, t: _surface(pair.pinion.flank_surface(u, t, side=1)), a[i], b[i],
             1e-3 * pair.pinion.module, 1e-3 * pair.pinion.module / pair.pinion.base_radius)
     else:                         # the face gear moved; the pinion holds the edge
-        moved = pair.face_rotation(c.phi2 + turn)
-        point = pair.face_to_mesh(point[None], c.phi2 + turn)[0]
-        held = pair.pinion_rotation(c.roll)
+        moved = pair.face_rotation(phi2 + turn)
+        point = pair.face_to_mesh(point[None], phi2 + turn)[0]
+        held = pair.pinion_rotation(roll)
         flank = principal_curvatures(
             lambda length, h: _surface(pair.face.flank(length, h, side=1)), a[i], b[i],
             1e-3 * pair.face.module, 1e-3 * pair.face.module)
     flank = flank.rotated(moved)
     normal = moved @ normals[i]
     # the rounding's outward normal at the touch, in the held member's frame
-    outward = held.T @ (-normal)
-    on_arc = _between(outward, edge.flank_normals[i], edge.land_normals[i])
+    on_arc = _between(held.T @ (-normal), edge.flank_normals[i], edge.land_normals[i])
     rounding = _edge_curvatures(edge, i, held, -normal)
     relative = relative_curvature(flank, rounding)
-    return CornerContact(c.side, c.roll, abs(turn) * c.lever, turn, section, point, normal,
-                         on_arc, i in (0, len(dist) - 1), rounding, flank, relative)
+    return CornerContact(c.side, roll, gap, turn, section, point, normal, on_arc,
+                         i in (0, len(edge.parameter) - 1), rounding, flank, relative)
 
 
 def _surface(sample) -> tuple[NDArray, NDArray]:

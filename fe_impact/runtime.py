@@ -5,8 +5,22 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import logging
+import os
+from pathlib import Path
 
 logger = logging.getLogger(__name__)
+
+def user_cache(name: str) -> Path | None:
+    """``fe-impact/<name>`` in the user's cache (``$XDG_CACHE_HOME`` or ``~/.cache``),
+    created; None if it cannot be created or written."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    folder = Path(base) / "fe-impact" / name
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    return folder if os.access(folder, os.W_OK) else None
+
 
 # glibc mallopt parameters (malloc.h)
 _M_TRIM_THRESHOLD = -1

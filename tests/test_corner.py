@@ -140,7 +140,9 @@ def test_rounding_curvature_along_a_circular_edge_is_the_torus_formula():
 
 def test_roll_angles_inside_the_path_and_unknown_sides_are_refused():
     edge = face_edge_rounding(PAIR, 1e-4, n=21)
-    with pytest.raises(GeometryError, match="already touches or overlaps"):
+    end = math.degrees(_roll("approach", 0.0))
+    with pytest.raises(GeometryError, match=rf"roll angle 0.0000 deg has no approach corner "
+                                            rf"contact.*allowed roll angles > {end:.4f} deg"):
         corner_contact(PAIR, edge, "approach", 0.0)
     with pytest.raises(GeometryError, match=r"corner side = 'tip'.*approach.*recess"):
         corner_contact(PAIR, edge, "tip", 0.3)

@@ -775,14 +775,9 @@ def numba_folder(cache: Path) -> Iterator[Path]:
     different slots (two processes compiling into one folder at once can
     leave files that crash a later load), later runs the first free one.
     """
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    root = Path(base) / "fe-impact" / "numba"
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-    except OSError:
-        root = None
-    if root is None or not os.access(root, os.W_OK):
-        root = Path(cache) / "numba"
+    from fe_impact.runtime import user_cache
+
+    root = user_cache("numba") or Path(cache) / "numba"
     for k in range(64):
         with folder_lock(root / f"slot{k}", wait=False) as held:
             if held:
@@ -1009,7 +1004,6 @@ def _stop_watch(stop_name: str | None, case_id: str):
 
 
 def _cores() -> int:
-    import os
 
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
         (os.cpu_count() or 1)

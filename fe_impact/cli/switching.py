@@ -56,6 +56,11 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help="time-series sampling interval [s] (default 2e-4; statistics use "
                         "every integration step)")
     p.add_argument("--out", type=Path, metavar="DIR", help="output folder")
+    p.add_argument("--corners", choices=("auto", "3d", "planar"), default="auto",
+                   help="tip-corner gaps: the three-dimensional first touch of the rounded "
+                        "tip edges over the face ('3d'), the planar rack-and-pinion model "
+                        "('planar'); default 'auto': '3d' when the gear set's tip edges are "
+                        "rounded")
     p.set_defaults(func=run)
     p.epilog = (f"A segment with fewer than {MIN_MESH_CYCLES} mesh cycles gets a warning: "
                 "its statistics are not comparable with the seed's 5 s tables.")
@@ -132,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
     preset = get_preset(args.preset)
     if args.duration is not None:
         preset = preset.scaled(args.duration)
-    model = DriveModel()
+    model = DriveModel(corners=args.corners)
     notes = _check_preset(args, preset, model.gearset.pinion.teeth)
     masses = [model.effective_mass(s) for s in range(1, model.n_stages + 1)]
     try:

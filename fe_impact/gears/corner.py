@@ -55,6 +55,7 @@ __all__ = [
     "corner_contact",
     "corner_gaps",
     "face_edge_rounding",
+    "flank_end_roll",
     "midplane_rounding",
     "pinion_edge_rounding",
 ]
@@ -74,6 +75,8 @@ _PROJECTION_STEPS = 8
 #: has converged (1e-14 rad moves a flank by 3e-16 m).
 _TURN_STEPS = 20
 _TURN_TOL = 1e-14
+#: Sections of the refinement around each roll's least (:func:`_first_touch`).
+_REFINE = 17
 
 
 @dataclass(frozen=True)
@@ -207,7 +210,10 @@ def _project(surface, x: NDArray, a: NDArray, b: NDArray, steps: tuple[float, fl
 
 
 def _pinion_distance(pair: GearPair, x: NDArray, start=None, iterations=_PROJECTION_STEPS):
-    """Signed distance of pinion-frame points to the pinion's flank (outward positive)."""
+    """Signed distance of pinion-frame points to the pinion's flank (outward positive);
+    +inf where the foot falls off the involute's real part (below the form circle,
+    where the root fillet lies, above the tip, or beyond the face's ends): the tooth
+    there is not the extended involute."""
     pinion = pair.pinion
     if start is None:
         radius = np.hypot(x[..., 0], x[..., 1])
@@ -219,21 +225,43 @@ def _pinion_distance(pair: GearPair, x: NDArray, start=None, iterations=_PROJECT
         s = pinion.flank_surface(u, t, side=1)
         return s.points, s.normals
 
-    return _project(surface, x, *start, (1e-3 * m, 1e-3 * m / pinion.base_radius), iterations)
+    a, b, dist, normal = _project(surface, x, *start,
+                                  (1e-3 * m, 1e-3 * m / pinion.base_radius), iterations)
+    real = ((b >= pinion.theta_form) & (b <= pinion.theta_tip)
+            & (np.abs(a) <= 0.5 * pinion.face_width))
+    return a, b, np.where(real, dist, np.inf), normal
 
 
 def _face_distance(pair: GearPair, x: NDArray, start=None, iterations=_PROJECTION_STEPS):
-    """Signed distance of face-gear-frame points to its flank (outward positive)."""
+    """Signed distance of face-gear-frame points to its flank (outward positive); +inf
+    for points more than a module above the tip plane or below the root plane, or two
+    modules beyond the ends of the face (far from the working flank, where the flank's
+    parametrisation has no point at their radius and height), and where the foot falls
+    off the generated flank (:attr:`~fe_impact.gears.facegear.FlankSample.valid`) or
+    beyond the face."""
     face = pair.face
-    if start is None:
-        start = (np.hypot(x[..., 0], x[..., 2]), x[..., 1].copy())
     m = face.module
+    length, height = np.hypot(x[..., 0], x[..., 2]), x[..., 1]
+    if start is None:
+        start = (length, height.copy())
+    near = ((height > face.root_height - m) & (height < face.tip_height + m)
+            & (length > face.face_inner - 2 * m) & (length < face.face_outer + 2 * m))
 
-    def surface(length, height):
-        s = face.flank(length, height, side=1)
+    def surface(radius, h):
+        s = face.flank(radius, h, side=1)
         return s.points, s.normals
 
-    return _project(surface, x, *start, (1e-3 * m, 1e-3 * m), iterations)
+    a, b = np.array(start[0], float, copy=True), np.array(start[1], float, copy=True)
+    dist = np.full(x.shape[:-1], np.inf)
+    normal = np.zeros_like(x)
+    if np.any(near):
+        a[near], b[near], dist[near], normal[near] = _project(
+            surface, x[near], a[near], b[near], (1e-3 * m, 1e-3 * m), iterations)
+        # feet off the generated flank (the root fillet, beyond the face): +inf
+        real = face.flank(a[near], b[near], side=1).valid & (a[near] >= face.face_inner) \
+            & (a[near] <= face.face_outer)
+        dist[near] = np.where(real, dist[near], np.inf)
+    return a, b, dist, normal
 
 
 def _rz(angle: float) -> NDArray:
@@ -323,18 +351,22 @@ class _Corner:
     """One side's geometry at some roll angles: the held edge's ball centres in the
     moving member's frame, shape (rolls, sections, 3), and each ball's closing turn."""
 
-    def __init__(self, pair: GearPair, edge: EdgeRounding, side: str, rolls: NDArray):
+    def __init__(self, pair: GearPair, edge: EdgeRounding, side: str, rolls: NDArray,
+                 groups: int | None = None):
         self.pair, self.edge, self.side = pair, edge, side
         self.rolls = np.atleast_1d(np.asarray(rolls, float))
         self.phi2 = pair.nominal_face_angle(self.rolls)
         base = []
-        for roll, phi2 in zip(self.rolls, self.phi2, strict=True):
+        for r, (roll, phi2) in enumerate(zip(self.rolls, self.phi2, strict=True)):
+            # every section at every roll, or the r-th group of ``groups`` sections
+            centres = edge.centres if groups is None else \
+                edge.centres[r * groups:(r + 1) * groups]
             if side == "approach":   # face-gear centres into the pinion frame at roll
-                mesh = pair.face_to_mesh(edge.centres, phi2)
+                mesh = pair.face_to_mesh(centres, phi2)
                 base.append((mesh - [0.0, pair.pinion.pitch_radius, pair.z0])
                             @ pair.pinion_rotation(roll))
             else:                    # pinion centres into the face-gear frame at phi2
-                base.append(pair.pinion_to_mesh(edge.centres, roll) @ pair.face_rotation(phi2))
+                base.append(pair.pinion_to_mesh(centres, roll) @ pair.face_rotation(phi2))
         self.base = np.stack(base)
         self.lever = (pair.pinion.base_radius if side == "approach"
                       else pair.face.pitch_radius * math.cos(pair.face.pressure_angle))
@@ -360,50 +392,79 @@ class _Corner:
         centre (Newton on the signed distance, whose derivative is the flank normal's
         component of the centre's motion; the projection warm-started), and the gap it
         makes, ``lever * turn`` signed as the clearance at the conjugate position
-        (negative: the ball overlaps the flank there)."""
+        (negative: the ball overlaps the flank there; +inf: a ball far from the flank)."""
         rho = self.edge.radius
         turns = np.zeros(self.base.shape[:-1])
         a, b, dist, normal = self.distances(turns)
         first = dist - rho
+        live = np.isfinite(dist)
         for _ in range(_TURN_STEPS):
             _, rate = self.turned(turns)
             slope = (normal * rate).sum(-1)
-            step = -(dist - rho) / slope
+            step = np.where(live, -(dist - rho) / np.where(live, slope, 1.0), 0.0)
             turns = turns + step
             a, b, dist, normal = self.distances(turns, (a, b), iterations=3)
+            live &= np.isfinite(dist)
             if np.max(np.abs(step)) < _TURN_TOL:
                 break
         a, b, dist, normal = self.distances(turns, (a, b))
+        live &= np.isfinite(dist)
         self.feet = (a, b, normal)
-        return turns, np.sign(first) * np.abs(turns) * self.lever
+        gaps = np.where(live, np.sign(first) * np.abs(turns) * self.lever, np.inf)
+        return turns, gaps
 
 
 def _least(values: NDArray, parameter: NDArray) -> tuple[NDArray, NDArray, NDArray]:
     """Least of ``values`` (rolls, sections) over the sections: the sampled least's index,
     and a parabola's least value and position through it and its two neighbours (the
-    sampled one at the ends of the edge)."""
+    sampled one at the ends of the edge). ``parameter``: the sections' positions along
+    the edge, (sections,) or (rolls, sections), evenly spaced."""
     i = np.argmin(values, axis=-1)
     j = np.clip(i, 1, values.shape[-1] - 2)
     rows = np.arange(values.shape[0])
     y0, y1, y2 = values[rows, j - 1], values[rows, j], values[rows, j + 1]
-    curve = y0 - 2.0 * y1 + y2
-    inner = (i == j) & (curve > 0.0)
-    shift = np.where(inner, np.clip(0.5 * (y0 - y2) / np.where(inner, curve, 1.0), -1, 1), 0.0)
-    least = np.where(inner, y1 - 0.25 * (y0 - y2) * shift, values[rows, i])
-    step = parameter[1] - parameter[0] if len(parameter) > 1 else 0.0
-    where = np.where(inner, parameter[j] + shift * step, parameter[i])
+    with np.errstate(invalid="ignore"):     # a neighbour far from the flank: +inf
+        curve = y0 - 2.0 * y1 + y2
+        inner = (i == j) & (curve > 0.0) & np.isfinite(curve)
+        shift = np.where(inner, np.clip(0.5 * (y0 - y2) / np.where(inner, curve, 1.0), -1, 1),
+                         0.0)
+        least = np.where(inner, y1 - 0.25 * (y0 - y2) * shift, values[rows, i])
+    grid = np.broadcast_to(parameter, values.shape)
+    step = grid[:, 1] - grid[:, 0] if values.shape[-1] > 1 else np.zeros(len(rows))
+    where = np.where(inner, grid[rows, j] + shift * step, grid[rows, i])
     return i, least, where
+
+
+def _first_touch(pair: GearPair, edge: EdgeRounding, side: str, rolls
+                 ) -> tuple[_Corner, NDArray, NDArray, NDArray, NDArray, NDArray]:
+    """Each roll's first touch: the least closing gap over ``edge``'s sections, then
+    again over :data:`_REFINE` sections spanning the least's two neighbouring
+    intervals (the clearance along the edge can curve on a scale finer than the
+    sections: 10 1/m against gaps of 0.1 um). Returns the refined :class:`_Corner`,
+    its turns and gaps, and per roll the touching ball's index in it, the gap, the
+    touching position and whether it is an end section of ``edge``."""
+    coarse = _Corner(pair, edge, side, rolls)
+    _, gaps = coarse.closing_turns()
+    i = np.argmin(gaps, axis=-1)
+    n = len(edge.parameter)
+    lo = edge.parameter[np.maximum(i - 1, 0)]
+    hi = edge.parameter[np.minimum(i + 1, n - 1)]
+    local = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, _REFINE)[None, :]
+    make = face_edge_rounding if side == "approach" else pinion_edge_rounding
+    fine = make(pair, edge.radius, None, local.ravel())
+    c = _Corner(pair, fine, side, rolls, groups=_REFINE)
+    turns, fine_gaps = c.closing_turns()
+    k, least, where = _least(fine_gaps, local)
+    return c, turns, fine_gaps, k, least, (where, (i == 0) | (i == n - 1))
 
 
 def corner_gaps(pair: GearPair, edge: EdgeRounding, side: str, roll_angles) -> NDArray:
     """Corner gaps [m] at several roll angles at once (module docstring): the least
-    over the edge's sections of each ball's closing gap, refined between sections by
-    a parabola; negative where the edge already overlaps the flank."""
+    over the edge's sections of each ball's closing gap, refined between sections
+    (:func:`_first_touch`); negative where the edge already overlaps the flank."""
     if side not in CORNER_SIDES:
         raise GeometryError(f"corner side = {side!r}: pick one of {list(CORNER_SIDES)}")
-    c = _Corner(pair, edge, side, roll_angles)
-    _, gaps = c.closing_turns()
-    return _least(gaps, edge.parameter)[1]
+    return _first_touch(pair, edge, side, roll_angles)[4]
 
 
 def corner_contact(pair: GearPair, edge: EdgeRounding, side: str, roll_angle: float
@@ -418,22 +479,50 @@ def corner_contact(pair: GearPair, edge: EdgeRounding, side: str, roll_angle: fl
     Raises
     ------
     GeometryError
-        For an unknown side, or when the pair already overlaps there (the roll
-        angle is inside the path of contact).
+        For an unknown side, a roll angle on the flank side of
+        :func:`flank_end_roll` (no corner contact there), or when the edge
+        already overlaps the flank there.
     """
     if side not in CORNER_SIDES:
         raise GeometryError(f"corner side = {side!r}: pick one of {list(CORNER_SIDES)}")
-    c = _Corner(pair, edge, side, [roll_angle])
-    turns, gaps = c.closing_turns()
-    i, least, section = _least(gaps, edge.parameter)
+    end = flank_end_roll(pair, edge.radius, side)
+    beyond = roll_angle > end if side == "approach" else roll_angle < end
+    if not beyond:
+        allowed = ">" if side == "approach" else "<"
+        raise GeometryError(
+            f"roll angle {math.degrees(roll_angle):.4f} deg has no {side} corner contact: the "
+            f"flank contact runs to {math.degrees(end):.4f} deg there; allowed roll angles "
+            f"{allowed} {math.degrees(end):.4f} deg")
+    c, turns, _, k, least, (where, at_end) = _first_touch(pair, edge, side, [roll_angle])
     if least[0] <= 0.0:
         raise GeometryError(
             f"roll angle {math.degrees(roll_angle):.4f} deg: the {side} tip edge already "
-            "touches or overlaps the mating flank there (inside the path of contact)")
-    return _touch(c, int(i[0]), float(turns[0, i[0]]), float(least[0]), float(section[0]))
+            "touches or overlaps the mating flank there")
+    i = int(k[0])
+    return _touch(c, i, float(turns[0, i]), float(least[0]), float(where[0]), bool(at_end[0]))
 
 
-def _touch(c: _Corner, i: int, turn: float, gap: float, section: float) -> CornerContact:
+def flank_end_roll(pair: GearPair, radius: float, side: str) -> float:
+    """Pinion roll angle [rad] where the flank contact ends at ``side`` with a tip-edge
+    rounding of ``radius`` on the edge there, in the pinion-on-rack geometry at the
+    design radius (the torsional model's path, :mod:`fe_impact.switching.geometry`):
+    the face gear's straight flank ends ``rho (1 - sin a) / sin a`` along the line of
+    action beyond where its tip line crosses it; the pinion's involute ends at the
+    roll length ``rho + sqrt(rho^2 + s_a^2 - 2 r_a rho)``. Roll angles grow towards
+    the face-gear tip end: ``phi = (r_p sin a - s) / r_b``."""
+    pinion = pair.pinion
+    a, r_b = pinion.pressure_angle, pinion.base_radius
+    if side == "approach":
+        s = (pinion.pitch_radius * math.sin(a) - pair.face.tip_height / math.sin(a)
+             + radius * (1.0 - math.sin(a)) / math.sin(a))
+    else:
+        r_a = pinion.tip_radius
+        s = radius + math.sqrt(radius**2 + r_a**2 - r_b**2 - 2.0 * r_a * radius)
+    return (pinion.pitch_radius * math.sin(a) - s) / r_b
+
+
+def _touch(c: _Corner, i: int, turn: float, gap: float, section: float, at_end: bool
+           ) -> CornerContact:
     """The contact record of ball ``i`` touching at ``turn``."""
     pair, edge = c.pair, c.edge
     a, b, normals = (f[0] for f in c.feet)
@@ -460,8 +549,8 @@ def _touch(c: _Corner, i: int, turn: float, gap: float, section: float) -> Corne
     on_arc = _between(held.T @ (-normal), edge.flank_normals[i], edge.land_normals[i])
     rounding = _edge_curvatures(edge, i, held, -normal)
     relative = relative_curvature(flank, rounding)
-    return CornerContact(c.side, roll, gap, turn, section, point, normal, on_arc,
-                         i in (0, len(edge.parameter) - 1), rounding, flank, relative)
+    return CornerContact(c.side, roll, gap, turn, section, point, normal, on_arc, at_end,
+                         rounding, flank, relative)
 
 
 def _surface(sample) -> tuple[NDArray, NDArray]:

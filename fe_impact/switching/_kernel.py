@@ -62,16 +62,15 @@ PARAMS = np.dtype([
     ("output_inertia", np.float64),  # [kg m^2]
     ("sample_dt", np.float64),  # sampling interval [s]
     ("drag", np.float64),  # drag torque on the output [N m]
-    ("corner_in", np.float64),  # roll span of the approach corner table [m]
-    ("corner_out", np.float64),  # roll span of the recess corner table [m]
     # IMPACT law of a tooth pair before its first onset: k, exponent, cmax, d
     ("law_k", np.float64), ("law_n", np.float64), ("law_cmax", np.float64), ("law_d", np.float64),
 ], align=True)
 
 #: Per ring (stage): inertia [kg m^2], web stiffness [N m/rad] and damping [N m s/rad],
-#: base lever r_b [m].
+#: base lever r_b [m], roll spans of its approach and recess corner tables [m].
 STAGE = np.dtype([("inertia", np.float64), ("coupling", np.float64), ("damping", np.float64),
-                  ("lever", np.float64)], align=True)
+                  ("lever", np.float64), ("corner_in", np.float64),
+                  ("corner_out", np.float64)], align=True)
 
 #: Schedule segment, for `reference`.
 SEGMENT = np.dtype([("t_start", np.float64), ("speed", np.float64), ("load", np.float64),
@@ -204,17 +203,18 @@ def corner(delta, table, delta_max):
 
 
 @njit(cache=True)
-def pair_gap(s, p, corners):
-    """Gap ``g(s)`` and ``dg/ds`` of a tooth pair at roll ``s``.
+def pair_gap(s, p, corners, stage):
+    """Gap ``g(s)`` and ``dg/ds`` of a tooth pair at roll ``s`` on ring ``stage``.
 
-    ``corners[0]`` is the approach (before ``s_start``) and ``corners[1]``
-    the recess (after ``s_end``) corner table.
+    ``corners[0]`` is the ring's approach (before ``s_start``) and ``corners[1]``
+    its recess (after ``s_end``) corner table, spanning ``stage.corner_in`` and
+    ``stage.corner_out``.
     """
     if s < p.s_start:
-        g, dg = corner(p.s_start - s, corners[0], p.corner_in)
+        g, dg = corner(p.s_start - s, corners[0], stage.corner_in)
         return g, -dg
     if s > p.s_end:
-        return corner(s - p.s_end, corners[1], p.corner_out)
+        return corner(s - p.s_end, corners[1], stage.corner_out)
     return 0.0, 0.0
 
 
@@ -323,12 +323,12 @@ def rhs(t, y, dy, p, stages, aoff, corners, postab, sch, slots, pairs, npairs, a
         sg = 1.0 if fl == 0 else -1.0
         roll = u + p.u0 if fl == 0 else length + 0.5 * pb - (u + p.u0)
         srate = sg * rbp * wp
-        lo = math.ceil((roll - length - p.corner_out) / pb)
-        hi = math.floor((roll + p.corner_in) / pb)
+        lo = math.ceil((roll - length - stages[eng].corner_out) / pb)
+        hi = math.floor((roll + stages[eng].corner_in) / pb)
         m = 0
         for k in range(lo, hi + 1):
             s = p.s_start + roll - k * pb
-            g, dg = pair_gap(s, p, corners)
+            g, dg = pair_gap(s, p, corners[eng], stages[eng])
             h = sg * x - p.half_backlash - g - sg * e
             hd = sg * xd - dg * srate - sg * de * rbp * wp
             slot = slots[fl, slot_of(k)]

@@ -37,6 +37,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -48,11 +49,13 @@ from fe_impact.gears.gearset import GearSet
 logger = logging.getLogger(__name__)
 
 __all__ = [
+    "CORNER_SOURCES",
     "CornerGap",
     "MeshGeometry",
     "default_backlash",
     "mesh_geometry",
     "seed_switching_speed",
+    "solid_corner_gaps",
     "switching_speed",
 ]
 
@@ -272,10 +275,18 @@ class CornerGap:
     @classmethod
     def from_function(cls, gap, delta_max: float, n: int = CORNER_GAP_NODES) -> CornerGap:
         xi = np.linspace(0.0, 1.0, n)
-        spline = CubicSpline(xi, gap(delta_max * xi**2))
-        values = spline(xi)
+        return cls.from_samples(xi, gap(delta_max * xi**2), delta_max, n)
+
+    @classmethod
+    def from_samples(cls, xi: NDArray, gaps: NDArray, delta_max: float,
+                     n: int = CORNER_GAP_NODES) -> CornerGap:
+        """The table of a cubic spline through gaps [m] at ``xi = sqrt(delta /
+        delta_max)`` (``xi[0] = 0``, where the gap is taken as 0)."""
+        spline = CubicSpline(xi, gaps)
+        nodes = np.linspace(0.0, 1.0, n)
+        values = spline(nodes)
         values[0] = 0.0
-        return cls(delta_max, values, spline(xi, 1))
+        return cls(delta_max, values, spline(nodes, 1))
 
     def __call__(self, delta: ArrayLike) -> tuple[NDArray, NDArray]:
         """``g(delta)`` [m] and ``dg/d delta`` [-] (the kernel's interpolant)."""
@@ -356,12 +367,17 @@ class MeshGeometry:
         return int(np.floor((length - phase) / self.base_pitch)) + 1
 
 
-def mesh_geometry(gearset: GearSet) -> MeshGeometry:
+def mesh_geometry(gearset: GearSet, stage: int | None = None,
+                  corners: str = "planar") -> MeshGeometry:
     """Line-of-action geometry of ``gearset``'s pinion with its face gears.
 
-    The same for every stage: each face gear is a rack of pressure angle
-    ``alpha0`` at its design radius, with the face-gear tip at ``ha* m``
-    above the pitch plane (`fe_impact.gears.facegear`).
+    The path of contact is the same for every stage: each face gear is a rack
+    of pressure angle ``alpha0`` at its design radius, with the face-gear tip
+    at ``ha* m`` above the pitch plane (`fe_impact.gears.facegear`), and the
+    flanks end where the tip-edge roundings begin. The corner gaps beyond its
+    ends are that planar geometry's (``corners="planar"``), or, for
+    ``corners="3d"``, stage ``stage``'s three-dimensional first touch of the
+    rounded edges over the whole face (:func:`solid_corner_gaps`).
     """
     p = gearset.pinion
     alpha = math.radians(p.pressure_angle_deg)
@@ -378,11 +394,17 @@ def mesh_geometry(gearset: GearSet) -> MeshGeometry:
             f"the face-gear tip reaches below the pinion base circle (s_start = "
             f"{frame.s_start * 1e3:.3f} mm): the pinion is undercut/interferes"
         )
+    if corners not in CORNER_SOURCES:
+        raise ValueError(f"corners = {corners!r}: pick one of {list(CORNER_SOURCES)}")
     tables = []
     for gap in (frame.approach_gap, frame.recess_gap):
         delta_max = brentq(lambda d, f=gap: float(f(d)) - CORNER_GAP_CAP,
                            1e-9, 0.5 * p.module * p.teeth, xtol=1e-15)
         tables.append(CornerGap.from_function(gap, delta_max))
+    if corners == "3d":
+        if stage is None:
+            raise ValueError("corners = '3d' needs the stage")
+        tables = [solid_corner_gaps(gearset, stage, side) for side in ("approach", "recess")]
     return MeshGeometry(
         base_radius=frame.base_radius,
         pitch_radius=p.pitch_radius,
@@ -393,6 +415,122 @@ def mesh_geometry(gearset: GearSet) -> MeshGeometry:
         approach=tables[0],
         recess=tables[1],
     )
+
+
+#: Where the torsional model's corner gaps come from (:func:`mesh_geometry`).
+CORNER_SOURCES = ("3d", "planar")
+#: Roll spans, as multiples of the planar table's, searched for where the
+#: three-dimensional corner gap reaches :data:`CORNER_GAP_CAP`.
+_SPAN_SEARCH = np.geomspace(0.25, 8.0, 24)
+#: Samples of a three-dimensional corner-gap table, uniform in ``xi``, and the
+#: sections of the edge they take the least over (refined between sections).
+SOLID_CORNER_SAMPLES = 129
+SOLID_CORNER_SECTIONS = 121
+
+
+@lru_cache(maxsize=32)
+def solid_corner_gaps(gearset: GearSet, stage: int, side: str) -> CornerGap:
+    """Corner-gap table of stage ``stage`` from the three-dimensional first touch.
+
+    :func:`fe_impact.gears.corner.corner_gaps` of the rounded face-gear tip
+    edge on the pinion (``side="approach"``) or of the rounded pinion tip edge
+    on the face gear (``"recess"``), at roll distances ``delta`` beyond the
+    planar path's ends (the torsional model's ``s_start``, ``s_end``), where
+    the pinion's roll angle is ``(r_p sin(alpha0) - s) / r_bp``. Negative gaps
+    (the edge still on the flank there) count as 0. The span reaches where the
+    gap is :data:`CORNER_GAP_CAP`; the table is a cubic spline through
+    :data:`SOLID_CORNER_SAMPLES` samples in ``xi``.
+
+    A table takes about a second; it is kept in the user's cache
+    (``fe-impact/corners``) under a key of the gear set, the stage, the side,
+    the table's settings and the source of the code that computes it.
+
+    Raises
+    ------
+    GeometryError
+        If the edge is sharp (radius 0: no ball to touch with), or the gap does
+        not reach the cap within :data:`_SPAN_SEARCH`.
+    """
+    from fe_impact.runtime import user_cache
+
+    folder = user_cache("corners")
+    path = None if folder is None else folder / f"{_corner_key(gearset, stage, side)}.npz"
+    if path is not None and path.is_file():
+        try:
+            with np.load(path) as data:
+                return CornerGap(float(data["delta_max"]), data["values"], data["slopes"])
+        except (OSError, ValueError, KeyError):
+            logger.warning("corner-gap cache %s unreadable; computing the table again", path)
+    table = _solid_corner_table(gearset, stage, side)
+    if path is not None:
+        from fe_impact.atomic import atomic_path
+
+        try:
+            with atomic_path(path) as tmp:
+                with open(tmp, "wb") as f:
+                    np.savez(f, delta_max=table.delta_max, values=table.values,
+                             slopes=table.slopes)
+        except OSError as exc:
+            logger.info("corner-gap table not cached (%s)", exc)
+    return table
+
+
+def _corner_key(gearset: GearSet, stage: int, side: str) -> str:
+    """Cache key of a three-dimensional corner-gap table (hex digest)."""
+    import hashlib
+    import json
+    from dataclasses import asdict
+    from pathlib import Path
+
+    from fe_impact.gears import corner
+
+    digest = hashlib.sha256()
+    digest.update(json.dumps({"gearset": asdict(gearset), "stage": stage, "side": side,
+                              "samples": SOLID_CORNER_SAMPLES,
+                              "sections": SOLID_CORNER_SECTIONS, "cap": CORNER_GAP_CAP,
+                              "spans": _SPAN_SEARCH.tolist(), "nodes": CORNER_GAP_NODES},
+                             sort_keys=True, default=repr).encode())
+    for module in (corner.__file__, __file__):
+        digest.update(Path(module).read_bytes())
+    return digest.hexdigest()[:24]
+
+
+def _solid_corner_table(gearset: GearSet, stage: int, side: str) -> CornerGap:
+    """:func:`solid_corner_gaps`, computed."""
+    from fe_impact.errors import GeometryError
+    from fe_impact.gears.corner import corner_gaps, face_edge_rounding, pinion_edge_rounding
+    from fe_impact.gears.tca import GearPair
+
+    flat = mesh_geometry(gearset)
+    if side == "approach":
+        radius, key, make = gearset.face_tip_edge_radius, "face_gear", face_edge_rounding
+    else:
+        radius, key, make = gearset.pinion.tip_edge_radius, "pinion", pinion_edge_rounding
+    if radius <= 0.0:
+        raise GeometryError(f"{key}.tip_edge_radius_mm = 0: the three-dimensional corner gaps "
+                            "need rounded tip edges; give a radius > 0 or use the planar "
+                            "corners")
+    pair = GearPair.from_gearset(gearset, stage)
+    edge = make(pair, radius, n=SOLID_CORNER_SECTIONS)
+
+    def gap(delta: NDArray) -> NDArray:
+        s = flat.s_start - delta if side == "approach" else flat.s_end + delta
+        rolls = (flat.s_pitch - np.atleast_1d(s)) / flat.base_radius
+        return np.maximum(corner_gaps(pair, edge, side, rolls), 0.0)
+
+    planar = getattr(flat, side).delta_max
+    spans = planar * _SPAN_SEARCH
+    above = np.nonzero(gap(spans) >= CORNER_GAP_CAP)[0]
+    if not len(above) or above[0] == 0:
+        raise GeometryError(f"stage {stage}: the {side} corner gap does not reach "
+                            f"{CORNER_GAP_CAP * 1e6:g} um within {spans[-1] * 1e3:.3g} mm of roll "
+                            "beyond the path's end")
+    k = above[0]
+    # the cap is where the table stops looking, not a physical value: 0.1 um of roll
+    delta_max = brentq(lambda d: float(gap(d)[0]) - CORNER_GAP_CAP, spans[k - 1], spans[k],
+                       xtol=1e-7)
+    xi = np.linspace(0.0, 1.0, SOLID_CORNER_SAMPLES)
+    return CornerGap.from_samples(xi, gap(delta_max * xi**2), delta_max)
 
 
 def default_backlash(module: float, pinion_pitch_radius: float, face_pitch_radius: float) -> float:

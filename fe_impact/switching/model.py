@@ -51,7 +51,12 @@ import numpy as np
 from fe_impact.errors import CaseError
 from fe_impact.gears.gearset import GearSet, default_gearset
 from fe_impact.switching.calibration import LawSet, closed_form_laws
-from fe_impact.switching.geometry import MeshGeometry, default_backlash, mesh_geometry
+from fe_impact.switching.geometry import (
+    CORNER_SOURCES,
+    MeshGeometry,
+    default_backlash,
+    mesh_geometry,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -223,6 +228,11 @@ class DriveModel:
     laws : LawSet or None
         IMPACT-law tables; None: closed forms for this model's effective
         masses.
+    corners : {"auto", "3d", "planar"}
+        Where each ring's tip-corner gaps come from: the three-dimensional
+        first touch of the rounded tip edges over the whole face
+        (`geometry.solid_corner_gaps`), or the planar rack-and-pinion geometry;
+        "auto" takes "3d" when both gears' tip edges are rounded, else "planar".
     """
 
     gearset: GearSet = field(default_factory=default_gearset)
@@ -244,10 +254,17 @@ class DriveModel:
     speed_tol: float = 1e-7
     max_step: float = 1e-4
     laws: LawSet | None = None
+    corners: str = "auto"
 
     def __post_init__(self) -> None:
         if self.drive not in DRIVES:
             raise CaseError(f"drive = {self.drive!r}; pick one of {list(DRIVES)}")
+        if self.corners not in ("auto", *CORNER_SOURCES):
+            raise CaseError(f"corners = {self.corners!r}; pick one of "
+                            f"{['auto', *CORNER_SOURCES]}")
+        if self.corners == "3d" and not self._rounded:
+            raise CaseError("corners = '3d' needs rounded tip edges (pinion.tip_edge_radius_mm "
+                            "and face_gear.tip_edge_radius_mm > 0); use corners = 'planar'")
         n = len(self.gearset.stages)
         for name in ("coupling_stiffness", "backlash"):
             value = getattr(self, name)
@@ -275,8 +292,28 @@ class DriveModel:
     # -- derived quantities ---------------------------------------------------------------
     @cached_property
     def geometry(self) -> MeshGeometry:
-        """Line-of-action geometry (same for every ring)."""
+        """Line-of-action geometry with the planar corner gaps (the path is the same
+        for every ring)."""
         return mesh_geometry(self.gearset)
+
+    @property
+    def _rounded(self) -> bool:
+        return self.gearset.pinion.tip_edge_radius > 0.0 and \
+            self.gearset.face_tip_edge_radius > 0.0
+
+    @property
+    def corner_source(self) -> str:
+        """``corners`` resolved: "3d" or "planar"."""
+        if self.corners == "auto":
+            return "3d" if self._rounded else "planar"
+        return self.corners
+
+    def stage_geometry(self, stage: int) -> MeshGeometry:
+        """Ring ``stage``'s geometry (1-based): :attr:`geometry` with its own corner gaps
+        when they are three-dimensional (:attr:`corner_source`)."""
+        if self.corner_source == "planar":
+            return self.geometry
+        return mesh_geometry(self.gearset, stage, "3d")
 
     @property
     def n_stages(self) -> int:

@@ -76,6 +76,10 @@ def model_parameters(model: DriveModel) -> dict:
         "contact_ratio": geo.contact_ratio,
         "tip_edge_radii_m": {"pinion": model.gearset.pinion.tip_edge_radius,
                              "face_gear": model.gearset.face_tip_edge_radius},
+        "corner_gaps": model.corner_source,
+        "corner_spans_m": [[model.stage_geometry(s).approach.delta_max,
+                            model.stage_geometry(s).recess.delta_max]
+                           for s in range(1, model.n_stages + 1)],
         "backlash_m": model.backlashes.tolist(),
         "coupling_stiffness_Nm_rad": model.couplings.tolist(),
         "coupling_damping_ratio": model.coupling_damping_ratio,
@@ -221,7 +225,12 @@ def _differences(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict]
         f"{model.gearset.pinion.tip_edge_radius * 1e3:g} mm (pinion) and "
         f"{model.gearset.face_tip_edge_radius * 1e3:g} mm (rings): the flanks end where the "
         f"roundings begin (contact ratio {model.geometry.contact_ratio:.4f} on the line of "
-        "action), and a pair entering or leaving mesh touches on a rounding.",
+        "action), and a pair entering or leaving mesh touches on a rounding. "
+        + ("Corner gaps: each ring's three-dimensional first touch of the rounded edges over "
+           "the whole face (fe_impact.gears.corner; smaller than the planar rack model's: "
+           "see `fe-impact geometry`)."
+           if model.corner_source == "3d" else
+           "Corner gaps: the planar rack-and-pinion geometry at the rings' design radius."),
     ]
     if table.notes:
         lines += ["", f"Transcription notes on the seed's {table.source}:", ""]

@@ -183,8 +183,8 @@ class _Packed:
 
     ``params`` holds one `_kernel.PARAMS` record (`p` is that record, a
     view: writing its fields writes the array); ``stages`` one
-    `_kernel.STAGE` record per ring; ``corners`` the approach and recess
-    corner-gap tables, shape (2, 2, nodes): values and slopes of each.
+    `_kernel.STAGE` record per ring; ``corners`` each ring's approach and
+    recess corner-gap tables, shape (rings, 2, 2, nodes): values and slopes.
     """
 
     params: np.ndarray
@@ -207,7 +207,9 @@ class _Packed:
 def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) -> _Packed:
     geo = model.geometry
     n = model.n_stages
-    window = geo.s_end - geo.s_start + geo.approach.delta_max + geo.recess.delta_max
+    rings = [model.stage_geometry(i + 1) for i in range(n)]
+    window = geo.s_end - geo.s_start + max(r.approach.delta_max + r.recess.delta_max
+                                           for r in rings)
     if math.floor(window / geo.base_pitch) + 2 > min(K.MAXPAIR, K.NSLOT):
         raise CaseError(f"{window / geo.base_pitch:.1f} base pitches of contact path and tip "
                         f"corners: more tooth pairs than the kernel tracks ({K.MAXPAIR})")
@@ -215,7 +217,6 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     p = params[0]
     p["base_radius"], p["base_pitch"] = geo.base_radius, geo.base_pitch
     p["s_start"], p["s_end"] = geo.s_start, geo.s_end
-    p["corner_in"], p["corner_out"] = geo.approach.delta_max, geo.recess.delta_max
     p["pinions"] = model.pinions
     p["te_amplitude"] = model.transmission_error
     fr = model.friction
@@ -246,13 +247,16 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     stages["coupling"] = model.couplings
     stages["damping"] = model.coupling_damping
     stages["lever"] = model.base_levers
+    stages["corner_in"] = [r.approach.delta_max for r in rings]
+    stages["corner_out"] = [r.recess.delta_max for r in rings]
     levers = np.concatenate([[geo.base_radius], model.base_levers, [model.base_levers.min()]])
     atol = np.empty(2 * (n + 2))
     atol[0::2] = model.length_tol / levers
     atol[1::2] = model.speed_tol / levers
     tab, ntab = model.law_set.kernel_arrays()
-    corners = np.stack([np.stack([geo.approach.values, geo.approach.slopes]),
-                        np.stack([geo.recess.values, geo.recess.slopes])])
+    corners = np.stack([np.stack([np.stack([r.approach.values, r.approach.slopes]),
+                                  np.stack([r.recess.values, r.recess.slopes])])
+                        for r in rings])
     postab = model.law_set.position_arrays(geo.s_pitch, geo.base_radius, K.NPOS)
     return _Packed(params=params, stages=stages, aoff=np.zeros(n + 2), atol=atol,
                    corners=corners, postab=postab,
@@ -281,7 +285,7 @@ def _static_offset(model: DriveModel, stage: int, load: float, roll: float) -> f
     if target <= 0.0:
         return model.engage_position * half
     law = model.law_set.table(stage).law(model.law_set.table(stage).speed_range[0])
-    geo = model.geometry
+    geo = model.stage_geometry(stage)
     phase = (roll + model.mesh_phase * geo.base_pitch) % geo.base_pitch
     s = geo.s_start + phase + geo.base_pitch * np.arange(-2, 4)
     g, _ = geo.gap(s)

@@ -615,3 +615,30 @@ def test_three_dimensional_corner_tables_follow_the_first_touch():
     assert DriveModel(gearset=sharp).corner_source == "planar"
     with pytest.raises(CaseError, match="corners = '3d' needs rounded tip edges"):
         DriveModel(gearset=sharp, corners="3d")
+
+
+def test_impacts_are_placed_on_the_flank_or_a_tip_edge():
+    # The kernel marks where the touching pair was: before the path's start on the face
+    # gear's edge, after its end on the pinion's, else on the flanks.
+    from fe_impact.switching import _kernel as K
+    from fe_impact.switching.simulation import CONTACT_NAMES, _pack
+    from fe_impact.switching.statistics import impact_statistics
+
+    model = DriveModel(corners="planar")
+    p = _pack(model, StageSchedule((Segment(1e-3, 1, 0.0),)), 1e-4).p
+    geo = model.geometry
+    assert [CONTACT_NAMES[K.contact_kind(s, p)] for s in
+            (geo.s_start - 1e-9, geo.s_start + 1e-9, geo.s_end - 1e-9, geo.s_end + 1e-9)] == \
+        ["corner-approach", "flank", "flank", "corner-recess"]
+    # A mesh-in (a pair touching while its flank carries load) is the entering pair
+    # reaching the approach corner when the loaded approach closes its corner gap; a
+    # leaving pair touching again would do so at the recess corner, whose planar gaps
+    # (26 um 1.5 mm beyond the path) the approach under 1 N m does not reach.
+    run = simulate(model, StageSchedule((Segment(0.3, 1, 300.0, load=1.0),)))
+    mesh_in = run.events.select(kind="mesh-in")
+    assert len(mesh_in) > 0
+    assert set(mesh_in.contact.tolist()) == {K.CONTACT_APPROACH}
+    stats = impact_statistics(run)["all"]
+    for kind in ("rattle", "mesh-in", "switch", "all"):
+        assert sum(stats["contacts"][kind][place]["count"] for place in CONTACT_NAMES.values()) \
+            == stats[kind]["count"]

@@ -95,13 +95,16 @@ MAXPAIR = 6  # pairs looked at per flank
 
 #: An impact: onset time, stage (from 1), kind, flank (+1 drive, -1 coast), closing speed,
 #: peak approach, force and energy, end time and opening speed (NaN while open), law-table
-#: clamp (-1/0/+1) and the tooth pair.
+#: clamp (-1/0/+1), the tooth pair, and where it touched (CONTACT_*).
 EVENT = np.dtype([("time", np.float64), ("stage", np.int64), ("kind", np.int64),
                   ("flank", np.int64), ("speed", np.float64), ("approach", np.float64),
                   ("force", np.float64), ("energy", np.float64), ("end", np.float64),
-                  ("speed_out", np.float64), ("clamp", np.int64), ("pair", np.int64)],
-                 align=True)
+                  ("speed_out", np.float64), ("clamp", np.int64), ("pair", np.int64),
+                  ("contact", np.int64)], align=True)
 KIND_RATTLE, KIND_MESH_IN, KIND_SWITCH = 0, 1, 2
+#: Where a tooth pair touches at an impact's onset: on the flanks (the active path),
+#: on the face gear's tip edge before it (approach), on the pinion's after it (recess).
+CONTACT_FLANK, CONTACT_APPROACH, CONTACT_RECESS = 0, 1, 2
 
 #: Integrator state and counters of a run: time, step size, next sample time, previous
 #: error norm; steps, rejected steps, right-hand sides, clamped law look-ups (below/above
@@ -425,7 +428,17 @@ def crossing(t0, t1, h0, hd0, h1, hd1):
 
 
 @njit(cache=True)
-def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair):
+def contact_kind(s, p):
+    """Where a pair at roll ``s`` touches: `CONTACT_FLANK`, `_APPROACH` or `_RECESS`."""
+    if s < p.s_start:
+        return CONTACT_APPROACH
+    if s > p.s_end:
+        return CONTACT_RECESS
+    return CONTACT_FLANK
+
+
+@njit(cache=True)
+def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair, contact):
     i = run.n_events
     if i >= ev.shape[0]:
         run.dropped += 1
@@ -444,6 +457,7 @@ def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair):
     event.speed_out = np.nan
     event.clamp = clamp
     event.pair = pair
+    event.contact = contact
     return i
 
 
@@ -503,15 +517,18 @@ def track_contacts(t0, t1, p, tab, ntab, slots, flanks, pairs, npairs, ev, run):
                     slot.has_law = 1
                     slot.on = 1
                     changed = True
+                    where = contact_kind(pair.s, p)
                     if kind == KIND_MESH_IN:
-                        slot.event = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k)
+                        slot.event = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k,
+                                               where)
                     elif created < 0:
-                        created = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k)
+                        created = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k, where)
                         flank_event = created
                     elif tc < ev[created].time:  # the earliest touch of the flank defines it
                         ev[created].time = tc
                         ev[created].speed = vc
                         ev[created].pair = k
+                        ev[created].contact = where
             elif slot.on == 1:
                 tc, vc = crossing(t0, t1, h0, hd0, h1, hd1)
                 slot.on = 0

@@ -40,7 +40,7 @@ from fe_impact.switching.seed_tables import (
     STATISTICS,
     TO_SEED_UNITS,
 )
-from fe_impact.switching.simulation import KIND_NAMES, SwitchingRun
+from fe_impact.switching.simulation import CONTACT_NAMES, KIND_NAMES, SwitchingRun
 from fe_impact.switching.statistics import comparison_rows, impact_statistics, series_statistics
 
 logger = logging.getLogger(__name__)
@@ -55,7 +55,7 @@ _SERIES_OF = {
 }
 _IMPACT_COLUMNS = ("time_s", "stage", "kind", "flank", "closing_speed_m_s", "peak_approach_m",
                    "peak_force_N", "peak_energy_J", "end_time_s", "separation_speed_m_s",
-                   "restitution", "law_clamped")
+                   "restitution", "law_clamped", "contact")
 
 
 def model_parameters(model: DriveModel) -> dict:
@@ -116,12 +116,54 @@ def _clean(obj):
 
 def _impact_rows(run: SwitchingRun) -> list[list]:
     ev = run.events
-    return [[t, s, KIND_NAMES[k], f, v, a, fo, e, te, vo, r, c] for t, s, k, f, v, a, fo, e, te,
-            vo, r, c in zip(ev.time.tolist(), ev.stage.tolist(), ev.kind.tolist(),
-                            ev.flank.tolist(), ev.speed.tolist(), ev.approach.tolist(),
-                            ev.force.tolist(), ev.energy.tolist(), ev.end_time.tolist(),
-                            ev.separation_speed.tolist(), ev.restitution.tolist(),
-                            ev.clamped.tolist(), strict=True)]
+    return [[t, s, KIND_NAMES[k], f, v, a, fo, e, te, vo, r, c, CONTACT_NAMES[w]]
+            for t, s, k, f, v, a, fo, e, te, vo, r, c, w in zip(
+                ev.time.tolist(), ev.stage.tolist(), ev.kind.tolist(), ev.flank.tolist(),
+                ev.speed.tolist(), ev.approach.tolist(), ev.force.tolist(), ev.energy.tolist(),
+                ev.end_time.tolist(), ev.separation_speed.tolist(), ev.restitution.tolist(),
+                ev.clamped.tolist(), ev.contact.tolist(), strict=True)]
+
+
+def _contact_lines(runs: dict[str, SwitchingRun]) -> list[str]:
+    """Impacts by kind and by where the pair touched, and the law each used."""
+    first = next(iter(runs.values()))
+    model = first.model
+    lines = [
+        "## Where the impacts touch",
+        "",
+        "Where the touching tooth pair was at each impact's onset: on the flanks (the path "
+        "of contact), or on a rounded tip edge before the path (the face gear's, "
+        "corner-approach) or after it (the pinion's, corner-recess). Corner gaps: "
+        + ("three-dimensional first touch of the rounded edges (`fe-impact geometry`)."
+           if model.corner_source == "3d" else "planar rack-and-pinion geometry."),
+        "",
+        "| case | kind | flank | corner-approach | corner-recess | closing speed at the "
+        "corners [mm/s] (min-max) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, run in runs.items():
+        for kind in KIND_NAMES.values():
+            ev = run.events.select(kind=kind)
+            if not len(ev):
+                continue
+            counts = [int(np.sum(ev.contact == c)) for c in sorted(CONTACT_NAMES)]
+            corner = ev.speed[ev.contact != 0]
+            span = (f"{corner.min() * 1e3:.3g}-{corner.max() * 1e3:.3g}" if corner.size
+                    else "-")
+            lines.append(f"| {name} | {kind} | {' | '.join(map(str, counts))} | {span} |")
+    position = any("mesh cycle" in s for s in [first.info.get("law_source", "")])
+    lines += [
+        "",
+        "Laws: every impact takes the damping and penetration of its kind's calibrated law "
+        "at its closing speed (switch impacts the switch law where one was calibrated, else "
+        "the mesh law); "
+        + ("its stiffness and exponent are the position law's at the pair's roll, held at "
+           "the end positions' on the tip edges. "
+           if position else "its stiffness and exponent are the impact law's. ")
+        + "No law was calibrated on a tip edge: corner impacts use the flank's.",
+        "",
+    ]
+    return lines
 
 
 def _fmt(value: float | None) -> str:
@@ -375,6 +417,7 @@ def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict
         *_seed_layout_table(rows, "model_impacts", conditions),
         "",
         *_trend_lines(preset, runs),
+        *_contact_lines(runs),
         *_switching_lines(runs),
         *_differences(preset, runs, rows),
         "",

@@ -30,6 +30,7 @@ from fe_impact.switching.model import DRIVES, RPM, DriveModel, Segment, StageSch
 logger = logging.getLogger(__name__)
 
 __all__ = [
+    "CONTACT_NAMES",
     "KIND_NAMES",
     "SERIES_QUANTITIES",
     "ImpactEvents",
@@ -61,6 +62,9 @@ def series_columns(n_stages: int) -> tuple[str, ...]:
 
 #: Names of the impact kinds recorded in `ImpactEvents.kind`.
 KIND_NAMES = {K.KIND_RATTLE: "rattle", K.KIND_MESH_IN: "mesh-in", K.KIND_SWITCH: "switch"}
+#: Names of where the pair touched, `ImpactEvents.contact`.
+CONTACT_NAMES = {K.CONTACT_FLANK: "flank", K.CONTACT_APPROACH: "corner-approach",
+                 K.CONTACT_RECESS: "corner-recess"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,6 +93,9 @@ class ImpactEvents:
         it had not ended by the end of the run.
     clamped : ndarray of int
         -1/+1 if the impact speed was below/above the law table, else 0.
+    contact : ndarray of int
+        Where the (first) touching pair was at the onset (`CONTACT_NAMES`): on
+        the flanks, or beyond the path's start or end on a rounded tip edge.
     """
 
     time: np.ndarray
@@ -102,12 +109,13 @@ class ImpactEvents:
     end_time: np.ndarray
     separation_speed: np.ndarray
     clamped: np.ndarray
+    contact: np.ndarray
 
     @classmethod
     def from_kernel(cls, ev: np.ndarray) -> ImpactEvents:
         """From the kernel's `_kernel.EVENT` records."""
         fields = ("time", "stage", "kind", "flank", "speed", "approach", "force", "energy",
-                  "end", "speed_out", "clamp")
+                  "end", "speed_out", "clamp", "contact")
         return cls(*(ev[name].copy() for name in fields))
 
     def __len__(self) -> int:
@@ -118,16 +126,21 @@ class ImpactEvents:
         """``separation_speed / speed`` [-] (NaN for contacts still open)."""
         return self.separation_speed / self.speed
 
-    def select(self, stage: int | None = None, kind: str | None = None) -> ImpactEvents:
-        """The events of one stage and/or kind (``"rattle"``, ``"mesh-in"``, ``"switch"``)."""
+    def select(self, stage: int | None = None, kind: str | None = None,
+               contact: str | None = None) -> ImpactEvents:
+        """The events of one stage, kind (``"rattle"``, ``"mesh-in"``, ``"switch"``) and/or
+        place of contact (``"flank"``, ``"corner-approach"``, ``"corner-recess"``)."""
         keep = np.ones(len(self), dtype=bool)
         if stage is not None:
             keep &= self.stage == stage
-        if kind is not None:
-            codes = {v: k for k, v in KIND_NAMES.items()}
-            if kind not in codes:
-                raise CaseError(f"kind = {kind!r}; pick one of {list(codes)}")
-            keep &= self.kind == codes[kind]
+        for name, value, names, codes_of in (("kind", kind, KIND_NAMES, self.kind),
+                                             ("contact", contact, CONTACT_NAMES, self.contact)):
+            if value is None:
+                continue
+            codes = {v: k for k, v in names.items()}
+            if value not in codes:
+                raise CaseError(f"{name} = {value!r}; pick one of {list(codes)}")
+            keep &= codes_of == codes[value]
         return ImpactEvents(*(getattr(self, f)[keep] for f in self.__dataclass_fields__))
 
 

@@ -36,7 +36,12 @@ from fe_impact.switching.seed_tables import (
     STATISTICS,
     TO_SEED_UNITS,
 )
-from fe_impact.switching.simulation import SERIES_QUANTITIES, ImpactEvents, SwitchingRun
+from fe_impact.switching.simulation import (
+    CONTACT_NAMES,
+    SERIES_QUANTITIES,
+    ImpactEvents,
+    SwitchingRun,
+)
 
 __all__ = ["comparison_rows", "impact_statistics", "series_statistics"]
 
@@ -85,14 +90,22 @@ def impact_statistics(run: SwitchingRun) -> dict[str, dict[str, dict]]:
 
     ``result[stage][kind]`` has ``count`` and, per quantity, (average,
     maximum, minimum); kinds ``rattle``, ``mesh-in``, ``switch``.
+    ``result[stage]["contacts"][kind][place]`` splits each kind (and
+    ``"all"``) by where the pair touched: ``flank``, ``corner-approach``,
+    ``corner-recess`` (`simulation.CONTACT_NAMES`).
     """
     out: dict[str, dict[str, dict]] = {}
     stages = [str(s) for s in sorted(set(run.events.stage.tolist()))]
+    kinds = ("rattle", "mesh-in", "switch")
     for key in [*stages, ALL]:
         events = run.events if key == ALL else run.events.select(stage=int(key))
-        out[key] = {kind: _impact_summary(events.select(kind=kind))
-                    for kind in ("rattle", "mesh-in", "switch")}
+        out[key] = {kind: _impact_summary(events.select(kind=kind)) for kind in kinds}
         out[key][ALL] = _impact_summary(events)
+        out[key]["contacts"] = {
+            kind: {place: _impact_summary(
+                (events if kind == ALL else events.select(kind=kind)).select(contact=place))
+                for place in CONTACT_NAMES.values()}
+            for kind in (*kinds, ALL)}
     return out
 
 

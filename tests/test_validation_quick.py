@@ -21,6 +21,7 @@ BENCHMARKS = {"bench_static", "bench_dynamic", "bench_switching"}
 STUDIES = [
     "hertz_impact",
     "bench_switching",
+    "corner_gaps",
     pytest.param("hertz_static", marks=pytest.mark.slow),
     pytest.param("plastic_impact", marks=pytest.mark.slow),
     pytest.param("bench_static", marks=pytest.mark.slow),

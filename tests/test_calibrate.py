@@ -107,3 +107,17 @@ def test_resume_key_covers_settings_and_version(monkeypatch):
     assert key != cal.case_hash(c, cal.Settings(), "another gear set")
     monkeypatch.setattr(cal, "__version__", "0.0.0-other")
     assert key != cal.case_hash(c, cal.Settings(), "gear set")
+
+
+def test_the_seed_studies_run_are_those_the_calibration_has_laws_for():
+    # a study runs only on stages with laws: Table 1 engages stage 1, Tables 2 and 4
+    # stage 2, Table 3 stage 3, the two switching runs all three
+    from fe_impact.cli.main import _seed_studies
+    from fe_impact.gears import default_gearset
+
+    gearset = default_gearset()
+    assert _seed_studies(gearset, None) == ("table1", "table2", "table3", "table4",
+                                            "variable-speed", "variable-load")
+    assert _seed_studies(gearset, [1]) == ("table1",)
+    assert _seed_studies(gearset, [2]) == ("table2", "table4")
+    assert _seed_studies(gearset, [1, 3]) == ("table1", "table3")

@@ -59,6 +59,25 @@ def test_mesh_cycle_outputs(calibrated):
         assert (run / name).stat().st_size > 100, name
 
 
+def test_the_run_ends_with_the_seed_studies_it_has_laws_for(calibrated):
+    """Stage 1 calibrated: the seed's Table 1 study runs on it (the others engage stages
+    without laws) and the report tables what its own statistics.json holds."""
+    out, _ = calibrated
+    run = out / "run"
+    assert json.loads((run / "summary.json").read_text())["switching"] == ["switching/table1"]
+    study = run / "switching" / "table1"
+    stats = json.loads((study / "statistics.json").read_text())
+    assert stats["status"] == "completed" and len(stats["cases"]) == 3
+    assert "calibration.json" in stats["model"]["laws"]      # its laws, not closed forms
+    assert (study / "report.md").is_file() and (study / "impacts.png").stat().st_size > 100
+    impacts = sum(c["impact_statistics"]["all"]["all"]["count"]
+                  for c in stats["cases"].values() if "all" in c["impact_statistics"])
+    row = next(line for line in (run / "report.md").read_text().splitlines()
+               if line.startswith("| table1 |"))
+    assert row.split(" | ")[3].split(" ")[0] == str(impacts)
+    assert not (run / "switching" / "table2").exists()
+
+
 def test_calibration_outputs(calibrated):
     out, _ = calibrated
     doc = json.loads((out / "run" / "calibration.json").read_text())
@@ -237,8 +256,8 @@ def test_ctrl_c_keeps_finished_cases_and_rerun_completes(calibrated, tmp_path):
     from pathlib import Path
 
     cache = calibrated[0] / "cache"          # the first case's mesh is already there
-    argv = ["calibrate", "--stages", "1", "--impact-speeds", "0.05,0.08", "--level", "coarse",
-            "--no-mesh-cycle",
+    argv = ["calibrate", "--no-switching", "--stages", "1", "--impact-speeds", "0.05,0.08",
+            "--level", "coarse", "--no-mesh-cycle",
             "--workers", "1", "--out", str(tmp_path / "run"), "--cache", str(cache)]
     exe = Path(sys.executable).with_name("fe-impact")
     proc = subprocess.Popen([str(exe), *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -271,8 +290,8 @@ def test_ratio_switch_impact_yields(tmp_path):
     energy balance (kinetic + strain + penalty + plastic dissipation) must
     still close within 2% (measured 0.6%).
     """
-    argv = ["calibrate", "--stages", "2", "--speeds", "1000", "--switch", "--level", "coarse",
-            "--no-mesh-cycle",
+    argv = ["calibrate", "--no-switching", "--stages", "2", "--speeds", "1000", "--switch",
+            "--level", "coarse", "--no-mesh-cycle",
             "--workers", "2", "--out", str(tmp_path / "run"), "--cache", str(tmp_path / "c")]
     assert main(argv) == 0
     doc = json.loads((tmp_path / "run" / "calibration.json").read_text())

@@ -22,8 +22,9 @@ def test_two_calibrations_on_one_output_folder(tmp_path):
     computed the case: exactly one did; the other waited for its lock."""
     out = tmp_path / "out"
     caches = [tmp_path / "cache1", tmp_path / "cache2"]
-    runs = [start(["calibrate", "--out", out, "--cache", cache, "--stages", "1", "--speeds",
-                   "300", "--level", "coarse", "--no-mesh-cycle", "--workers", "1"])
+    runs = [start(["calibrate", "--no-switching", "--out", out, "--cache", cache, "--stages",
+                   "1", "--speeds", "300", "--level", "coarse", "--no-mesh-cycle", "--workers",
+                   "1"])
             for cache in caches]
     errs = [run.communicate(timeout=1200)[1] for run in runs]
     assert [run.returncode for run in runs] == [0, 0], errs

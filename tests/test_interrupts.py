@@ -120,8 +120,8 @@ def test_calibrate_stops_cleanly_and_resumes(tmp_path):
     """SIGINT, then SIGTERM, while the FE impact writes its frames; then a rerun that
     finishes on the cached mesh and removes a leftover of a killed run."""
     out, cache = tmp_path / "out", tmp_path / "cache"
-    argv = ["calibrate", "--out", out, "--cache", cache, "--stages", "1", "--speeds", "300",
-            "--no-mesh-cycle", "--level", "coarse", "--workers", "1"]
+    argv = ["calibrate", "--no-switching", "--out", out, "--cache", cache, "--stages", "1",
+            "--speeds", "300", "--no-mesh-cycle", "--level", "coarse", "--workers", "1"]
     case_id = "stage1_mesh_300rpm"
     fe = out / "cases" / case_id / "fe"
     out.mkdir()

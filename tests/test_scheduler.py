@@ -9,7 +9,8 @@ import pytest
 
 from fe_impact.cli.main import main
 
-ARGV = ["calibrate", "--stages", "1", "--speeds", "100", "--level", "coarse", "--no-mesh-cycle"]
+ARGV = ["calibrate", "--no-switching", "--stages", "1", "--speeds", "100", "--level", "coarse",
+        "--no-mesh-cycle"]
 
 
 def _cases(folder) -> dict:

@@ -130,6 +130,57 @@ def write_calibration_report(out: Path, calibration: Calibration,
     return path
 
 
+def add_switching_section(out: Path, studies: list[str]) -> Path:
+    """Append to ``report.md`` a table of the switching studies run on this calibration
+    (``studies``: their job names, ``switching study <preset>``), read from their
+    ``switching/<preset>/statistics.json``."""
+    import json
+
+    lines = ["", "## Switching runs on this calibration", "",
+             "The seed's condition sets run through the torsional model with the laws above "
+             "(`fe-impact switching --preset NAME --calibration calibration.json` does one "
+             "again); each folder holds the time series, the impacts, the statistics beside "
+             "the seed's tables and a report. Per study: impacts (rattle / mesh-in / switch), "
+             "those touching on a tip edge, the largest closing speed and force of an impact, "
+             "and the law look-ups at closing speeds below / above the calibrated ones (their "
+             "damping is the nearest calibrated impact's; stiffness and exponent come from "
+             "the mesh cycle where there is one).", "",
+             "| study | cases | simulated (s) | impacts | on a tip edge | largest closing speed "
+             "(mm/s) | largest force (N) | below / above the calibrated speeds | report |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for job in studies:
+        name = job.removeprefix("switching study ")
+        folder = out / "switching" / name
+        try:
+            data = json.loads((folder / "statistics.json").read_text())
+        except (OSError, ValueError) as exc:
+            lines.append(f"| {name} | - | - | - | - | - | - | - | unreadable: {exc} |")
+            continue
+        cases = data.get("cases", {})
+        kinds = [sum(c["impact_statistics"]["all"][k]["count"] for c in cases.values()
+                     if "all" in c["impact_statistics"])
+                 for k in ("rattle", "mesh-in", "switch")]
+        edge = sum(c["impact_statistics"]["all"]["contacts"]["all"][place]["count"]
+                   for c in cases.values() if "all" in c["impact_statistics"]
+                   for place in ("corner-approach", "corner-recess"))
+        top = [c["impact_statistics"]["all"]["all"] for c in cases.values()
+               if "all" in c["impact_statistics"]]
+        speed = max((t["impact_speed"][1] or 0.0 for t in top), default=None)
+        force = max((t["impact_force"][1] or 0.0 for t in top), default=None)
+        low = sum(c["run"]["clamped_low"] for c in cases.values())
+        high = sum(c["run"]["clamped_high"] for c in cases.values())
+        simulated = sum(sum(seg["duration"] for seg in c["segments"]) for c in cases.values())
+        lines.append(f"| {name} | {len(cases)} | {simulated:g} | {sum(kinds)} "
+                     f"({' / '.join(map(str, kinds))}) | {edge} | "
+                     f"{_fmt(speed, '.4g', 1e3)} | {_fmt(force, '.4g')} | {low} / {high} | "
+                     f"[report](switching/{name}/report.md) |")
+    path = out / "report.md"
+    text = path.read_text() if path.is_file() else ""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text.rstrip("\n") + "\n" + "\n".join(lines) + "\n")
+    return path
+
+
 def _history(out: Path, case: CalibrationRecord) -> dict | None:
     path = out / "cases" / case.id / "fe" / "summary.json"
     if not path.is_file():

@@ -48,7 +48,7 @@ import os
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -537,8 +537,14 @@ def finished_record(out: Path, case: ImpactCase, settings: Settings,
 
 def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,
               cache: Path, workers: int | None = None, scheduler: str | None = None,
-              progress: Callable[[int, int, str], None] | None = None) -> Path:
+              progress: Callable[[int, int, str], None] | None = None,
+              studies: Sequence[str] = ()) -> Path:
     """Run the sweep (resuming), then write calibration.json/.csv, the report and summary.json.
+
+    ``studies``: the seed's switching condition sets
+    (:data:`~fe_impact.switching.study.SEED_STUDIES`) to run on the finished
+    calibration, each into ``switching/<name>/`` (on the sweep's workers while
+    the report is written); the report lists them.
 
     ``summary.json`` says how the run ended (``status``), which cases are
     finished and which are missing. On SIGINT or SIGTERM
@@ -563,7 +569,7 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     def finish(draw: Draw) -> Path:
         """The files of a completed sweep, the pictures drawn by ``draw``."""
         return _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
-                              "completed", gearset_text, draw)
+                              "completed", gearset_text, draw, studies)
 
     if not todo:
         return finish(draw_here)
@@ -587,9 +593,10 @@ def _held_elsewhere(folder: Path) -> bool:
 
 def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Sweep,
                    settings: Settings, wall: float, status: str, gearset_text: str,
-                   draw: Draw = draw_here) -> Path:
+                   draw: Draw = draw_here, studies: Sequence[str] = ()) -> Path:
     """summary.json and, for a completed run, calibration.json/.csv and report.md (its
-    pictures drawn by ``draw`` while the tables are written)."""
+    pictures drawn by ``draw`` while the tables are written), and the switching
+    ``studies`` run by ``draw`` on the calibration once it is written."""
     from fe_impact.calibration.report import write_calibration_report
     from fe_impact.output.files import write_json
 
@@ -612,12 +619,38 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
                                       wall_time_s=wall, fe_impact_version=__version__,
                                       notes=NOTES, mesh_cycle=cycle)
             path = write_calibration(out / "calibration.json", calibration)
+            finished_studies = _start_studies(out, path, gearset_text, studies, draw)
             write_calibration_csv(out / "calibration.csv", records)
             write_calibration_report(out, calibration, draw)
             if drawing is not None:
                 drawing()
+            if finished_studies is not None:
+                from fe_impact.calibration.report import add_switching_section
+
+                add_switching_section(out, finished_studies())
+                summary["switching"] = [f"switching/{name}" for name in studies]
         summary_path = write_json(out / "summary.json", summary)
     return path or summary_path
+
+
+def _start_studies(out: Path, calibration: Path, gearset_text: str, studies: Sequence[str],
+                   draw: Draw) -> Callable[[], list[str]] | None:
+    """Start the switching ``studies`` on ``calibration`` (one job each, by ``draw``);
+    what waits for them, or None for none. A study that fails is logged and skipped."""
+    if not studies:
+        return None
+    from fe_impact.switching.study import seed_study_job
+
+    return draw([(f"switching study {name}", _study_written,
+                  (seed_study_job, gearset_text, name, str(calibration),
+                   str(out / "switching" / name)))
+                 for name in studies])
+
+
+def _study_written(job: Callable[..., dict], *args) -> bool:
+    """Run a study job; True once its files are written (the job raises otherwise)."""
+    job(*args)
+    return True
 
 
 class CaseStopped(CalibrationError):

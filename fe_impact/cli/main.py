@@ -140,6 +140,9 @@ def _parser() -> argparse.ArgumentParser:
                         "at the given pinion roll angles (deg, comma-separated)")
     c.add_argument("--no-mesh-cycle", action="store_true",
                    help="impacts only: no single-pair curves along the path of contact")
+    c.add_argument("--no-switching", action="store_true",
+                   help="do not end with the seed's switching studies (Tables 1-4 and the two "
+                        "switching runs, about 20 s on two workers) on the calibration")
     c.add_argument("--level", default="default", help="mesh level: coarse, default or fine")
     c.add_argument("--mesh-cycle-level", default=None, metavar="LEVEL",
                    help="mesh level of the mesh-cycle positions (default: one level below "
@@ -281,6 +284,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                   default=None)
         cases += plan_positions(gearset, args.stages, args.positions if args.positions
                                 is not None else DEFAULT_POSITIONS, top_force=top)
+    studies = () if args.no_switching else _seed_studies(gearset, args.stages)
     levels = settings.level if settings.position_level == settings.level or \
         len(cases) == n_impacts else f"{settings.level} / {settings.position_level}"
     print(f"calibrating {n_impacts} impacts and {len(cases) - n_impacts} mesh-cycle positions "
@@ -294,11 +298,23 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
     try:
         path = calibrate(text, cases, settings, args.out, args.cache, args.workers,
-                         args.scheduler, progress)
+                         args.scheduler, progress, studies)
     finally:
         bar.close()
     print(f"wrote {path}, {args.out / 'calibration.csv'} and {args.out / 'report.md'}")
+    if studies:
+        print(f"switching studies {', '.join(studies)} on it: {args.out / 'switching'}")
     return 0
+
+
+def _seed_studies(gearset, stages) -> tuple[str, ...]:
+    """The seed's switching studies the calibration will have laws for: those engaging
+    only calibrated stages of a gear set that has them."""
+    from fe_impact.switching.presets import get_preset
+    from fe_impact.switching.study import SEED_STUDIES, study_stages
+
+    have = set(stages) if stages else set(range(1, len(gearset.stages) + 1))
+    return tuple(name for name in SEED_STUDIES if study_stages(get_preset(name)) <= have)
 
 
 def _checked_dynamic(case, max_frames: int):

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 from fe_impact.errors import CalibrationError, CaseError
+from fe_impact.switching.study import SAMPLE_INTERVAL
 
 __all__ = ["MIN_MESH_CYCLES", "register", "run"]
 
@@ -29,8 +30,6 @@ logger = logging.getLogger(__name__)
 #: its statistics are those of the start transient: a warning says so. The
 #: seed's 5 s segments hold 158 cycles at 100 r/min.
 MIN_MESH_CYCLES = 20
-#: Default time-series sampling interval [s].
-SAMPLE_INTERVAL = 2e-4
 
 _DESCRIPTION = (
     "Lumped torsional model of the multistage face-gear drive (pinions, three rings, output) "
@@ -129,58 +128,43 @@ def run(args: argparse.Namespace) -> int:
     if args.list:
         return _list_presets()
     _check(args)
-    from fe_impact.switching.calibration import laws_for
-    from fe_impact.switching.model import DriveModel
+    from fe_impact.gears import default_gearset
     from fe_impact.switching.presets import get_preset
-    from fe_impact.switching.report import write_results
+    from fe_impact.switching.study import run_study
 
     preset = get_preset(args.preset)
     if args.duration is not None:
         preset = preset.scaled(args.duration)
-    model = DriveModel(corners=args.corners)
-    notes = _check_preset(args, preset, model.gearset.pinion.teeth)
-    masses = [model.effective_mass(s) for s in range(1, model.n_stages + 1)]
+    gearset = default_gearset()
+    notes = _check_preset(args, preset, gearset.pinion.teeth)
+    print(f"{preset.name}: {len(preset.cases)} case(s), {preset.duration:g} s simulated",
+          flush=True)
+    t0 = time.perf_counter()
     try:
-        model = model.with_laws(laws_for(model.gearset, masses, args.calibration))
+        summary = run_study(preset, gearset, args.calibration, args.out, corners=args.corners,
+                            sample_interval=args.sample_interval, notes=notes,
+                            on_case=_progress)
     except CalibrationError as exc:
         raise CalibrationError(f"--calibration: {exc}") from exc
-    print(f"{preset.name}: {len(preset.cases)} case(s), {preset.duration:g} s simulated; "
-          f"laws: {model.law_set.source}", flush=True)
-    # What the laws lack (no position dependence, a kind borrowed from another)
-    # heads the report too, not only the log.
-    notes = [*notes, *(f"Contact laws: {n}." for n in model.law_set.notes)]
-    t0 = time.perf_counter()
-    runs = {}
-    try:
-        for case in preset.cases:
-            runs[case.name] = _run_case(model, case, args.sample_interval)
-            info = runs[case.name].info
-            print(f"  {case.name}: {info['steps']} steps, {info['impacts']} impacts, "
-                  f"{info['wall_s']:.1f} s", flush=True)
-    except KeyboardInterrupt:
-        from fe_impact.interrupts import ignore_signals
-
-        with ignore_signals():   # the files of the finished cases belong together
-            write_results(args.out, preset, runs, status="stopped",
-                          missing=[c.name for c in preset.cases if c.name not in runs],
-                          notes=notes)
-        raise
-    write_results(args.out, preset, runs, notes=notes)
+    for name, info in summary["cases"].items():
+        print(f"  {name}: {info['steps']} steps, {info['impacts']} impacts, "
+              f"{info['wall_s']:.1f} s", flush=True)
+    print(f"laws: {summary['laws']}")
     print(f"wrote {args.out} ({time.perf_counter() - t0:.1f} s)")
     return 0
 
 
-def _run_case(model, case, sample_interval: float):
+def _progress(case):
+    """A step hook drawing ``case``'s progress bar (closed when the run ends)."""
     from tqdm import tqdm
 
-    from fe_impact.switching.simulation import simulate
+    bar = tqdm(total=case.schedule.duration, desc=case.name, unit="s", leave=False,
+               file=sys.stderr, disable=None,
+               bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s simulated [{elapsed}]")
 
-    total = case.schedule.duration
-    with tqdm(total=total, desc=case.name, unit="s", leave=False, file=sys.stderr,
-              bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s simulated [{elapsed}]",
-              disable=None) as bar:
+    def hook(t: float, t_end: float) -> None:
+        bar.update(t - bar.n)
+        if t >= t_end:
+            bar.close()
 
-        def hook(t: float, t_end: float) -> None:
-            bar.update(t - bar.n)
-
-        return simulate(model, case.schedule, sample_interval=sample_interval, step_hook=hook)
+    return hook

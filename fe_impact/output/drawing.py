@@ -36,10 +36,10 @@ def drawn(function: Callable[..., object], *args) -> tuple[bool, str]:
 
 
 def outcome(name: str, result: tuple[bool, str]) -> bool:
-    """Log a failed job; whether its picture exists."""
+    """Log a failed job; whether its picture (or other output) exists."""
     written, error = result
     if error:
-        logger.warning("plot %s skipped: %s", name, error)
+        logger.warning("%s skipped: %s", name, error)
     return written
 
 

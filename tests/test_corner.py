@@ -1,12 +1,13 @@
 """Tip-edge contact of a pair entering and leaving mesh (`fe_impact.gears.corner`).
 
 The corner gap is checked against a second computation that shares nothing
-with the module's projections and root finding: the rounded edge sampled as
-a surface (each section's arc between its flank and land normals), and the
-gap as the least rotation, over the samples, that brings the mating flank
-onto a sample (the pinion's: r_b times the polar angle to its involute, plus
-the crowning; the face gear's: r_b2 times the polar angle about its axis to
-its flank at the sample's radius and height). The rounding's own curvature
+with the module's projections and root finding (`validation/corner_gaps.py`'s
+brute force): the rounded edge sampled as a surface (each section's arc
+between its flank and land normals), and the gap as the least rotation, over
+the samples, that brings the mating flank onto a sample (the pinion's: r_b
+times the polar angle to its involute, plus the crowning; the face gear's:
+r_b2 times the polar angle about its axis to its flank at the sample's radius
+and height). The rounding's own curvature
 is checked on a torus, where it is known in closed form.
 """
 
@@ -29,6 +30,7 @@ from fe_impact.gears.corner import (
 )
 from fe_impact.gears.tca import GearPair
 from fe_impact.switching.geometry import mesh_geometry
+from validation.corner_gaps import arc_samples, brute_gap
 
 GEARSET = default_gearset()
 PAIR = GearPair.from_gearset(GEARSET, 1)
@@ -44,41 +46,6 @@ def _roll(side: str, delta: float) -> float:
     return (s_pitch - s) / p.base_radius
 
 
-def _arc_samples(edge: EdgeRounding, n: int = 400) -> np.ndarray:
-    """Points of the rounding: at each section, ``rho`` from the centre in the
-    directions between the flank's and the land's normals (spherical interpolation)."""
-    a, b = edge.flank_normals, edge.land_normals
-    angle = np.arccos(np.clip((a * b).sum(-1), -1.0, 1.0))[:, None]
-    t = np.linspace(0.0, 1.0, n)[None, :, None]
-    w_a = np.sin((1.0 - t) * angle[:, None]) / np.sin(angle[:, None])
-    w_b = np.sin(t * angle[:, None]) / np.sin(angle[:, None])
-    direction = w_a * a[:, None] + w_b * b[:, None]
-    return (edge.centres[:, None] + edge.radius * direction).reshape(-1, 3)
-
-
-def _pinion_turn_gap(points_face: np.ndarray, roll: float) -> float:
-    """Least pinion turn, times r_b, that brings its crowned involute onto the points."""
-    p = PAIR.pinion
-    mesh = PAIR.face_to_mesh(points_face, PAIR.nominal_face_angle(roll))
-    x = (mesh - [0.0, p.pitch_radius, PAIR.z0]) @ PAIR.pinion_rotation(roll)
-    radius = np.hypot(x[:, 0], x[:, 1])
-    x = x[radius > p.base_radius]          # no involute inside the base circle
-    radius = np.hypot(x[:, 0], x[:, 1])
-    involute = p.involute_point(np.sqrt(radius**2 / p.base_radius**2 - 1.0))
-    turn = np.arctan2(x[:, 1], x[:, 0]) - np.arctan2(involute[:, 1], involute[:, 0])
-    return float(np.min(np.abs(p.base_radius * turn) + p.lengthwise_relief(x[:, 2])))
-
-
-def _face_turn_gap(points_pinion: np.ndarray, roll: float) -> float:
-    """Least face-gear turn, times r_b2, that brings its flank onto the points."""
-    face = PAIR.face
-    mesh = PAIR.pinion_to_mesh(points_pinion, roll)
-    x = mesh @ PAIR.face_rotation(PAIR.nominal_face_angle(roll))
-    flank = face.flank(np.hypot(x[:, 0], x[:, 2]), x[:, 1], side=1).points
-    turn = np.arctan2(x[:, 0], x[:, 2]) - np.arctan2(flank[:, 0], flank[:, 2])
-    return float(np.min(np.abs(turn)) * face.pitch_radius * math.cos(face.pressure_angle))
-
-
 @pytest.mark.parametrize("delta", [2e-4, 1e-3])
 def test_approach_gap_is_the_least_pinion_turn_onto_the_rounded_face_edge(delta):
     # Both sample the rounding; the module refines its least between sections by a
@@ -91,7 +58,7 @@ def test_approach_gap_is_the_least_pinion_turn_onto_the_rounded_face_edge(delta)
     edge = face_edge_rounding(PAIR, GEARSET.face_tip_edge_radius, n=1201)
     contact = corner_contact(PAIR, edge, "approach", roll)
     assert isinstance(contact, CornerContact) and contact.side == "approach"
-    brute = _pinion_turn_gap(_arc_samples(edge), roll)
+    brute = brute_gap(PAIR, "approach", arc_samples(edge, 400), roll)
     assert -1e-11 <= brute - contact.gap <= 1e-9
     assert contact.gap > 0.0 and contact.on_rounding and not contact.at_edge_end
 
@@ -103,7 +70,7 @@ def test_recess_gap_is_the_least_face_gear_turn_onto_the_rounded_pinion_edge(del
     roll = _roll("recess", delta)
     edge = pinion_edge_rounding(PAIR, GEARSET.pinion.tip_edge_radius, n=1201)
     contact = corner_contact(PAIR, edge, "recess", roll)
-    brute = _face_turn_gap(_arc_samples(edge), roll)
+    brute = brute_gap(PAIR, "recess", arc_samples(edge, 400), roll)
     assert -1e-11 <= brute - contact.gap <= 1e-9
     assert contact.gap > 0.0 and contact.on_rounding and not contact.at_edge_end
 

@@ -67,7 +67,7 @@ BRUTE_TOL = 1e-9
 FINE_SECTIONS, CONVERGED_REL, CONVERGED_ABS = 961, 1e-4, 1e-11
 
 
-def _arc_samples(edge, n: int) -> np.ndarray:
+def arc_samples(edge, n: int) -> np.ndarray:
     """Points of the rounding between each section's flank and land normals."""
     a, b = edge.flank_normals, edge.land_normals
     angle = np.arccos(np.clip((a * b).sum(-1), -1.0, 1.0))[:, None, None]
@@ -77,7 +77,7 @@ def _arc_samples(edge, n: int) -> np.ndarray:
     return (edge.centres[:, None] + edge.radius * direction).reshape(-1, 3)
 
 
-def _brute_gap(pair: GearPair, side: str, points: np.ndarray, roll: float) -> float:
+def brute_gap(pair: GearPair, side: str, points: np.ndarray, roll: float) -> float:
     """Least turn of the moving member onto the sampled rounding, times its lever."""
     if side == "approach":      # the pinion turns onto the face gear's edge
         p = pair.pinion
@@ -109,7 +109,7 @@ def run(out: Path | None = None, quick: bool = False) -> dict:
                 ("recess", flat.recess, gearset.pinion.tip_edge_radius, pinion_edge_rounding)):
             edge, fine = make(pair, radius), make(pair, radius, n=FINE_SECTIONS)
             brute_edge = make(pair, radius, n=BRUTE_SECTIONS)
-            samples = _arc_samples(brute_edge, BRUTE_ARC)
+            samples = arc_samples(brute_edge, BRUTE_ARC)
             for planar in planar_gaps:
                 delta = brentq(lambda d, t=table, g=planar: float(t(d)[0]) - g, 1e-9,
                                table.delta_max, xtol=1e-13)
@@ -124,7 +124,7 @@ def run(out: Path | None = None, quick: bool = False) -> dict:
                     "gap_m": touch.gap, "section_m": touch.section,
                     "on_rounding": touch.on_rounding, "at_edge_end": touch.at_edge_end,
                     "fine_gap_m": corner_contact(pair, fine, side, roll).gap,
-                    "brute_gap_m": _brute_gap(pair, side, samples, roll),
+                    "brute_gap_m": brute_gap(pair, side, samples, roll),
                     "midplane_gap_m": corner_contact(
                         pair, midplane_rounding(pair, radius, side, roll), side, roll).gap,
                     "seconds": seconds,

@@ -232,7 +232,10 @@ def run(args: argparse.Namespace) -> int:
           f"{TOP_LAND_MIN * 1e3:g} mm.\nRoll angles: pinion rotation from the pitch-point "
           "position; first and last in the order\na driving pinion meets them.\n"
           f"Load: {torque:g} N m on the output, {source}: each of the "
-          f"{gearset.n_pinions} meshes carries\nF = T / (n_pinions l_2).")
+          f"{gearset.n_pinions} meshes carries\nF = T / (n_pinions l_2).\n"
+          "First touch: 3-D gaps are how far the pinion (approach) or the face gear "
+          "(recess)\nturns from the conjugate position to touch, times its base lever; "
+          "'-' for a sharp edge.")
     if args.json is not None:
         write_json(args.json, {
             "schema": JSON_SCHEMA,

@@ -121,3 +121,34 @@ def test_the_seed_studies_run_are_those_the_calibration_has_laws_for():
     assert _seed_studies(gearset, [1]) == ("table1",)
     assert _seed_studies(gearset, [2]) == ("table2", "table4")
     assert _seed_studies(gearset, [1, 3]) == ("table1", "table3")
+
+
+def test_an_interrupted_study_leaves_the_calibration_complete(tmp_path, monkeypatch):
+    # Ctrl-C while the studies run: the calibration stays "completed" in summary.json,
+    # the switching entry says "stopped", and the interrupt goes on to the CLI (130).
+    import json
+
+    from fe_impact.calibration import sweep
+    from fe_impact.output.drawing import draw_here
+    from fe_impact.switching import study
+
+    (tmp_path / "summary.json").write_text(json.dumps({"status": "completed",
+                                                       "calibration": "calibration.json"}))
+    (tmp_path / "report.md").write_text("# report\n")
+    ran = []
+
+    def job(gearset_text, name, calibration, out):
+        ran.append(name)
+        if name == "table2":
+            raise KeyboardInterrupt
+        return {}
+
+    monkeypatch.setattr(study, "seed_study_job", job)
+    with pytest.raises(KeyboardInterrupt):
+        sweep._run_studies(tmp_path, tmp_path / "calibration.json", "", ("table1", "table2",
+                                                                          "table3"), draw_here)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary == {"status": "completed", "calibration": "calibration.json",
+                       "switching": "stopped"}
+    assert ran == ["table1", "table2"]
+    assert "Switching runs" not in (tmp_path / "report.md").read_text()

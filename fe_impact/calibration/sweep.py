@@ -566,20 +566,28 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     if busy:
         logger.warning("cases %s are being computed by another run on %s: this run waits for "
                        "them and takes their results", busy, out)
-    def finish(draw: Draw) -> Path:
-        """The files of a completed sweep, the pictures drawn by ``draw``."""
-        return _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
-                              "completed", gearset_text, draw, studies)
+    written = []      # the calibration's files are complete once this holds their path
 
-    if not todo:
-        return finish(draw_here)
+    def finish(draw: Draw) -> Path:
+        """The files of a completed sweep, the pictures drawn by ``draw``, then the
+        switching studies run by ``draw``."""
+        path = _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
+                              "completed", gearset_text, draw)
+        written.append(path)
+        _run_studies(out, path, gearset_text, studies, draw)
+        return path
+
     try:
-        # the report's pictures are drawn on the sweep's workers before they stop
+        if not todo:
+            return finish(draw_here)
+        # the report's pictures and the studies are run on the sweep's workers before
+        # they stop
         return _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
                          progress, finish)
     except KeyboardInterrupt:
-        _write_summary(out, cases, sweep, settings, time.perf_counter() - t0, "stopped",
-                       gearset_text)
+        if not written:    # an interrupted study leaves the calibration complete
+            _write_summary(out, cases, sweep, settings, time.perf_counter() - t0, "stopped",
+                           gearset_text)
         raise
 
 
@@ -593,10 +601,9 @@ def _held_elsewhere(folder: Path) -> bool:
 
 def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Sweep,
                    settings: Settings, wall: float, status: str, gearset_text: str,
-                   draw: Draw = draw_here, studies: Sequence[str] = ()) -> Path:
+                   draw: Draw = draw_here) -> Path:
     """summary.json and, for a completed run, calibration.json/.csv and report.md (its
-    pictures drawn by ``draw`` while the tables are written), and the switching
-    ``studies`` run by ``draw`` on the calibration once it is written."""
+    pictures drawn by ``draw`` while the tables are written)."""
     from fe_impact.calibration.report import write_calibration_report
     from fe_impact.output.files import write_json
 
@@ -619,32 +626,43 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
                                       wall_time_s=wall, fe_impact_version=__version__,
                                       notes=NOTES, mesh_cycle=cycle)
             path = write_calibration(out / "calibration.json", calibration)
-            finished_studies = _start_studies(out, path, gearset_text, studies, draw)
             write_calibration_csv(out / "calibration.csv", records)
             write_calibration_report(out, calibration, draw)
             if drawing is not None:
                 drawing()
-            if finished_studies is not None:
-                from fe_impact.calibration.report import add_switching_section
-
-                add_switching_section(out, finished_studies())
-                summary["switching"] = [f"switching/{name}" for name in studies]
         summary_path = write_json(out / "summary.json", summary)
     return path or summary_path
 
 
-def _start_studies(out: Path, calibration: Path, gearset_text: str, studies: Sequence[str],
-                   draw: Draw) -> Callable[[], list[str]] | None:
-    """Start the switching ``studies`` on ``calibration`` (one job each, by ``draw``);
-    what waits for them, or None for none. A study that fails is logged and skipped."""
+def _run_studies(out: Path, calibration: Path, gearset_text: str, studies: Sequence[str],
+                 draw: Draw) -> None:
+    """Run the switching ``studies`` on the finished ``calibration`` (one ``draw`` job
+    each), table them in report.md and list them in summary.json. A study that fails
+    is logged and left out. Interrupted, the studies finished are kept (each study
+    writes what it ran), summary.json says ``"switching": "stopped"``, and the
+    interrupt is raised again: the calibration itself is complete."""
     if not studies:
-        return None
+        return
+    from fe_impact.calibration.report import add_switching_section
+    from fe_impact.output.files import write_json
     from fe_impact.switching.study import seed_study_job
 
-    return draw([(f"switching study {name}", _study_written,
-                  (seed_study_job, gearset_text, name, str(calibration),
-                   str(out / "switching" / name)))
-                 for name in studies])
+    summary_path = out / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    try:
+        wait = draw([(f"switching study {name}", _study_written,
+                      (seed_study_job, gearset_text, name, str(calibration),
+                       str(out / "switching" / name)))
+                     for name in studies])
+        done = wait()
+    except KeyboardInterrupt:
+        with ignore_signals():
+            write_json(summary_path, {**summary, "switching": "stopped"})
+        raise
+    with ignore_signals():   # the report's table and the summary belong together
+        add_switching_section(out, done)
+        write_json(summary_path, {**summary, "switching": [
+            f"switching/{job.removeprefix('switching study ')}" for job in done]})
 
 
 def _study_written(job: Callable[..., dict], *args) -> bool:

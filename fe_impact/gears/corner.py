@@ -220,12 +220,7 @@ def _pinion_distance(pair: GearPair, x: NDArray, start=None, iterations=_PROJECT
         start = (x[..., 2].copy(),
                  np.sqrt(np.maximum(radius**2 / pinion.base_radius**2 - 1.0, 1e-6)))
     m = pinion.module
-
-    def surface(u, t):
-        s = pinion.flank_surface(u, t, side=1)
-        return s.points, s.normals
-
-    a, b, dist, normal = _project(surface, x, *start,
+    a, b, dist, normal = _project(pair._pinion_surface, x, *start,
                                   (1e-3 * m, 1e-3 * m / pinion.base_radius), iterations)
     real = ((b >= pinion.theta_form) & (b <= pinion.theta_tip)
             & (np.abs(a) <= 0.5 * pinion.face_width))
@@ -246,32 +241,17 @@ def _face_distance(pair: GearPair, x: NDArray, start=None, iterations=_PROJECTIO
         start = (length, height.copy())
     near = ((height > face.root_height - m) & (height < face.tip_height + m)
             & (length > face.face_inner - 2 * m) & (length < face.face_outer + 2 * m))
-
-    def surface(radius, h):
-        s = face.flank(radius, h, side=1)
-        return s.points, s.normals
-
     a, b = np.array(start[0], float, copy=True), np.array(start[1], float, copy=True)
     dist = np.full(x.shape[:-1], np.inf)
     normal = np.zeros_like(x)
     if np.any(near):
         a[near], b[near], dist[near], normal[near] = _project(
-            surface, x[near], a[near], b[near], (1e-3 * m, 1e-3 * m), iterations)
+            pair._face_surface, x[near], a[near], b[near], (1e-3 * m, 1e-3 * m), iterations)
         # feet off the generated flank (the root fillet, beyond the face): +inf
         real = face.flank(a[near], b[near], side=1).valid & (a[near] >= face.face_inner) \
             & (a[near] <= face.face_outer)
         dist[near] = np.where(real, dist[near], np.inf)
     return a, b, dist, normal
-
-
-def _rz(angle: float) -> NDArray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _ry(angle: float) -> NDArray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
 # -- the first touch ----------------------------------------------------------------------------
@@ -534,15 +514,14 @@ def _touch(c: _Corner, i: int, turn: float, gap: float, section: float, at_end: 
         point = pair.pinion_to_mesh(point[None], roll + turn)[0]
         held = pair.face_rotation(phi2)
         flank = principal_curvatures(
-            lambda u, t: _surface(pair.pinion.flank_surface(u, t, side=1)), a[i], b[i],
+            pair._pinion_surface, a[i], b[i],
             1e-3 * pair.pinion.module, 1e-3 * pair.pinion.module / pair.pinion.base_radius)
     else:                         # the face gear moved; the pinion holds the edge
         moved = pair.face_rotation(phi2 + turn)
         point = pair.face_to_mesh(point[None], phi2 + turn)[0]
         held = pair.pinion_rotation(roll)
         flank = principal_curvatures(
-            lambda length, h: _surface(pair.face.flank(length, h, side=1)), a[i], b[i],
-            1e-3 * pair.face.module, 1e-3 * pair.face.module)
+            pair._face_surface, a[i], b[i], 1e-3 * pair.face.module, 1e-3 * pair.face.module)
     flank = flank.rotated(moved)
     normal = moved @ normals[i]
     # the rounding's outward normal at the touch, in the held member's frame
@@ -551,10 +530,6 @@ def _touch(c: _Corner, i: int, turn: float, gap: float, section: float, at_end: 
     relative = relative_curvature(flank, rounding)
     return CornerContact(c.side, roll, gap, turn, section, point, normal, on_arc, at_end,
                          rounding, flank, relative)
-
-
-def _surface(sample) -> tuple[NDArray, NDArray]:
-    return sample.points, sample.normals
 
 
 def _edge_curvatures(edge: EdgeRounding, i: int, to_mesh: NDArray, outward: NDArray

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fe_impact.errors import GeometryError
+from fe_impact.gears.gearset import involute_end, rack_flank_end
 from fe_impact.gears.tca import (
     ContactEllipse,
     GearPair,
@@ -486,18 +487,17 @@ def flank_end_roll(pair: GearPair, radius: float, side: str) -> float:
     """Pinion roll angle [rad] where the flank contact ends at ``side`` with a tip-edge
     rounding of ``radius`` on the edge there, in the pinion-on-rack geometry at the
     design radius (the torsional model's path, :mod:`fe_impact.switching.geometry`):
-    the face gear's straight flank ends ``rho (1 - sin a) / sin a`` along the line of
-    action beyond where its tip line crosses it; the pinion's involute ends at the
-    roll length ``rho + sqrt(rho^2 + s_a^2 - 2 r_a rho)``. Roll angles grow towards
-    the face-gear tip end: ``phi = (r_p sin a - s) / r_b``."""
+    the face gear's straight flank ends :func:`~fe_impact.gears.gearset.rack_flank_end`
+    beyond where its tip line crosses the line of action, the pinion's involute at
+    :func:`~fe_impact.gears.gearset.involute_end`. Roll angles grow towards the
+    face-gear tip end: ``phi = (r_p sin a - s) / r_b``."""
     pinion = pair.pinion
     a, r_b = pinion.pressure_angle, pinion.base_radius
     if side == "approach":
         s = (pinion.pitch_radius * math.sin(a) - pair.face.tip_height / math.sin(a)
-             + radius * (1.0 - math.sin(a)) / math.sin(a))
+             + rack_flank_end(a, radius))
     else:
-        r_a = pinion.tip_radius
-        s = radius + math.sqrt(radius**2 + r_a**2 - r_b**2 - 2.0 * r_a * radius)
+        s = involute_end(r_b, pinion.tip_radius, radius)
     return (pinion.pitch_radius * math.sin(a) - s) / r_b
 
 

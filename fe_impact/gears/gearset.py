@@ -328,9 +328,8 @@ class Pinion:
         return 0.5 * self.module * self.teeth
 
 
-def pinion_tip_rounding(teeth: int, alpha: float, pitch_radius: float, tip_radius: float,
-                        rho: float) -> tuple[float, float]:
-    """Where a tip-edge rounding of radius ``rho`` leaves a pinion's involute.
+def involute_end(base_radius: float, tip_radius: float, rho: float) -> float:
+    """Roll length [m] at which a tip-edge rounding of radius ``rho`` ends an involute.
 
     The rounding circle touches the tip circle from inside (centre at
     ``r_a - rho``) and the involute at radius ``r_t``, roll length
@@ -340,6 +339,27 @@ def pinion_tip_rounding(teeth: int, alpha: float, pitch_radius: float, tip_radiu
 
         s_t = rho + sqrt(rho^2 + s_a^2 - 2 r_a rho),   s_a^2 = r_a^2 - r_b^2.
 
+    NaN when no such circle exists; ``s_a`` for ``rho = 0``.
+    """
+    root = rho**2 + tip_radius**2 - base_radius**2 - 2.0 * tip_radius * rho
+    return rho + math.sqrt(root) if root >= 0.0 else math.nan
+
+
+def rack_flank_end(alpha: float, rho: float) -> float:
+    """How much further along the line of action [m] than its tip line a rack's (a
+    face gear's, at its design radius) straight flank ends with a tip-edge rounding of
+    radius ``rho``. The rounding's centre is ``rho`` inside the flank and above the
+    tip line, so the flank ends ``rho (1 - sin a)`` above the tip line, which the
+    line of action, inclined at ``a``, reaches ``rho (1 - sin a) / sin a`` further on.
+    """
+    return rho * (1.0 - math.sin(alpha)) / math.sin(alpha)
+
+
+def pinion_tip_rounding(teeth: int, alpha: float, pitch_radius: float, tip_radius: float,
+                        rho: float) -> tuple[float, float]:
+    """Where a tip-edge rounding of radius ``rho`` leaves a pinion's involute
+    (:func:`involute_end`), and what it leaves of the tip land.
+
     Returns ``(s_t, half_land)``: the roll length [m] at which the involute
     ends, and the half angle [rad] of the tip land left between the tooth's
     two roundings (negative: they overlap; ``-inf`` with ``s_t`` NaN when
@@ -347,10 +367,9 @@ def pinion_tip_rounding(teeth: int, alpha: float, pitch_radius: float, tip_radiu
     land's angle.
     """
     r_b = pitch_radius * math.cos(alpha)
-    root = rho**2 + tip_radius**2 - r_b**2 - 2.0 * tip_radius * rho
-    if root < 0.0:
+    s_t = involute_end(r_b, tip_radius, rho)
+    if math.isnan(s_t):
         return math.nan, -math.inf
-    s_t = rho + math.sqrt(root)
     r_t = math.hypot(r_b, s_t)
     # half the tooth's angle at r_t, less the angle by which the centre lies inside it
     half = (math.pi / (2.0 * teeth) + float(involute_function(alpha))

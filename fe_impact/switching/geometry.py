@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicSpline
 from scipy.optimize import brentq
 
-from fe_impact.gears.gearset import GearSet
+from fe_impact.gears.gearset import GearSet, involute_end, rack_flank_end
 
 logger = logging.getLogger(__name__)
 
@@ -150,18 +150,15 @@ class _RackPinionFrame:
     @property
     def s_start(self) -> float:
         """Where the rack's straight flank ends: on the line of action, the flank
-        point below which the rounding begins. Its centre is ``rho`` inside the
-        flank and above the tip line, so the flank ends ``rho (1 - sin a)``
-        above the tip line, ``rho (1 - sin a) / sin a`` further along the line."""
-        a = self.alpha
-        return self.s_tip_line + self.rack_edge_radius * (1.0 - math.sin(a)) / math.sin(a)
+        point below which the rounding begins
+        (:func:`~fe_impact.gears.gearset.rack_flank_end`)."""
+        return self.s_tip_line + rack_flank_end(self.alpha, self.rack_edge_radius)
 
     @property
     def s_end(self) -> float:
         """Where the pinion's involute ends: its tip circle, or where the tip
-        rounding begins (:func:`~fe_impact.gears.gearset.pinion_tip_rounding`)."""
-        rho, r_a, r_b = self.pinion_edge_radius, self.pinion_tip_radius, self.base_radius
-        return rho + math.sqrt(rho**2 + r_a**2 - r_b**2 - 2.0 * r_a * rho)
+        rounding begins (:func:`~fe_impact.gears.gearset.involute_end`)."""
+        return involute_end(self.base_radius, self.pinion_tip_radius, self.pinion_edge_radius)
 
     def on_line(self, s: ArrayLike) -> NDArray:
         return self.tangency + np.multiply.outer(np.asarray(s, dtype=float), self.direction)

@@ -39,11 +39,7 @@ PAIR = GearPair.from_gearset(GEARSET, 1)
 def _roll(side: str, delta: float) -> float:
     """Pinion roll angle ``delta`` [m] of line of action beyond the planar model's
     end of flank contact (roll angles grow towards the face-gear tip end)."""
-    geo = mesh_geometry(GEARSET)
-    p = PAIR.pinion
-    s_pitch = p.pitch_radius * math.sin(p.pressure_angle)
-    s = geo.s_start - delta if side == "approach" else geo.s_end + delta
-    return (s_pitch - s) / p.base_radius
+    return float(mesh_geometry(GEARSET).corner_roll(side, delta))
 
 
 @pytest.mark.parametrize("delta", [2e-4, 1e-3])

@@ -597,8 +597,7 @@ def test_three_dimensional_corner_tables_follow_the_first_touch():
                 ("recess", geo.recess, pinion_edge_rounding(
                     pair, GEARSET.pinion.tip_edge_radius, n=SOLID_CORNER_SECTIONS))):
             delta = table.delta_max * np.array([0.13, 0.37, 0.61, 0.89]) ** 2
-            s = flat.s_start - delta if side == "approach" else flat.s_end + delta
-            exact = corner_gaps(pair, edge, side, (flat.s_pitch - s) / flat.base_radius)
+            exact = corner_gaps(pair, edge, side, flat.corner_roll(side, delta))
             np.testing.assert_allclose(table(delta)[0], exact, rtol=1e-4, atol=1e-10)
             # the tables end at the cap, like the planar ones
             assert table(np.array(table.delta_max))[0] == pytest.approx(100e-6, rel=1e-3)

@@ -41,7 +41,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import brentq
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -111,10 +110,8 @@ def run(out: Path | None = None, quick: bool = False) -> dict:
             brute_edge = make(pair, radius, n=BRUTE_SECTIONS)
             samples = arc_samples(brute_edge, BRUTE_ARC)
             for planar in planar_gaps:
-                delta = brentq(lambda d, t=table, g=planar: float(t(d)[0]) - g, 1e-9,
-                               table.delta_max, xtol=1e-13)
-                s = flat.s_start - delta if side == "approach" else flat.s_end + delta
-                roll = (flat.s_pitch - s) / flat.base_radius
+                delta = table.delta_at(planar)
+                roll = float(flat.corner_roll(side, delta))
                 t0 = time.perf_counter()
                 touch = corner_contact(pair, edge, side, roll)
                 seconds = time.perf_counter() - t0

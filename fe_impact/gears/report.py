@@ -350,8 +350,6 @@ def _corners(gearset: GearSet, pair: GearPair, pitch: dict) -> dict:
     from fe_impact.switching.geometry import mesh_geometry
 
     line = mesh_geometry(gearset)
-    r_b = pair.pinion.base_radius
-    s_pitch = pair.pinion.pitch_radius * math.sin(pair.pinion.pressure_angle)
     force, e_star = pitch["normal_force_N"], pitch["effective_modulus_Pa"]
     rows = {}
     for side, table, radius, edge in (
@@ -360,10 +358,8 @@ def _corners(gearset: GearSet, pair: GearPair, pitch: dict) -> dict:
         if radius <= 0.0:
             rows[side] = None          # a sharp edge: no ball, no Hertz contact
             continue
-        delta = brentq(lambda d, t=table: float(t(d)[0]) - CORNER_REPORT_GAP, 1e-9,
-                       table.delta_max, xtol=1e-13)
-        s = line.s_start - delta if side == "approach" else line.s_end + delta
-        roll = (s_pitch - s) / r_b
+        delta = table.delta_at(CORNER_REPORT_GAP)
+        roll = float(line.corner_roll(side, delta))
         touch = corner_contact(pair, edge(pair, radius), side, roll)
         plane = corner_contact(pair, midplane_rounding(pair, radius, side, roll), side, roll)
         ellipse = touch.ellipse(force, e_star)

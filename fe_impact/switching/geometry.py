@@ -285,6 +285,11 @@ class CornerGap:
         values[0] = 0.0
         return cls(delta_max, values, spline(nodes, 1))
 
+    def delta_at(self, gap: float) -> float:
+        """Roll distance [m] beyond the path's end at which the table's gap is ``gap``
+        [m], ``0 < gap <= CORNER_GAP_CAP``."""
+        return brentq(lambda d: float(self(d)[0]) - gap, 1e-9, self.delta_max, xtol=1e-13)
+
     def __call__(self, delta: ArrayLike) -> tuple[NDArray, NDArray]:
         """``g(delta)`` [m] and ``dg/d delta`` [-] (the kernel's interpolant)."""
         delta = np.clip(np.asarray(delta, dtype=float), 0.0, self.delta_max)
@@ -356,6 +361,15 @@ class MeshGeometry:
         g = np.where(s < self.s_start, g_in, np.where(s > self.s_end, g_out, 0.0))
         dg = np.where(s < self.s_start, -dg_in, np.where(s > self.s_end, dg_out, 0.0))
         return g, dg
+
+    def corner_roll(self, side: str, delta: ArrayLike) -> NDArray:
+        """Pinion roll angle [rad] of the position ``delta`` [m] of line of action before
+        the path's start (``side="approach"``) or after its end (``"recess"``), in
+        :class:`~fe_impact.gears.tca.GearPair`'s sense: from the pitch-point position,
+        growing towards the face-gear tip end, ``phi = (s_pitch - s) / r_bp``."""
+        delta = np.asarray(delta, dtype=float)
+        s = self.s_start - delta if side == "approach" else self.s_end + delta
+        return (self.s_pitch - s) / self.base_radius
 
     def pair_count(self, roll: float) -> int:
         """Tooth pairs on the active path when the pinion has rolled ``roll`` [m]."""
@@ -511,8 +525,7 @@ def _solid_corner_table(gearset: GearSet, stage: int, side: str) -> CornerGap:
     edge = make(pair, radius, n=SOLID_CORNER_SECTIONS)
 
     def gap(delta: NDArray) -> NDArray:
-        s = flat.s_start - delta if side == "approach" else flat.s_end + delta
-        rolls = (flat.s_pitch - np.atleast_1d(s)) / flat.base_radius
+        rolls = np.atleast_1d(flat.corner_roll(side, delta))
         return np.maximum(corner_gaps(pair, edge, side, rolls), 0.0)
 
     planar = getattr(flat, side).delta_max

@@ -157,14 +157,13 @@ def add_switching_section(out: Path, studies: list[str]) -> Path:
             lines.append(f"| {name} | - | - | - | - | - | - | - | unreadable: {exc} |")
             continue
         cases = data.get("cases", {})
-        kinds = [sum(c["impact_statistics"]["all"][k]["count"] for c in cases.values()
-                     if "all" in c["impact_statistics"])
-                 for k in ("rattle", "mesh-in", "switch")]
-        edge = sum(c["impact_statistics"]["all"]["contacts"]["all"][place]["count"]
-                   for c in cases.values() if "all" in c["impact_statistics"]
+        # each case's statistics over all its stages (absent for a case with no impact)
+        every = [c["impact_statistics"]["all"] for c in cases.values()
+                 if "all" in c["impact_statistics"]]
+        kinds = [sum(e[k]["count"] for e in every) for k in ("rattle", "mesh-in", "switch")]
+        edge = sum(e["contacts"]["all"][place]["count"] for e in every
                    for place in ("corner-approach", "corner-recess"))
-        top = [c["impact_statistics"]["all"]["all"] for c in cases.values()
-               if "all" in c["impact_statistics"]]
+        top = [e["all"] for e in every]
         speed = max((t["impact_speed"][1] or 0.0 for t in top), default=None)
         force = max((t["impact_force"][1] or 0.0 for t in top), default=None)
         low = sum(c["run"]["clamped_low"] for c in cases.values())

@@ -77,9 +77,8 @@ def model_parameters(model: DriveModel) -> dict:
         "tip_edge_radii_m": {"pinion": model.gearset.pinion.tip_edge_radius,
                              "face_gear": model.gearset.face_tip_edge_radius},
         "corner_gaps": model.corner_source,
-        "corner_spans_m": [[model.stage_geometry(s).approach.delta_max,
-                            model.stage_geometry(s).recess.delta_max]
-                           for s in range(1, model.n_stages + 1)],
+        "corner_spans_m": [[g.approach.delta_max, g.recess.delta_max] for g in
+                           map(model.stage_geometry, range(1, model.n_stages + 1))],
         "backlash_m": model.backlashes.tolist(),
         "coupling_stiffness_Nm_rad": model.couplings.tolist(),
         "coupling_damping_ratio": model.coupling_damping_ratio,
@@ -151,7 +150,7 @@ def _contact_lines(runs: dict[str, SwitchingRun]) -> list[str]:
             span = (f"{corner.min() * 1e3:.3g}-{corner.max() * 1e3:.3g}" if corner.size
                     else "-")
             lines.append(f"| {name} | {kind} | {' | '.join(map(str, counts))} | {span} |")
-    position = any("mesh cycle" in s for s in [first.info.get("law_source", "")])
+    position = "mesh cycle" in first.info.get("law_source", "")
     lines += [
         "",
         "Laws: every impact takes the damping and penetration of its kind's calibrated law "

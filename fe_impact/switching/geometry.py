@@ -407,15 +407,16 @@ def mesh_geometry(gearset: GearSet, stage: int | None = None,
         )
     if corners not in CORNER_SOURCES:
         raise ValueError(f"corners = {corners!r}: pick one of {list(CORNER_SOURCES)}")
-    tables = []
-    for gap in (frame.approach_gap, frame.recess_gap):
-        delta_max = brentq(lambda d, f=gap: float(f(d)) - CORNER_GAP_CAP,
-                           1e-9, 0.5 * p.module * p.teeth, xtol=1e-15)
-        tables.append(CornerGap.from_function(gap, delta_max))
     if corners == "3d":
         if stage is None:
             raise ValueError("corners = '3d' needs the stage")
         tables = [solid_corner_gaps(gearset, stage, side) for side in ("approach", "recess")]
+    else:
+        tables = []
+        for gap in (frame.approach_gap, frame.recess_gap):
+            delta_max = brentq(lambda d, f=gap: float(f(d)) - CORNER_GAP_CAP,
+                               1e-9, 0.5 * p.module * p.teeth, xtol=1e-15)
+            tables.append(CornerGap.from_function(gap, delta_max))
     return MeshGeometry(
         base_radius=frame.base_radius,
         pitch_radius=p.pitch_radius,

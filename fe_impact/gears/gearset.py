@@ -135,6 +135,16 @@ def _integer(field: str, value: Any, minimum: int) -> None:
     check_integer(field, value, low=minimum, error=GeometryError)
 
 
+def _largest(ok: Callable[[float], bool], high: float) -> float:
+    """The largest value in ``[0, high]`` where ``ok`` holds, ``ok`` holding below it
+    and not above it (bisection, 60 halvings: 1e-18 of ``high``)."""
+    low = 0.0
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if ok(mid) else (low, mid)
+    return low
+
+
 def _crowning(field: str, value: float, module: float) -> None:
     """Crowning must be >= 0 and at most ``MAX_CROWNING_PER_MODULE`` modules."""
     check_number(field, value, low=0, high=MAX_CROWNING_PER_MODULE * module, unit="um",
@@ -265,11 +275,10 @@ class Pinion:
             return
         alpha = math.radians(self.pressure_angle_deg)
         r_a = self.pitch_radius + self.addendum_coeff * self.module
-        low, high = 0.0, self.tip_edge_radius    # the land shrinks as the radius grows
-        for _ in range(60):
-            mid = 0.5 * (low + high)
-            ok = pinion_tip_rounding(self.teeth, alpha, self.pitch_radius, r_a, mid)[1] > 0.0
-            low, high = (mid, high) if ok else (low, mid)
+        # the land shrinks as the radius grows
+        low = _largest(lambda rho: pinion_tip_rounding(self.teeth, alpha, self.pitch_radius,
+                                                       r_a, rho)[1] > 0.0,
+                       self.tip_edge_radius)
         raise GeometryError(
             f"pinion.tip_edge_radius = {self.tip_edge_radius * 1e3:g} mm: the two tip-edge "
             f"roundings leave no tip land (sharp, the land is {self.tip_land() * 1e3:.3g} mm); "
@@ -311,10 +320,8 @@ class Pinion:
         land = self.tip_land()
         if land > 0.0:
             return
-        low, high = 0.0, self.addendum_coeff   # the land shrinks as the addendum grows
-        for _ in range(60):
-            mid = 0.5 * (low + high)
-            low, high = (mid, high) if self.tip_land(mid) > 0.0 else (low, mid)
+        # the land shrinks as the addendum grows
+        low = _largest(lambda ha: self.tip_land(ha) > 0.0, self.addendum_coeff)
         raise GeometryError(
             f"pinion.addendum_coeff = {self.addendum_coeff:g}: the pinion tooth comes to a "
             f"point below its tip circle (tip land {land * 1e3:.3g} mm); with "

@@ -323,6 +323,15 @@ def stage_geometry(gearset: GearSet, torque: float | None = None) -> list[dict]:
     torque = seed_load_torque() if torque is None else torque
     if not (math.isfinite(torque) and torque > 0.0):
         raise GeometryError(f"load torque = {torque!r} N m; must be a number > 0")
+    from dataclasses import replace
+
+    from fe_impact.switching.geometry import mesh_geometry
+
+    # the torsional model's line of action, with the gear set's tip edges and sharp:
+    # the same for every stage
+    sharp = replace(gearset, pinion=replace(gearset.pinion, tip_edge_radius=0.0),
+                    face_tip_edge_radius=0.0)
+    line, sharp_line = mesh_geometry(gearset), mesh_geometry(sharp)
     rows = []
     for index, stage in enumerate(gearset.stages):
         pair, pitch = pitch_point(gearset, index + 1, torque)
@@ -333,23 +342,22 @@ def stage_geometry(gearset: GearSet, torque: float | None = None) -> list[dict]:
             "face_width": _face_width(gearset, index),
             "path_of_contact": contact_path_ends(pair, pitch.pop("_contact")),
             **pitch,
-            "tip_edges": _tip_edges(gearset, index),
-            "corners": _corners(gearset, pair, pitch["pitch_point"]),
+            "tip_edges": _tip_edges(gearset, index, line, sharp_line),
+            "corners": _corners(gearset, pair, pitch["pitch_point"], line),
         })
     return rows
 
 
-def _corners(gearset: GearSet, pair: GearPair, pitch: dict) -> dict:
-    """First touches beyond both ends of the path (module docstring)."""
+def _corners(gearset: GearSet, pair: GearPair, pitch: dict, line) -> dict:
+    """First touches beyond both ends of the path (module docstring), at the roll
+    angles where the line of action ``line`` (planar corners) gives the report's gap."""
     from fe_impact.gears.corner import (
         corner_contact,
         face_edge_rounding,
         midplane_rounding,
         pinion_edge_rounding,
     )
-    from fe_impact.switching.geometry import mesh_geometry
 
-    line = mesh_geometry(gearset)
     force, e_star = pitch["normal_force_N"], pitch["effective_modulus_Pa"]
     rows = {}
     for side, table, radius, edge in (
@@ -381,20 +389,13 @@ def _corners(gearset: GearSet, pair: GearPair, pitch: dict) -> dict:
     return rows
 
 
-def _tip_edges(gearset: GearSet, index: int) -> dict:
+def _tip_edges(gearset: GearSet, index: int, line, sharp_line) -> dict:
     """The tip-edge roundings of stage ``index`` and of the pinion, and the line of
-    action they leave (module docstring)."""
-    from dataclasses import replace
-
-    from fe_impact.switching.geometry import mesh_geometry
-
+    action they leave (``line``; ``sharp_line`` with sharp edges; module docstring)."""
     pinion = gearset.pinion
     limit, where = gearset.face_tip_edge_limit(index)
     half_land = pinion.tip_edge_rounding()[1]
     r_a = pinion.pitch_radius + pinion.addendum_coeff * pinion.module
-    sharp = replace(gearset, pinion=replace(pinion, tip_edge_radius=0.0),
-                    face_tip_edge_radius=0.0)
-    line, sharp_line = mesh_geometry(gearset), mesh_geometry(sharp)
     return {
         "face_radius_m": gearset.face_tip_edge_radius,
         "face_limit_m": limit,

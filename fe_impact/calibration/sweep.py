@@ -650,9 +650,8 @@ def _run_studies(out: Path, calibration: Path, gearset_text: str, studies: Seque
     summary_path = out / "summary.json"
     summary = json.loads(summary_path.read_text())
     try:
-        wait = draw([(f"switching study {name}", _study_written,
-                      (seed_study_job, gearset_text, name, str(calibration),
-                       str(out / "switching" / name)))
+        wait = draw([(f"switching study {name}", seed_study_job,
+                      (gearset_text, name, str(calibration), str(out / "switching" / name)))
                      for name in studies])
         done = wait()
     except KeyboardInterrupt:
@@ -663,12 +662,6 @@ def _run_studies(out: Path, calibration: Path, gearset_text: str, studies: Seque
         add_switching_section(out, done)
         write_json(summary_path, {**summary, "switching": [
             f"switching/{job.removeprefix('switching study ')}" for job in done]})
-
-
-def _study_written(job: Callable[..., dict], *args) -> bool:
-    """Run a study job; True once its files are written (the job raises otherwise)."""
-    job(*args)
-    return True
 
 
 class CaseStopped(CalibrationError):

@@ -180,7 +180,8 @@ def test_a_hand_written_law_table_is_a_calibration(tmp_path):
 
 
 @pytest.mark.parametrize(("change", "message"), [
-    ({"kind": "rattle"}, "[cases[0]] kind = 'rattle': pick one of ['mesh', 'switch']"),
+    ({"kind": "rattle"}, "[cases[0]] kind = 'rattle': pick one of ['mesh', 'switch', "
+                         "'corner-approach', 'corner-recess']"),
     ({"stage": 0}, "[cases[0]] stage = 0: must be an integer >= 1"),
     ({"impact_speed": -0.1}, "[cases[0]] impact_speed = -0.1: must be > 0"),
     ({"speed": 1.0}, "unknown key(s) ['speed'] in [cases[0]]; allowed: ["),

@@ -641,3 +641,114 @@ def test_impacts_are_placed_on_the_flank_or_a_tip_edge():
     for kind in ("rattle", "mesh-in", "switch", "all"):
         assert sum(stats["contacts"][kind][place]["count"] for place in CONTACT_NAMES.values()) \
             == stats[kind]["count"]
+
+
+# -- laws of the kinds of contact -------------------------------------------------------------
+def test_closed_form_corner_laws_take_the_rounded_edges_first_touch():
+    # Across the edge the touch's relative radius is the rounding's radius rho combined
+    # with the mating flank's convex profile: 1/Rx = 1/rho + 1/R_flank, so rho/(1 +
+    # rho/R_flank,min) <= Rx <= rho. On the approach side the flank is the pinion's
+    # involute, whose radius of curvature is least at the form circle,
+    # sqrt(r_form^2 - r_b^2); on the recess side it is the face gear's flank, which is
+    # flatter in profile than that involute (a rack's is straight).
+    from fe_impact.gears.tca import GearPair
+    from fe_impact.switching.calibration import corner_radii
+
+    masses = [DriveModel().effective_mass(s) for s in (1, 2, 3)]
+    laws_ = DriveModel().law_set
+    for stage in (1, 2, 3):
+        pinion = GearPair.from_gearset(GEARSET, stage).pinion
+        r_min = math.sqrt(pinion.form_radius**2 - pinion.base_radius**2)
+        for side, rho in (("approach", GEARSET.face_tip_edge_radius),
+                          ("recess", GEARSET.pinion.tip_edge_radius)):
+            rx, ry = corner_radii(GEARSET, stage - 1, side)
+            assert rho / (1.0 + rho / r_min) <= rx <= rho
+            assert ry > 10 * rx  # along the edge: a long, narrow ellipse
+            corner = laws_.table(stage, f"corner-{side}")
+            flank = laws_.table(stage, "mesh")
+            # a narrower contact is softer: Hertz k grows with the contact's radii
+            assert np.all(corner.k < flank.k)
+            assert np.all(corner.exponent == 1.5)
+    # sharp edges: no rounding, no corner law; corner contacts take the flank's
+    sharp = dataclasses.replace(GEARSET, face_tip_edge_radius=0.0)
+    from fe_impact.switching.calibration import closed_form_laws
+
+    only = closed_form_laws(sharp, masses)
+    assert not any(only.has(s, "corner-approach") for s in (1, 2, 3))
+    assert all(only.has(s, "corner-recess") for s in (1, 2, 3))
+    sharp_both = dataclasses.replace(sharp, pinion=dataclasses.replace(sharp.pinion,
+                                                                       tip_edge_radius=0.0))
+    none = closed_form_laws(sharp_both, masses)
+    assert not any(none.has(s, k) for s in (1, 2, 3) for k in ("corner-approach",
+                                                                "corner-recess"))
+    assert "corner contacts take the flank's law" in none.source
+
+
+def test_pair_law_follows_where_the_pair_touches():
+    # Before the path's start a pair takes the approach edge's stiffness, after its end
+    # the recess edge's; without a corner law (NaN) the flank's, through the position law.
+    from fe_impact.switching import _kernel as K
+    from fe_impact.switching.simulation import _pack
+
+    model = DriveModel(corners="planar")
+    p = _pack(model, StageSchedule((Segment(1e-3, 1, 0.0),)), 1e-4).p
+    geo = model.geometry
+    none = np.full((3, K.NPOS), np.nan)
+    before, on, after = geo.s_start - 1e-6, 0.5 * (geo.s_start + geo.s_end), geo.s_end + 1e-6
+    assert K.pair_law(before, p, none, 1.0, 1.5, 2.0, 1.4, 3.0, 1.3) == (2.0, 1.4)
+    assert K.pair_law(on, p, none, 1.0, 1.5, 2.0, 1.4, 3.0, 1.3) == (1.0, 1.5)
+    assert K.pair_law(after, p, none, 1.0, 1.5, 2.0, 1.4, 3.0, 1.3) == (3.0, 1.3)
+    assert K.pair_law(before, p, none, 1.0, 1.5, np.nan, np.nan, 3.0, 1.3) == (1.0, 1.5)
+
+
+def test_a_pair_on_a_tip_edge_feels_the_edges_law():
+    # The right-hand side with one tooth pair pressed 1 um onto the approach tip edge and
+    # its slot holding a corner law (no damping): the pair's force is k_in h^n_in
+    # exactly, and the flank law's k h^n once the corner law is absent (NaN).
+    from fe_impact.switching import _kernel as K
+    from fe_impact.switching.simulation import _pack
+
+    model = DriveModel(corners="planar", **QUIET)
+    pk = _pack(model, StageSchedule((Segment(1e-3, 1, 0.0),)), 1e-4)
+    p, geo = pk.p, model.geometry
+    y = np.zeros(2 + 2 * (model.n_stages + 1))
+    dy, aux = np.zeros_like(y), np.zeros(K.N_AUX)
+    pairs, npairs = np.zeros((2, K.MAXPAIR), dtype=K.PAIR), np.zeros(2, dtype=np.int64)
+
+    def evaluate():
+        K.rhs(0.0, y, dy, p, pk.stages, pk.aoff, pk.corners, pk.postab, pk.sch, pk.slots,
+              pairs, npairs, aux)
+        return [pairs[0, m].copy() for m in range(npairs[0])]
+
+    first = min(evaluate(), key=lambda q: q["s"])   # the pair nearest the path's start
+    y[0] = (geo.s_start - 0.5 * pk.stages["corner_in"][0] - first["s"]) / geo.base_radius
+    (target,) = [q for q in evaluate() if q["pair"] == first["pair"]]
+    assert target["s"] < geo.s_start                # turned onto the face gear's edge
+    p["x0"] += 1e-6 - target["h"]                   # and pressed 1 um onto it
+    slot = pk.slots[0, K.slot_of(target["pair"])]
+    slot["pair"], slot["has_law"] = target["pair"], 1
+    slot["k"], slot["n"], slot["cmax"], slot["d"] = 5e10, 1.5, 0.0, 1e-6
+    slot["k_in"], slot["n_in"], slot["k_out"], slot["n_out"] = 1e10, 1.4, np.nan, np.nan
+    pk.postab[:] = np.nan                    # no position law
+    (hit,) = [q for q in evaluate() if q["pair"] == target["pair"]]
+    assert hit["h"] == pytest.approx(1e-6, rel=1e-9)
+    assert hit["f"] == pytest.approx(1e10 * hit["h"]**1.4, rel=1e-12)
+    slot["k_in"] = slot["n_in"] = np.nan
+    (hit,) = [q for q in evaluate() if q["pair"] == target["pair"]]
+    assert hit["f"] == pytest.approx(5e10 * hit["h"]**1.5, rel=1e-12)
+
+
+def test_each_impact_takes_the_law_of_its_kind_of_contact():
+    # 1 N m at 300 r/min on stage 1: mesh-in at the approach corner (test above), with
+    # the closed-form laws, which include the rounded edges'.
+    from fe_impact.switching.simulation import LAW_NAMES
+
+    model = DriveModel(corners="planar")
+    assert model.law_set.has(1, "corner-approach")
+    ev = simulate(model, StageSchedule((Segment(0.3, 1, 300.0, load=1.0),))).events
+    names = np.array([LAW_NAMES[c] for c in ev.law])
+    mesh_in = ev.kind == 1
+    assert mesh_in.any()
+    # mesh-in touches on the face gear's edge take its corner law, flank touches the mesh law
+    assert set(names[mesh_in & (ev.contact == 1)]) == {"corner-approach"}
+    assert set(names[(ev.contact == 0) & (ev.kind != 2)]) <= {"mesh"}

@@ -9,7 +9,7 @@ The lumped model reads ``calibration.json`` back (`read_calibration`).
 A record holds, in this order in the file::
 
     stage, face_teeth, kind            the case: stage (from 1), its face-gear
-                                       teeth, "mesh" or "switch" (`KINDS`)
+                                       teeth, the kind of contact (`KINDS`)
     restitution_models                 seed eq. 14 restitution, yield-onset speeds
     speed_rpm, impact_speed, effective_mass
     fe                                 FE measurements (`FEMeasurements`)
@@ -74,9 +74,12 @@ __all__ = [
 SCHEMA = "fe-impact/calibration/2"
 #: The schema before the position-dependent law (``mesh_cycle``); still read.
 SCHEMA_V1 = "fe-impact/calibration/1"
-#: Impact kinds: tooth contact in mesh (seed eq. 4) and the first contact after
-#: a ratio switch into the stage (eq. 5); the order of the lumped model's tables.
-KINDS = ("mesh", "switch")
+#: Impact kinds: tooth contact on the flanks in mesh (seed eq. 4), the first
+#: contact after a ratio switch into the stage (eq. 5), and contact on a rounded
+#: tip edge as a pair enters mesh early (the face gear's edge on the pinion
+#: before the path of contact, the pinion's edge on the face gear after it);
+#: the order of the lumped model's tables.
+KINDS = ("mesh", "switch", "corner-approach", "corner-recess")
 #: Units of the quantities, by key name (written in calibration.json).
 UNITS = {"impact_speed": "m/s", "speed_rpm": "r/min", "effective_mass": "kg",
          "peak_force": "N", "max_approach": "m", "contact_time": "s", "restitution": "-",

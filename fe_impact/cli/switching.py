@@ -47,7 +47,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--list", action="store_true", help="list the presets and exit")
     p.add_argument("--preset", metavar="NAME", help="preset to run (see --list)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
-                   help="calibration file (schema fe-impact/calibration/1)")
+                   help="calibration file (fe-impact calibrate's calibration.json)")
     p.add_argument("--duration", type=float, metavar="S",
                    help="simulated time of each case [s] (default: the seed's, 5 s per "
                         "segment); segments are scaled in proportion")

@@ -62,8 +62,11 @@ PARAMS = np.dtype([
     ("output_inertia", np.float64),  # [kg m^2]
     ("sample_dt", np.float64),  # sampling interval [s]
     ("drag", np.float64),  # drag torque on the output [N m]
-    # IMPACT law of a tooth pair before its first onset: k, exponent, cmax, d
+    # IMPACT law of a tooth pair before its first onset: k, exponent, cmax, d, and the
+    # stiffness and exponent on the approach and recess tip edges (NaN: the flank's)
     ("law_k", np.float64), ("law_n", np.float64), ("law_cmax", np.float64), ("law_d", np.float64),
+    ("law_k_in", np.float64), ("law_n_in", np.float64), ("law_k_out", np.float64),
+    ("law_n_out", np.float64),
 ], align=True)
 
 #: Per ring (stage): inertia [kg m^2], web stiffness [N m/rad] and damping [N m s/rad],
@@ -78,10 +81,14 @@ SEGMENT = np.dtype([("t_start", np.float64), ("speed", np.float64), ("load", np.
 
 #: Contact slot of a tooth pair, SLOTS[flank, pair mod NSLOT]: the pair number, whether it
 #: is in contact, its open event (-1: none), whether it has its own law (else the
-#: default), the law and the approach and rate at the end of the last accepted step.
+#: default), the law taken at its onset (k and exponent: the flank's; cmax and d: the
+#: onset kind's), the stiffness and exponent on the approach and recess tip edges (NaN:
+#: no corner law, the flank's holds there), and the approach and rate at the end of the
+#: last accepted step.
 SLOT = np.dtype([("pair", np.int64), ("on", np.int64), ("event", np.int64), ("has_law", np.int64),
                  ("k", np.float64), ("n", np.float64), ("cmax", np.float64), ("d", np.float64),
-                 ("h", np.float64), ("hd", np.float64)], align=True)
+                 ("k_in", np.float64), ("n_in", np.float64), ("k_out", np.float64),
+                 ("n_out", np.float64), ("h", np.float64), ("hd", np.float64)], align=True)
 NSLOT = 8  # slots per flank, indexed by pair number mod NSLOT
 
 #: Flank state: any pair in contact, and the flank's open event (-1: none).
@@ -95,16 +102,19 @@ MAXPAIR = 6  # pairs looked at per flank
 
 #: An impact: onset time, stage (from 1), kind, flank (+1 drive, -1 coast), closing speed,
 #: peak approach, force and energy, end time and opening speed (NaN while open), law-table
-#: clamp (-1/0/+1), the tooth pair, and where it touched (CONTACT_*).
+#: clamp (-1/0/+1), the tooth pair, where it touched (CONTACT_*) and the law table its
+#: onset took (LAW_*).
 EVENT = np.dtype([("time", np.float64), ("stage", np.int64), ("kind", np.int64),
                   ("flank", np.int64), ("speed", np.float64), ("approach", np.float64),
                   ("force", np.float64), ("energy", np.float64), ("end", np.float64),
                   ("speed_out", np.float64), ("clamp", np.int64), ("pair", np.int64),
-                  ("contact", np.int64)], align=True)
+                  ("contact", np.int64), ("law", np.int64)], align=True)
 KIND_RATTLE, KIND_MESH_IN, KIND_SWITCH = 0, 1, 2
 #: Where a tooth pair touches at an impact's onset: on the flanks (the active path),
 #: on the face gear's tip edge before it (approach), on the pinion's after it (recess).
 CONTACT_FLANK, CONTACT_APPROACH, CONTACT_RECESS = 0, 1, 2
+#: Law tables, TAB[stage, LAW_*] (the order of `fe_impact.calibration.records.KINDS`).
+LAW_MESH, LAW_SWITCH, LAW_APPROACH, LAW_RECESS = 0, 1, 2, 3
 
 #: Integrator state and counters of a run: time, step size, next sample time, previous
 #: error norm; steps, rejected steps, right-hand sides, clamped law look-ups (below/above
@@ -290,6 +300,18 @@ def position_law(s, tab, k, n):
 
 
 @njit(cache=True)
+def pair_law(s, p, postab, k, n, k_in, n_in, k_out, n_out):
+    """Stiffness and exponent of a pair at ``s``: a tip edge's before ``s_start`` or after
+    ``s_end`` where it has one (not NaN), else the flank's: the position law's, or
+    ``(k, n)`` without one."""
+    if s < p.s_start and k_in == k_in:
+        return k_in, n_in
+    if s > p.s_end and k_out == k_out:
+        return k_out, n_out
+    return position_law(s, postab, k, n)
+
+
+@njit(cache=True)
 def slot_of(k):
     return k - NSLOT * (k // NSLOT)
 
@@ -336,10 +358,12 @@ def rhs(t, y, dy, p, stages, aoff, corners, postab, sch, slots, pairs, npairs, a
             hd = sg * xd - dg * srate - sg * de * rbp * wp
             slot = slots[fl, slot_of(k)]
             if slot.pair == k and slot.has_law == 1:
-                kk, nn = position_law(s, postab[eng], slot.k, slot.n)
+                kk, nn = pair_law(s, p, postab[eng], slot.k, slot.n, slot.k_in, slot.n_in,
+                                  slot.k_out, slot.n_out)
                 f, pe = impact_force_energy(h, hd, kk, nn, slot.cmax, slot.d)
             else:
-                kk, nn = position_law(s, postab[eng], p.law_k, p.law_n)
+                kk, nn = pair_law(s, p, postab[eng], p.law_k, p.law_n, p.law_k_in, p.law_n_in,
+                                  p.law_k_out, p.law_n_out)
                 f, pe = impact_force_energy(h, hd, kk, nn, p.law_cmax, p.law_d)
             if f > 0.0 or h > 0.0:
                 if h > 0.0:
@@ -438,7 +462,30 @@ def contact_kind(s, p):
 
 
 @njit(cache=True)
-def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair, contact):
+def corner_law(tab, ntab, stage, table, speed):
+    """Stiffness and exponent of a corner table at ``speed`` (NaN: no table)."""
+    if ntab[stage, table] == 0:
+        return np.nan, np.nan
+    law, _ = law_lookup(tab, ntab, stage, table, speed)
+    return law[0], law[1]
+
+
+@njit(cache=True)
+def onset_law(tab, ntab, stage, kind, where, speed):
+    """The law table an onset takes (LAW_*): the switch law for the first contact after a
+    switch, a corner law for a touch on a tip edge (if the stage has one), else the
+    flank's."""
+    if kind == KIND_SWITCH:
+        return LAW_SWITCH
+    if where == CONTACT_APPROACH and ntab[stage, LAW_APPROACH] > 0:
+        return LAW_APPROACH
+    if where == CONTACT_RECESS and ntab[stage, LAW_RECESS] > 0:
+        return LAW_RECESS
+    return LAW_MESH
+
+
+@njit(cache=True)
+def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair, contact, law):
     i = run.n_events
     if i >= ev.shape[0]:
         run.dropped += 1
@@ -458,6 +505,7 @@ def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair, contact):
     event.clamp = clamp
     event.pair = pair
     event.contact = contact
+    event.law = law
     return i
 
 
@@ -507,28 +555,36 @@ def track_contacts(t0, t1, p, tab, ntab, slots, flanks, pairs, npairs, ev, run):
                         kind = KIND_SWITCH
                     else:
                         kind = KIND_RATTLE
-                    law, clamp = law_lookup(tab, ntab, eng, 1 if kind == KIND_SWITCH else 0,
-                                            max(vc, 1e-12))
+                    where = contact_kind(pair.s, p)
+                    speed = max(vc, 1e-12)
+                    used = onset_law(tab, ntab, eng, kind, where, speed)
+                    law, clamp = law_lookup(tab, ntab, eng, used, speed)
                     if clamp < 0:
                         run.clamp_low += 1
                     elif clamp > 0:
                         run.clamp_high += 1
-                    slot.k, slot.n, slot.cmax, slot.d = law[0], law[1], law[2], law[3]
+                    slot.cmax, slot.d = law[2], law[3]
+                    if used == LAW_APPROACH or used == LAW_RECESS:
+                        law, _ = law_lookup(tab, ntab, eng, LAW_MESH, speed)
+                    slot.k, slot.n = law[0], law[1]
+                    slot.k_in, slot.n_in = corner_law(tab, ntab, eng, LAW_APPROACH, speed)
+                    slot.k_out, slot.n_out = corner_law(tab, ntab, eng, LAW_RECESS, speed)
                     slot.has_law = 1
                     slot.on = 1
                     changed = True
-                    where = contact_kind(pair.s, p)
                     if kind == KIND_MESH_IN:
                         slot.event = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k,
-                                               where)
+                                               where, used)
                     elif created < 0:
-                        created = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k, where)
+                        created = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k, where,
+                                            used)
                         flank_event = created
                     elif tc < ev[created].time:  # the earliest touch of the flank defines it
                         ev[created].time = tc
                         ev[created].speed = vc
                         ev[created].pair = k
                         ev[created].contact = where
+                        ev[created].law = used
             elif slot.on == 1:
                 tc, vc = crossing(t0, t1, h0, hd0, h1, hd1)
                 slot.on = 0

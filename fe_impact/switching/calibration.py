@@ -3,12 +3,20 @@
 The torsional model applies the ADAMS ``IMPACT`` law (seed eq. 11,
 `fe_impact.physics.laws.ImpactLaw`) to every tooth pair. Its parameters
 ``(k, exponent, cmax, d)`` depend on the stage and on the impact speed, so
-the model keeps, for each stage and each kind of impact (``"mesh"``: tooth
-contact at mesh-in or rattle within the backlash; ``"switch"``: the first
-contact after a ratio switch), a table of parameters against impact speed
-(`LawTable`). At each contact onset the kernel interpolates the table at
-the measured closing speed, linearly in ``log(speed)``, and clamps outside
-the table's range.
+the model keeps, for each stage and each kind of contact (`KINDS`:
+``"mesh"``, tooth contact on the flanks at mesh-in or rattle within the
+backlash; ``"switch"``, the first contact after a ratio switch;
+``"corner-approach"`` and ``"corner-recess"``, contact on a rounded tip edge
+before or after the path of contact), a table of parameters against impact
+speed (`LawTable`). At each contact onset the kernel interpolates the table
+of the onset's kind at the measured closing speed, linearly in
+``log(speed)``, and clamps outside the table's range. While the pair stays
+in contact, its stiffness and exponent follow where it touches: the corner
+law's on a tip edge, the flank's (or the mesh cycle's position law) on the
+flanks; its damping and penetration stay those of its onset's law.
+
+A stage's corner tables are optional: with sharp tip edges there is no
+rounding to touch with, and corner contacts take the flank's law.
 
 Sources, in order of preference (`laws_for`):
 
@@ -29,7 +37,16 @@ Sources, in order of preference (`laws_for`):
    13 (`fe_impact.physics.seed.damping`) with the restitution of seed eq. 14
    (`fe_impact.physics.seed.restitution`) and the approach of eq. 16
    (`fe_impact.physics.hertz.impact_from_stiffness`), ``d`` from eq. 17
-   (`fe_impact.physics.seed.penetration_depth`).
+   (`fe_impact.physics.seed.penetration_depth`). On the flanks the ellipse is
+   the design point's (`contact_radii`); on a tip edge it is the rounded
+   edge's first touch on the mating flank (`corner_radii`,
+   `fe_impact.gears.corner.corner_contact`), where the rounding's radius
+   across the edge makes the contact narrow and 2-3 times softer.
+
+A calibration file without corner cases takes the closed-form corner laws
+(when the edges are rounded) beside its calibrated flank laws; the notes of
+the `LawSet` say so, and the switching report shows which law each impact
+used.
 """
 
 from __future__ import annotations
@@ -38,6 +55,7 @@ import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +76,7 @@ __all__ = [
     "LawTable",
     "closed_form_laws",
     "contact_radii",
+    "corner_radii",
     "load_calibration",
     "laws_for",
 ]
@@ -75,6 +94,16 @@ _REFERENCE_LOAD = 100.0
 #: 1e-5 to 1e-3 s; a law far below (e.g. k = 1e300, a unit slip) would need
 #: steps so small that the run cannot finish (its force overflows first).
 MIN_CONTACT_TIME = 1e-9
+#: The kinds every stage has a table of (flank contact), and the tip-edge kinds by
+#: corner side (a stage has them only when that edge is rounded).
+FLANK_KINDS = ("mesh", "switch")
+CORNER_KINDS = {"approach": "corner-approach", "recess": "corner-recess"}
+#: Planar corner gap [m] at whose roll angle a closed-form corner law takes the
+#: edge's first touch and its curvatures: a loaded mesh closes corner gaps of
+#: 2-30 um at mesh-in; over that range the touch's relative radii change by a few
+#: per cent, the Hertz stiffness as their square root (`fe-impact geometry`
+#: reports the touch at this gap).
+CORNER_LAW_GAP = 10e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,6 +194,10 @@ class LawSet:
     positions: Mapping[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(
         default_factory=dict)
 
+    def has(self, stage: int, kind: str) -> bool:
+        """Whether ``stage`` (from 1) has a table of ``kind`` (corner kinds are optional)."""
+        return (stage, kind) in self.tables
+
     def table(self, stage: int, kind: str = "mesh") -> LawTable:
         """The table of ``stage`` (from 1) and ``kind``."""
         try:
@@ -202,7 +235,8 @@ class LawSet:
         return out
 
     def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """Tables padded into one array, shape (n_stages, 2, n_max, 5), and row counts."""
+        """Tables padded into one array, shape (n_stages, len(KINDS), n_max, 5), and row
+        counts (0 for a kind the stage has no table of)."""
         n_stages = self.n_stages
         rows = {key: t.as_rows() for key, t in self.tables.items()}
         n_max = max(r.shape[0] for r in rows.values())
@@ -243,11 +277,42 @@ def contact_radii(gearset: GearSet, stage_index: int) -> tuple[float, float]:
     return r_p * math.sin(alpha), 1.0 / curvature
 
 
+@lru_cache(maxsize=64)
+def corner_radii(gearset: GearSet, stage_index: int, side: str) -> tuple[float, float] | None:
+    """Principal relative radii ``(Rx, Ry)`` [m] of a rounded tip edge's first touch.
+
+    The edge of ``side`` (``"approach"``: the face gear's on the pinion's
+    involute; ``"recess"``: the pinion's on the face gear's flank) touches
+    first at the roll angle where the torsional model's planar corner gap is
+    `CORNER_LAW_GAP` (`fe_impact.gears.corner.corner_contact`, whole face).
+    ``Rx`` is about the rounding's radius, ``Ry`` the radius along the edge
+    against the flank's. None for a sharp edge (radius 0): no rounding, no
+    Hertz contact. About 0.05 s.
+    """
+    from fe_impact.gears.corner import corner_contact, face_edge_rounding, pinion_edge_rounding
+    from fe_impact.gears.tca import GearPair
+    from fe_impact.switching.geometry import mesh_geometry
+
+    if side == "approach":
+        radius, edge = gearset.face_tip_edge_radius, face_edge_rounding
+    else:
+        radius, edge = gearset.pinion.tip_edge_radius, pinion_edge_rounding
+    if radius <= 0.0:
+        return None
+    line = mesh_geometry(gearset)
+    roll = float(line.corner_roll(side, getattr(line, side).delta_at(CORNER_LAW_GAP)))
+    pair = GearPair.from_gearset(gearset, stage_index + 1)
+    touch = corner_contact(pair, edge(pair, radius), side, roll)
+    return 1.0 / touch.relative.lambda_max, 1.0 / touch.relative.lambda_min
+
+
 def _closed_form_table(gearset: GearSet, stage_index: int, effective_mass: float,
-                       kind: str) -> LawTable:
+                       kind: str, radii: tuple[float, float] | None = None) -> LawTable:
+    """Seed eqs. 12-17 at the speeds `CLOSED_FORM_SPEEDS` for the contact of principal
+    relative radii ``radii`` (default: the flanks' design point, `contact_radii`)."""
     material = gearset.material
     E_star = hertz.effective_modulus(material.youngs_modulus, material.poisson_ratio)
-    Rx, Ry = contact_radii(gearset, stage_index)
+    Rx, Ry = radii if radii is not None else contact_radii(gearset, stage_index)
     contact = hertz.ellipse_contact(_REFERENCE_LOAD, Rx, Ry, E_star)
     k = _REFERENCE_LOAD / contact.delta**1.5
     v_y = seed.yield_speed(material.yield_strength, material.density, E_star)
@@ -261,8 +326,23 @@ def _closed_form_table(gearset: GearSet, stage_index: int, effective_mass: float
                     np.asarray(cmax), np.asarray(d), "closed form")
 
 
+def closed_form_corner_tables(gearset: GearSet, effective_masses: Sequence[float]
+                              ) -> dict[tuple[int, str], LawTable]:
+    """Closed-form tables of the corner kinds, for every stage and rounded edge."""
+    tables = {}
+    for i, mass in enumerate(effective_masses):
+        for side, kind in CORNER_KINDS.items():
+            radii = corner_radii(gearset, i, side)
+            if radii is not None:
+                tables[(i + 1, kind)] = _closed_form_table(gearset, i, mass, kind, radii)
+    return tables
+
+
 def closed_form_laws(gearset: GearSet, effective_masses: Sequence[float]) -> LawSet:
-    """Closed-form IMPACT parameters (seed eqs. 12-17) for every stage.
+    """Closed-form IMPACT parameters (seed eqs. 12-17) for every stage and kind.
+
+    The flank kinds take the Hertz ellipse of the design point; the corner kinds,
+    for each rounded tip edge, that of the edge's first touch (`corner_radii`).
 
     Parameters
     ----------
@@ -276,9 +356,14 @@ def closed_form_laws(gearset: GearSet, effective_masses: Sequence[float]) -> Law
                          f"{len(effective_masses)}")
     tables = {}
     for i, mass in enumerate(effective_masses):
-        for kind in KINDS:
+        for kind in FLANK_KINDS:
             tables[(i + 1, kind)] = _closed_form_table(gearset, i, mass, kind)
-    return LawSet(tables, "closed form (seed eqs. 12-17, Hertz ellipse)")
+    corners = closed_form_corner_tables(gearset, effective_masses)
+    tables.update(corners)
+    source = "closed form (seed eqs. 12-17, Hertz ellipse"
+    source += ("; on the tip edges, the rounding's first touch)" if corners else
+               "; sharp tip edges: corner contacts take the flank's law)")
+    return LawSet(tables, source)
 
 
 # -- calibration file ---------------------------------------------------------------------
@@ -349,11 +434,14 @@ def check_integrable(table: LawTable, mass: float) -> None:
 
 def load_calibration(path: str | Path, gearset: GearSet,
                      effective_masses: Sequence[float] | None = None) -> LawSet:
-    """Read a calibration file (schema ``fe-impact/calibration/1``).
+    """Read a calibration file (schema `SCHEMA`, or the older ``fe-impact/calibration/1``).
 
-    A stage with cases of one kind only uses them for the other kind too; a
-    stage without any case falls back to the closed forms (which need
-    ``effective_masses``). Both are logged as warnings.
+    A stage with flank cases of one kind only (``mesh`` or ``switch``) uses them
+    for the other kind too; a stage without any flank case falls back to the
+    closed forms (which need ``effective_masses``). A corner kind without cases
+    takes the closed-form law of its rounded tip edge (with ``effective_masses``),
+    else none: its contacts then take the flank's law. Each is logged as a
+    warning and kept in the notes.
 
     Raises
     ------
@@ -374,20 +462,35 @@ def load_calibration(path: str | Path, gearset: GearSet,
                 check_integrable(table, float(effective_masses[stage - 1]))
     notes = []
     fallback = None
+    corners = ({} if effective_masses is None
+               else closed_form_corner_tables(gearset, effective_masses))
     for stage in range(1, len(gearset.stages) + 1):
-        present = [k for k in KINDS if (stage, k) in tables]
+        present = [k for k in FLANK_KINDS if (stage, k) in tables]
         if not present:
             if effective_masses is None:
-                raise CalibrationError(f"{path}: no case for stage {stage}")
+                raise CalibrationError(f"{path}: no flank case ('mesh' or 'switch') for "
+                                       f"stage {stage}")
             if fallback is None:
                 fallback = closed_form_laws(gearset, effective_masses)
-            for kind in KINDS:
+            for kind in FLANK_KINDS:
                 tables[(stage, kind)] = fallback.table(stage, kind)
-            notes.append(f"stage {stage}: no calibrated case, closed-form parameters used")
-        for kind in KINDS:
+            notes.append(f"stage {stage}: no calibrated flank case, closed-form parameters "
+                         "used")
+        for kind in FLANK_KINDS:
             if (stage, kind) not in tables:
                 tables[(stage, kind)] = tables[(stage, present[0])]
                 notes.append(f"stage {stage}: no {kind!r} case, {present[0]!r} cases used")
+        for kind in CORNER_KINDS.values():
+            if (stage, kind) in tables:
+                continue
+            if (stage, kind) in corners:
+                tables[(stage, kind)] = corners[(stage, kind)]
+                notes.append(f"stage {stage}: no {kind!r} case, the closed-form law of the "
+                             "rounded tip edge used")
+            else:
+                notes.append(f"stage {stage}: no {kind!r} law (no case, and a sharp tip edge "
+                             "or no effective masses for the closed form): corner contacts "
+                             "take the flank's law")
     positions = _positions(calibration.mesh_cycle, len(gearset.stages))
     if not positions:
         notes.append("no position dependence: the file has no mesh cycle (schema "

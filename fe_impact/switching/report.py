@@ -40,7 +40,7 @@ from fe_impact.switching.seed_tables import (
     STATISTICS,
     TO_SEED_UNITS,
 )
-from fe_impact.switching.simulation import CONTACT_NAMES, KIND_NAMES, SwitchingRun
+from fe_impact.switching.simulation import CONTACT_NAMES, KIND_NAMES, LAW_NAMES, SwitchingRun
 from fe_impact.switching.statistics import comparison_rows, impact_statistics, series_statistics
 
 logger = logging.getLogger(__name__)
@@ -55,7 +55,7 @@ _SERIES_OF = {
 }
 _IMPACT_COLUMNS = ("time_s", "stage", "kind", "flank", "closing_speed_m_s", "peak_approach_m",
                    "peak_force_N", "peak_energy_J", "end_time_s", "separation_speed_m_s",
-                   "restitution", "law_clamped", "contact")
+                   "restitution", "law_clamped", "contact", "law")
 
 
 def model_parameters(model: DriveModel) -> dict:
@@ -92,12 +92,21 @@ def model_parameters(model: DriveModel) -> dict:
         "engage_position": model.engage_position,
         "effective_mass_kg": [model.effective_mass(s) for s in range(1, model.n_stages + 1)],
         "laws": model.law_set.source,
+        "law_sources": _law_sources(model),
         "law_notes": list(model.law_set.notes),
         "rtol": model.rtol,
         "length_tol_m": model.length_tol,
         "speed_tol_m_s": model.speed_tol,
         "max_step_s": model.max_step,
     }
+
+
+def _law_sources(model: DriveModel) -> dict[str, list[str | None]]:
+    """Per law kind, the source of each stage's table (None: the stage has none)."""
+    laws = model.law_set
+    return {kind: [laws.table(stage, kind).source if laws.has(stage, kind) else None
+                   for stage in range(1, model.n_stages + 1)]
+            for kind in LAW_NAMES.values()}
 
 
 def _clean(obj):
@@ -115,12 +124,12 @@ def _clean(obj):
 
 def _impact_rows(run: SwitchingRun) -> list[list]:
     ev = run.events
-    return [[t, s, KIND_NAMES[k], f, v, a, fo, e, te, vo, r, c, CONTACT_NAMES[w]]
-            for t, s, k, f, v, a, fo, e, te, vo, r, c, w in zip(
+    return [[t, s, KIND_NAMES[k], f, v, a, fo, e, te, vo, r, c, CONTACT_NAMES[w], LAW_NAMES[g]]
+            for t, s, k, f, v, a, fo, e, te, vo, r, c, w, g in zip(
                 ev.time.tolist(), ev.stage.tolist(), ev.kind.tolist(), ev.flank.tolist(),
                 ev.speed.tolist(), ev.approach.tolist(), ev.force.tolist(), ev.energy.tolist(),
                 ev.end_time.tolist(), ev.separation_speed.tolist(), ev.restitution.tolist(),
-                ev.clamped.tolist(), ev.contact.tolist(), strict=True)]
+                ev.clamped.tolist(), ev.contact.tolist(), ev.law.tolist(), strict=True)]
 
 
 def _contact_lines(runs: dict[str, SwitchingRun]) -> list[str]:
@@ -153,15 +162,29 @@ def _contact_lines(runs: dict[str, SwitchingRun]) -> list[str]:
     position = "mesh cycle" in first.info.get("law_source", "")
     lines += [
         "",
-        "Laws: every impact takes the damping and penetration of its kind's calibrated law "
-        "at its closing speed (switch impacts the switch law where one was calibrated, else "
-        "the mesh law); "
-        + ("its stiffness and exponent are the position law's at the pair's roll, held at "
-           "the end positions' on the tip edges. "
-           if position else "its stiffness and exponent are the impact law's. ")
-        + "No law was calibrated on a tip edge: corner impacts use the flank's.",
+        "Which law each impact's onset took: the switch law for the first contact after a "
+        "switch, the corner law of the tip edge it touched (where the stage has one), else "
+        "the mesh law; each at the impact's closing speed. The onset's law sets the "
+        "contact's damping and penetration. Its stiffness and exponent then follow where "
+        "the pair touches: the corner law's on a tip edge, on the flanks "
+        + ("the mesh cycle's position law at the pair's roll."
+           if position else "the flank law's (mesh or switch) taken at the onset."),
         "",
+        "| case | kind | " + " | ".join(f"{law} law" for law in LAW_NAMES.values()) + " |",
+        "|---|---|" + "---|" * len(LAW_NAMES),
     ]
+    for name, run in runs.items():
+        for code, kind in KIND_NAMES.items():
+            ev = run.events.law[run.events.kind == code]
+            if ev.size:
+                counts = [str(int(np.sum(ev == law))) for law in LAW_NAMES]
+                lines.append(f"| {name} | {kind} | {' | '.join(counts)} |")
+    lines += ["", "Where each law comes from, stage by stage:", ""]
+    for kind, sources in _law_sources(model).items():
+        text = "; ".join(f"stage {i}: {src or 'none (the flank law holds)'}"
+                         for i, src in enumerate(sources, start=1))
+        lines.append(f"- {kind}: {text}")
+    lines.append("")
     return lines
 
 

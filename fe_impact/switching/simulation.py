@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fe_impact.calibration.records import KINDS
 from fe_impact.errors import CaseError, SolverError
 from fe_impact.switching import _kernel as K
 from fe_impact.switching.model import DRIVES, RPM, DriveModel, Segment, StageSchedule
@@ -32,6 +33,7 @@ logger = logging.getLogger(__name__)
 __all__ = [
     "CONTACT_NAMES",
     "KIND_NAMES",
+    "LAW_NAMES",
     "SERIES_QUANTITIES",
     "ImpactEvents",
     "SwitchingRun",
@@ -65,6 +67,9 @@ KIND_NAMES = {K.KIND_RATTLE: "rattle", K.KIND_MESH_IN: "mesh-in", K.KIND_SWITCH:
 #: Names of where the pair touched, `ImpactEvents.contact`.
 CONTACT_NAMES = {K.CONTACT_FLANK: "flank", K.CONTACT_APPROACH: "corner-approach",
                  K.CONTACT_RECESS: "corner-recess"}
+#: Names of the law tables an impact's onset took (`ImpactEvents.law`): the kinds of
+#: `fe_impact.calibration.records.KINDS`, in their order.
+LAW_NAMES = dict(enumerate(KINDS))
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,6 +101,10 @@ class ImpactEvents:
     contact : ndarray of int
         Where the (first) touching pair was at the onset (`CONTACT_NAMES`): on
         the flanks, or beyond the path's start or end on a rounded tip edge.
+    law : ndarray of int
+        The law table the onset took (`LAW_NAMES`): the switch law for a
+        switch impact, a corner law for a touch on a rounded tip edge (where
+        the stage has one), else the mesh law.
     """
 
     time: np.ndarray
@@ -110,12 +119,13 @@ class ImpactEvents:
     separation_speed: np.ndarray
     clamped: np.ndarray
     contact: np.ndarray
+    law: np.ndarray
 
     @classmethod
     def from_kernel(cls, ev: np.ndarray) -> ImpactEvents:
         """From the kernel's `_kernel.EVENT` records."""
         fields = ("time", "stage", "kind", "flank", "speed", "approach", "force", "energy",
-                  "end", "speed_out", "clamp", "contact")
+                  "end", "speed_out", "clamp", "contact", "law")
         return cls(*(ev[name].copy() for name in fields))
 
     def __len__(self) -> int:
@@ -351,8 +361,13 @@ def _start_segment(model: DriveModel, pk: _Packed, seg: Segment, t: float, y: np
     p["half_backlash"] = 0.5 * model.backlashes[i]
     p["friction_lever"] = model.pitch_radii[i] * math.sin(geo.pressure_angle)
     p["pending"] = 0 if first else 1
-    law = model.law_set.table(seg.stage).as_rows()[0]
+    laws = model.law_set
+    law = laws.table(seg.stage).as_rows()[0]
     p["law_k"], p["law_n"], p["law_cmax"], p["law_d"] = law[1:5]
+    for side, kind in (("in", "corner-approach"), ("out", "corner-recess")):
+        corner = (laws.table(seg.stage, kind).as_rows()[0] if laws.has(seg.stage, kind)
+                  else np.full(5, np.nan))
+        p[f"law_k_{side}"], p[f"law_n_{side}"] = corner[1:3]
 
 
 def _grow(ev: np.ndarray, nev: int) -> np.ndarray:

@@ -30,7 +30,16 @@ def test_default_plan_is_three_stages_by_three_speeds():
     assert {c.face_teeth for c in cases} == {56, 68, 80}
     assert len({c.id for c in cases}) == 9
     switch = plan_cases(default_gearset(), switch=True)
-    assert len(switch) == 9 + 6 and {c.kind for c in switch} == {"mesh", "switch"}
+    # into stages 2 and 3 at three speeds, by eq. 5 and by rigid kinematics
+    assert len(switch) == 9 + 12 and {c.kind for c in switch} == {"mesh", "switch"}
+    assert len({c.id for c in switch}) == 21
+    gearset = default_gearset()
+    (kin,) = [c for c in switch if c.basis == "kinematic" and c.stage == 2
+              and c.speed_rpm == 300.0]
+    # r_bp w_p |N_2 / N_1 - 1| by hand: r_bp = m N_p cos(a) / 2
+    pinion = gearset.pinion
+    r_bp = 0.5 * gearset.module * pinion.teeth * math.cos(math.radians(pinion.pressure_angle_deg))
+    assert kin.impact_speed == pytest.approx(r_bp * 300 * math.pi / 30 * (68 / 56 - 1), rel=1e-12)
 
 
 @pytest.mark.parametrize("kwargs,pattern", [

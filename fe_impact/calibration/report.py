@@ -144,7 +144,10 @@ def add_switching_section(out: Path, studies: list[str]) -> Path:
              "those touching on a tip edge, the largest closing speed and force of an impact, "
              "and the law look-ups at closing speeds below / above the calibrated ones (their "
              "damping is the nearest calibrated impact's; stiffness and exponent come from "
-             "the mesh cycle where there is one).", "",
+             "the mesh cycle where there is one). An impact touching on a rounded tip edge "
+             "takes that edge's corner law: this calibration's corner cases where it has "
+             "them, else the closed form of the edge's first touch (each study's report "
+             "counts the impacts per law and names each law's source).", "",
              "| study | cases | simulated (s) | impacts | on a tip edge | largest closing speed "
              "(mm/s) | largest force (N) | below / above the calibrated speeds | report |",
              "|---|---|---|---|---|---|---|---|---|"]

@@ -32,8 +32,11 @@ Impact speeds (the seed's eq. 4 and 5): in mesh, the seed's relative sliding
 speed ``v12 = sqrt((w_f r_f)^2 + (w_c r_c)^2) - sqrt((w_c r_c)^2 + (w_c r_c
 cos a)^2)`` (the middle line of eq. 4; its last line is not dimensionally
 consistent); with ``w_f r_f = w_c r_c`` this is ``w_c r_c (sqrt 2 - sqrt(1 +
-cos^2 a))``, the same for every stage. A ratio switch into stage ``i`` closes
-at eq. 5's ``v_s``.
+cos^2 a))``, the same for every stage. A ratio switch into stage ``i``
+(``--switch``) is struck at two speeds: eq. 5's ``v_s``, and the rigid
+kinematics' ``r_bp w_p |N_i / N_(i-1) - 1|`` with which the torsional model's
+teeth close after a switch (`fe_impact.switching.geometry.switching_speed`),
+some 8 times lower.
 """
 
 from __future__ import annotations
@@ -132,15 +135,17 @@ class ImpactCase:
 
     stage: int                 # 1-based stage number
     face_teeth: int
-    kind: str                  # "mesh" (eq. 4) or "switch" (eq. 5, into this stage)
+    kind: str                  # "mesh" (eq. 4) or "switch" (into this stage)
     impact_speed: float        # m/s
     speed_rpm: float | None = None
+    basis: str = ""            # of a switch's speed: "" eq. 5, "kinematic" rigid kinematics
 
     @property
     def id(self) -> str:
         rpm = f"{self.speed_rpm:g}rpm" if self.speed_rpm is not None else \
             f"{self.impact_speed * 1e3:.4g}mms"
-        return f"stage{self.stage}_{self.kind}_{rpm}".replace(".", "p")
+        kind = f"{self.kind}_{self.basis}" if self.basis else self.kind
+        return f"stage{self.stage}_{kind}_{rpm}".replace(".", "p")
 
 
 @dataclass(frozen=True)
@@ -200,8 +205,10 @@ def mesh_impact_speed(pinion_pitch_radius: float, pressure_angle: float, rpm: fl
 
 def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
                impact_speeds=None, switch: bool = False) -> list[ImpactCase]:
-    """The sweep: every stage at every speed (r/min via eq. 4/5, or impact speeds in m/s)."""
-    from fe_impact.switching.geometry import seed_switching_speed
+    """The sweep: every stage at every speed (r/min via eq. 4, or impact speeds in m/s);
+    with ``switch``, also the switches into stages 2.. at each speed's eq. 5 and
+    kinematic switching speeds (module docstring)."""
+    from fe_impact.switching.geometry import mesh_geometry, seed_switching_speed, switching_speed
 
     n = len(gearset.stages)
     stages = list(stages or range(1, n + 1))
@@ -230,6 +237,9 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
                 r_f = 0.5 * gearset.module * teeth
                 vs = seed_switching_speed(w, pin.pitch_radius, r_f, teeth / pin.teeth, alpha)
                 cases.append(ImpactCase(s, teeth, "switch", vs, float(rpm)))
+                vk = switching_speed(w, pin.teeth, gearset.stages[s - 2].teeth, teeth,
+                                     mesh_geometry(gearset).base_radius)
+                cases.append(ImpactCase(s, teeth, "switch", vk, float(rpm), "kinematic"))
     _check_impact_speeds(cases, impact_speeds is not None)
     return cases
 
@@ -269,7 +279,10 @@ def case_hash(case: ImpactCase | PositionCase, settings: Settings, gearset_text:
     fe-impact version (a result from another version is computed again)."""
     if isinstance(case, PositionCase):
         return meshcycle.case_hash(case, settings.position_level, settings.order, gearset_text)
-    blob = json.dumps([asdict(case), settings.impact_key(), gearset_text, SCHEMA, __version__],
+    key = asdict(case)
+    if not key["basis"]:  # eq. 4/5 speeds: the key of the cases before switches had bases
+        del key["basis"]
+    blob = json.dumps([key, settings.impact_key(), gearset_text, SCHEMA, __version__],
                       sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 

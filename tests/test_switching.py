@@ -752,3 +752,34 @@ def test_each_impact_takes_the_law_of_its_kind_of_contact():
     # mesh-in touches on the face gear's edge take its corner law, flank touches the mesh law
     assert set(names[mesh_in & (ev.contact == 1)]) == {"corner-approach"}
     assert set(names[(ev.contact == 0) & (ev.kind != 2)]) <= {"mesh"}
+
+
+def test_report_tables_the_clamped_look_ups_and_the_yield_onset():
+    # The yield-onset speed scales p0 ~ v^(2/5) from one reference impact: the Hertz
+    # impact computed directly at that speed must reach 1.6 Y (to round-off).
+    from fe_impact.physics import hertz
+    from fe_impact.switching.calibration import contact_radii
+    from fe_impact.switching.report import YIELD_PRESSURE, _clamp_lines, _yield_speed
+
+    model = DriveModel(corners="planar")
+    material = GEARSET.material
+    e_star = hertz.effective_modulus(material.youngs_modulus, material.poisson_ratio)
+    rx, ry = contact_radii(GEARSET, 0)
+    k = 100.0 / hertz.ellipse_contact(100.0, rx, ry, e_star).delta ** 1.5
+    v_y = _yield_speed(model, 1)
+    force = float(hertz.impact_from_stiffness(model.effective_mass(1), v_y, k).force_max)
+    assert hertz.ellipse_contact(force, rx, ry, e_star).p0 == pytest.approx(
+        YIELD_PRESSURE * material.yield_strength, rel=1e-9)
+    # a law table of one speed, 50 mm/s: every slower impact is clamped below, every
+    # faster one above, and the section counts them
+    law = _law_set(6.5e10, 50.0, 1e-6)
+    tables = {key: dataclasses.replace(t, impact_speed=np.array([0.05])) for key, t in
+              law.tables.items()}
+    run = simulate(model.with_laws(LawSet(tables, "test")),
+                   StageSchedule((Segment(0.1, 1, 300.0, load=1.0),)))
+    text = "\n".join(_clamp_lines({"case": run}))
+    ev = run.events
+    below, above = int(np.sum(ev.clamped < 0)), int(np.sum(ev.clamped > 0))
+    assert below + above == len(ev) > 0
+    assert np.all((ev.speed < 0.05) == (ev.clamped < 0))
+    assert f"| 1 | mesh (test) | 50-50 | {below} (" in text

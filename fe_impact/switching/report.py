@@ -188,6 +188,101 @@ def _contact_lines(runs: dict[str, SwitchingRun]) -> list[str]:
     return lines
 
 
+#: Peak Hertz pressure at the onset of yield, in units of the yield strength (Johnson,
+#: *Contact Mechanics*, section 6.2: 1.6 Y for nu = 0.3).
+YIELD_PRESSURE = 1.6
+
+
+def _yield_speed(model: DriveModel, stage: int) -> float:
+    """Closing speed [m/s] at which the Hertz impact of the stage's effective mass at the
+    flanks' design point reaches the yield-onset pressure `YIELD_PRESSURE` Y: ``p0``
+    grows as ``v^(2/5)`` (``F_max ~ v^(6/5)``, ``p0 ~ F^(1/3)``)."""
+    from fe_impact.physics import hertz
+    from fe_impact.switching.calibration import contact_radii
+
+    material = model.gearset.material
+    e_star = hertz.effective_modulus(material.youngs_modulus, material.poisson_ratio)
+    rx, ry = contact_radii(model.gearset, stage - 1)
+    k = 100.0 / hertz.ellipse_contact(100.0, rx, ry, e_star).delta ** 1.5
+    v_ref = 0.1
+    force = float(hertz.impact_from_stiffness(model.effective_mass(stage), v_ref, k).force_max)
+    p0 = hertz.ellipse_contact(force, rx, ry, e_star).p0
+    return v_ref * (YIELD_PRESSURE * material.yield_strength / p0) ** 2.5
+
+
+def _clamp_lines(runs: dict[str, SwitchingRun]) -> list[str]:
+    """The impacts whose closing speed left their law's table, and what the clamp did."""
+    from fe_impact.physics.laws import ImpactLaw, simulate_impact
+
+    first = next(iter(runs.values()))
+    model = first.model
+    events = [r.events for r in runs.values()]
+    stage = np.concatenate([e.stage for e in events])
+    law = np.concatenate([e.law for e in events])
+    clamp = np.concatenate([e.clamped for e in events])
+    speed = np.concatenate([e.speed for e in events])
+    lines = ["## Law look-ups outside the calibrated speeds", ""]
+    if not np.any(clamp != 0):
+        return lines + ["None: every impact's closing speed lies within its law's table.", ""]
+    lines += [
+        "Impacts whose closing speed lies outside their law's table take the parameters of "
+        "its nearest end (clamped). Per stage and law: the table's range, the impacts below "
+        "and above it, and the restitution the clamped law gives at the slowest and fastest "
+        "of them (one impact of the stage's effective mass on the law, "
+        "`fe_impact.physics.laws.simulate_impact`), beside the closing speed at which the "
+        f"flanks' Hertz impact reaches yield ({YIELD_PRESSURE:g} Y at the design point).",
+        "",
+        "| stage | law (source) | table [mm/s] | below: impacts (slowest, mm/s) | e there | "
+        "above: impacts (fastest, mm/s) | e there | yield onset [mm/s] |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    names = list(LAW_NAMES.items())
+    worst_low, worst_high = [], []
+    for st in range(1, model.n_stages + 1):
+        for code, kind in names:
+            pick = (stage == st) & (law == code)
+            low, high = pick & (clamp < 0), pick & (clamp > 0)
+            if not (low.any() or high.any()):
+                continue
+            table = model.law_set.table(st, kind)
+            mass = model.effective_mass(st)
+            cells = []
+            for mask, end, reduce in ((low, 0, np.min), (high, -1, np.max)):
+                if not mask.any():
+                    cells += ["0", "-"]
+                    continue
+                v = float(reduce(speed[mask]))
+                clamped = ImpactLaw(*(float(getattr(table, p)[end])
+                                      for p in ("k", "exponent", "cmax", "d")))
+                e = simulate_impact(clamped, mass, v).restitution
+                (worst_low if end == 0 else worst_high).append((v, e, st))
+                cells += [f"{int(mask.sum())} ({v * 1e3:.3g})", f"{e:.4f}"]
+            lo, hi = table.speed_range
+            lines.append(f"| {st} | {kind} ({table.source}) | {lo * 1e3:.3g}-{hi * 1e3:.3g} | "
+                         f"{' | '.join(cells)} | {_yield_speed(model, st) * 1e3:.4g} |")
+    lines.append("")
+    if worst_low:
+        e_low = min(e for _, e, _ in worst_low)
+        lines.append(
+            f"Below the tables the impacts are slower than any calibrated one: their "
+            f"contacts are elastic (far below the yield onset) and quasi-static, and the "
+            f"clamped laws give them a restitution of at least {e_low:.4f}; their stiffness "
+            "and exponent are the mesh cycle's quasi-static ones where the calibration has a "
+            "mesh cycle. The clamp changes only their small damping.")
+    if worst_high:
+        ratio = max(v / _yield_speed(model, st) for v, _, st in worst_high)
+        lines.append(
+            "Above the tables the impacts are faster than the fastest calibrated one, at up "
+            f"to {ratio:.2f} times the flanks' yield-onset speed: "
+            + ("still elastic, where the Hertz-type law extrapolates and the clamp holds "
+               "only the damping of the fastest case."
+               if ratio < 1.0 else
+               "beyond the yield onset, where the clamped law misses the plastic loss: an FE "
+               "case at their speed (`fe-impact calibrate --impact-speeds`) closes the gap."))
+    lines.append("")
+    return lines
+
+
 def _fmt(value: float | None) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-"
@@ -440,6 +535,7 @@ def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict
         "",
         *_trend_lines(preset, runs),
         *_contact_lines(runs),
+        *_clamp_lines(runs),
         *_switching_lines(runs),
         *_differences(preset, runs, rows),
         "",

@@ -176,11 +176,49 @@ def add_switching_section(out: Path, studies: list[str]) -> Path:
                      f"({' / '.join(map(str, kinds))}) | {edge} | "
                      f"{_fmt(speed, '.4g', 1e3)} | {_fmt(force, '.4g')} | {low} / {high} | "
                      f"[report](switching/{name}/report.md) |")
+    lines += _demand_lines(out)
     path = out / "report.md"
     text = path.read_text() if path.is_file() else ""
     with atomic_path(path) as tmp:
         tmp.write_text(text.rstrip("\n") + "\n" + "\n".join(lines) + "\n")
     return path
+
+
+def _demand_lines(out: Path) -> list[str]:
+    """The first pass of the loop (``preset_demand.json``, written by ``fe-impact
+    calibrate``): the closing speeds the presets produced on the closed-form laws,
+    beside the calibrated range of each stage."""
+    import json
+
+    path = out / "preset_demand.json"
+    if not path.is_file():
+        return []
+    try:
+        demand = json.loads(path.read_text())
+        calibration = json.loads((out / "calibration.json").read_text())
+    except (OSError, ValueError) as exc:
+        return ["", f"(preset_demand.json unreadable: {exc})"]
+    speeds: dict[int, list[float]] = {}
+    for case in calibration.get("cases", []):
+        speeds.setdefault(int(case["stage"]), []).append(float(case["impact_speed"]))
+    lines = ["", "### What the presets asked of the calibration", "",
+             f"The same condition sets ({', '.join(demand['presets'])}) run first on the "
+             "closed-form laws: per stage and law taken at the onset, the impacts and their "
+             "closing speeds. A stage whose flank impacts (mesh and switch laws) closed "
+             "faster than its fastest planned FE impact got one more FE impact at "
+             f"{demand.get('top_margin', 1.2):g} times that speed (rounded up); slower "
+             "impacts than the slowest FE case are elastic and quasi-static (the switching "
+             "reports' clamp tables), the corner laws are closed forms.", "",
+             "| stage | law | impacts | closing speed min / median / max [mm/s] | largest "
+             "force [N] | FE impacts of the stage [mm/s] |",
+             "|---|---|---|---|---|---|"]
+    for stage, laws in sorted(demand["stages"].items(), key=lambda kv: int(kv[0])):
+        fe = ", ".join(f"{v * 1e3:.3g}" for v in sorted(speeds.get(int(stage), []))) or "-"
+        for law, d in laws.items():
+            lines.append(f"| {stage} | {law} | {d['count']} | {d['speed_min'] * 1e3:.3g} / "
+                         f"{d['speed_median'] * 1e3:.3g} / {d['speed_max'] * 1e3:.3g} | "
+                         f"{d['force_max']:.4g} | {fe} |")
+    return lines
 
 
 def _history(out: Path, case: CalibrationRecord) -> dict | None:

@@ -1,0 +1,190 @@
+"""What the seed's switching presets ask of a calibration: the closing speeds of their impacts.
+
+The calibration measures impacts at chosen closing speeds, and the torsional
+model interpolates its laws between them, clamping outside. Which speeds
+matter is the model's business: :func:`preset_demand` runs the seed's
+condition sets (:data:`~fe_impact.switching.study.SEED_STUDIES`) on a gear set
+with the closed-form laws (the first pass of the loop the main job closes:
+closed forms, then FE at the speeds they produce, then the presets again on
+the calibration) and keeps, per stage and per law an impact's onset takes
+(`fe_impact.switching.simulation.LAW_NAMES`), how many impacts there were and
+their closing speeds and peak forces.
+
+The runs take about half a minute on two processes (a fresh process also
+compiles the model's kernel, some 16 s); the result is kept in the user's
+cache (``fe-impact/demand``) under a key of the gear set, the condition sets
+and the source of the package that computes it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import tempfile
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fe_impact.gears.gearset import GearSet
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Demand", "LawDemand", "preset_demand", "top_speed_cases"]
+
+#: The closing speed of an FE case added at the top of a stage's range is the
+#: largest the closed-form presets produce times this margin, rounded up to two
+#: significant digits: the presets rerun on the calibrated laws close somewhat
+#: faster or slower (measured on the seed set: 175-183 mm/s on the coarse
+#: calibration against 196 mm/s with the closed forms).
+TOP_MARGIN = 1.2
+
+
+@dataclass(frozen=True)
+class LawDemand:
+    """The impacts of one stage that took one law: count, closing speeds [m/s]
+    (least, median, largest) and the largest peak force [N]."""
+
+    count: int
+    speed_min: float
+    speed_median: float
+    speed_max: float
+    force_max: float
+
+
+@dataclass(frozen=True)
+class Demand:
+    """Per stage (from 1) and law kind, the presets' impacts (`LawDemand`)."""
+
+    presets: tuple[str, ...]
+    stages: dict[int, dict[str, LawDemand]]
+
+    def top_speed(self, stage: int, laws: Sequence[str] = ("mesh", "switch")) -> float | None:
+        """Largest closing speed [m/s] of the stage's impacts that took one of ``laws``."""
+        rows = [self.stages.get(stage, {}).get(law) for law in laws]
+        speeds = [r.speed_max for r in rows if r is not None]
+        return max(speeds) if speeds else None
+
+    def to_dict(self) -> dict:
+        return {"presets": list(self.presets),
+                "stages": {str(s): {law: asdict(d) for law, d in laws.items()}
+                           for s, laws in self.stages.items()}}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Demand:
+        return cls(tuple(data["presets"]),
+                   {int(s): {law: LawDemand(**d) for law, d in laws.items()}
+                    for s, laws in data["stages"].items()})
+
+
+def _run_preset(gearset: GearSet, name: str) -> list[tuple[int, int, float, float]]:
+    """(stage, law code, closing speed, peak force) of every impact of preset ``name``
+    on the closed-form laws."""
+    from fe_impact.switching.model import DriveModel
+    from fe_impact.switching.presets import get_preset
+    from fe_impact.switching.simulation import simulate
+
+    model = DriveModel(gearset=gearset)
+    out = []
+    for case in get_preset(name).cases:
+        ev = simulate(model, case.schedule).events
+        out += list(zip(ev.stage.tolist(), ev.law.tolist(), ev.speed.tolist(),
+                        ev.force.tolist(), strict=True))
+    return out
+
+
+def _own_numba_cache(root: str) -> None:
+    """Pool initializer: this process's numba cache in ``root/<pid>``."""
+    import os
+
+    import numba.core.config
+
+    os.environ["NUMBA_CACHE_DIR"] = str(Path(root) / str(os.getpid()))
+    numba.core.config.reload_config()
+
+
+def _key(gearset: GearSet, presets: Sequence[str]) -> str:
+    import fe_impact.physics
+    import fe_impact.switching
+
+    digest = hashlib.sha256(json.dumps({"gearset": asdict(gearset), "presets": list(presets)},
+                                       sort_keys=True, default=repr).encode())
+    for package in (fe_impact.switching, fe_impact.physics):
+        for source in sorted(Path(package.__file__).parent.glob("*.py")):
+            digest.update(source.read_bytes())
+    return digest.hexdigest()[:24]
+
+
+def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
+                  workers: int = 2) -> Demand:
+    """The closing speeds the seed's condition sets produce on ``gearset`` with the
+    closed-form laws (module docstring), from the user's cache when it has them."""
+    from fe_impact.runtime import user_cache
+    from fe_impact.switching.simulation import LAW_NAMES
+    from fe_impact.switching.study import SEED_STUDIES
+
+    presets = tuple(SEED_STUDIES if presets is None else presets)
+    folder = user_cache("demand")
+    path = None if folder is None else folder / f"{_key(gearset, presets)}.json"
+    if path is not None and path.is_file():
+        try:
+            return Demand.from_dict(json.loads(path.read_text()))
+        except (OSError, ValueError, KeyError, TypeError):
+            logger.warning("preset demand cache %s unreadable; running the presets again", path)
+    if workers > 1 and len(presets) > 1:
+        # each process compiles the kernel into a folder of its own: two processes
+        # compiling one cached function into one folder can leave files that crash a
+        # later load (numba/numba#4807)
+        with tempfile.TemporaryDirectory(prefix="fe-impact-numba-") as numba_root, \
+                ProcessPoolExecutor(min(workers, len(presets)), initializer=_own_numba_cache,
+                                    initargs=(numba_root,)) as pool:
+            rows = [r for part in pool.map(_run_preset, [gearset] * len(presets), presets)
+                    for r in part]
+    else:
+        rows = [r for name in presets for r in _run_preset(gearset, name)]
+    stages: dict[int, dict[str, LawDemand]] = {}
+    if rows:
+        table = np.array(rows, dtype=float)
+        for stage in np.unique(table[:, 0]).astype(int):
+            for code, law in LAW_NAMES.items():
+                pick = table[(table[:, 0] == stage) & (table[:, 1] == code)]
+                if len(pick):
+                    stages.setdefault(int(stage), {})[law] = LawDemand(
+                        len(pick), float(pick[:, 2].min()), float(np.median(pick[:, 2])),
+                        float(pick[:, 2].max()), float(pick[:, 3].max()))
+    demand = Demand(presets, stages)
+    if path is not None:
+        from fe_impact.atomic import atomic_path
+
+        try:
+            with atomic_path(path) as tmp:
+                tmp.write_text(json.dumps(demand.to_dict(), indent=1))
+        except OSError as exc:
+            logger.info("preset demand not cached (%s)", exc)
+    return demand
+
+
+def top_speed(speed: float) -> float:
+    """``speed`` times `TOP_MARGIN`, rounded up to two significant digits [m/s]."""
+    v = speed * TOP_MARGIN
+    scale = 10.0 ** (math.floor(math.log10(v)) - 1)
+    return math.ceil(v / scale - 1e-9) * scale
+
+
+def top_speed_cases(demand: Demand, planned: Sequence, gearset: GearSet) -> list:
+    """FE impact cases (kind ``mesh``) at the top of each stage's demand where the
+    planned cases stop below the flank impacts the presets produce (`top_speed`)."""
+    from fe_impact.calibration.sweep import ImpactCase
+
+    out = []
+    for stage in sorted({c.stage for c in planned}):
+        need = demand.top_speed(stage)
+        have = max(c.impact_speed for c in planned if c.stage == stage)
+        if need is not None and need > have:
+            out.append(ImpactCase(stage, gearset.stages[stage - 1].teeth, "mesh",
+                                  top_speed(need)))
+    return out

@@ -1,0 +1,60 @@
+"""The first pass of the calibration loop: what the switching presets ask of the FE cases."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from fe_impact.calibration.sweep import plan_cases
+from fe_impact.gears import default_gearset
+from fe_impact.switching import demand as D
+
+
+def test_top_speed_rounds_up_to_two_digits_with_the_margin():
+    assert D.top_speed(0.1528) == pytest.approx(0.19)    # 0.18336 -> 0.19
+    assert D.top_speed(0.25) == pytest.approx(0.30)      # exactly 0.30 stays
+    assert D.top_speed(1.0e-3) == pytest.approx(1.2e-3)
+    for v in (0.0123, 0.4567, 3.3):
+        assert D.TOP_MARGIN * v <= D.top_speed(v) < D.TOP_MARGIN * v * 1.1
+
+
+def _demand(rows):
+    return D.Demand(("x",), {s: {law: D.LawDemand(1, v, v, v, 1.0)} for s, law, v in rows})
+
+
+def test_a_stage_gets_an_fe_impact_only_where_the_presets_close_faster():
+    gearset = default_gearset()
+    planned = plan_cases(gearset)          # 12.5, 37.6 and 125 mm/s on every stage
+    demand = _demand([(1, "mesh", 0.05), (2, "switch", 0.16), (3, "corner-recess", 0.5)])
+    (case,) = D.top_speed_cases(demand, planned, gearset)
+    # stage 1 stays within its cases; stage 3's fast impacts took a corner law (the
+    # flank FE cases do not calibrate it); stage 2's switch impact needs one more
+    assert (case.stage, case.kind, case.face_teeth) == (2, "mesh", 68)
+    assert case.impact_speed == pytest.approx(0.2)       # 1.2 x 0.16 = 0.192 -> 0.20
+    assert case.speed_rpm is None and case.id == "stage2_mesh_200mms"
+
+
+def test_the_demand_is_counted_per_stage_and_law_and_cached(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    calls = []
+
+    def fake(gearset, name):
+        calls.append(name)
+        # (stage, law code, closing speed, peak force): two mesh, one corner-approach
+        return [(1, 0, 0.01, 10.0), (1, 0, 0.03, 30.0), (1, 2, 0.02, 5.0)]
+
+    monkeypatch.setattr(D, "_run_preset", fake)
+    gearset = default_gearset()
+    got = D.preset_demand(gearset, ["a", "b"], workers=1)
+    assert calls == ["a", "b"]
+    mesh = got.stages[1]["mesh"]
+    assert (mesh.count, mesh.speed_min, mesh.speed_max, mesh.force_max) == (4, 0.01, 0.03,
+                                                                            30.0)
+    assert math.isclose(mesh.speed_median, 0.02)
+    assert got.stages[1]["corner-approach"].count == 2
+    assert got.top_speed(1) == 0.03 and got.top_speed(2) is None
+    again = D.preset_demand(gearset, ["a", "b"], workers=1)
+    assert calls == ["a", "b"] and again == got           # from the cache
+    D.preset_demand(gearset, ["a"], workers=1)            # other presets: run again
+    assert calls == ["a", "b", "a"]

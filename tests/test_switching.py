@@ -783,3 +783,32 @@ def test_report_tables_the_clamped_look_ups_and_the_yield_onset():
     assert below + above == len(ev) > 0
     assert np.all((ev.speed < 0.05) == (ev.clamped < 0))
     assert f"| 1 | mesh (test) | 50-50 | {below} (" in text
+
+
+def test_a_study_gives_the_pitch_point_only_laws_beside(tmp_path):
+    # The baseline is the same laws without the mesh cycle and the corner laws; its
+    # columns are the statistics of the cases simulated on exactly those laws.
+    import csv
+
+    from fe_impact.switching.presets import get_preset
+    from fe_impact.switching.statistics import comparison_rows
+    from fe_impact.switching.study import run_study
+
+    model = DriveModel()
+    assert _law_set(6.5e10, 50.0, 1e-6).pitch_point_only() is None  # nothing to take away
+    reduced = model.law_set.pitch_point_only()
+    assert set(reduced.tables) == {(s, k) for s in (1, 2, 3) for k in ("mesh", "switch")}
+    preset = get_preset("table1").scaled(0.15)
+    run_study(preset, GEARSET, None, tmp_path, search=False)
+    with open(tmp_path / "statistics.csv") as f:
+        rows = list(csv.DictReader(f))
+    plain = model.with_laws(reduced)
+    runs = {c.name: simulate(plain, c.schedule) for c in preset.cases}
+    expected = {(r["condition"], r["quantity"], r["statistic"]): r["model_impacts"]
+                for r in comparison_rows(preset, runs)}
+    for r in rows:
+        want = expected[(r["condition"], r["quantity"], r["statistic"])]
+        if want is not None:
+            assert float(r["baseline_impacts"]) == pytest.approx(want, rel=1e-12)
+    assert "## Beside the pitch-point-only laws and the seed" in \
+        (tmp_path / "report.md").read_text()

@@ -55,6 +55,10 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help="time-series sampling interval [s] (default 2e-4; statistics use "
                         "every integration step)")
     p.add_argument("--out", type=Path, metavar="DIR", help="output folder")
+    p.add_argument("--no-baseline", action="store_true",
+                   help="do not rerun the cases on the laws reduced to the pitch point (no "
+                        "mesh cycle, no corner laws), whose statistics the report gives "
+                        "beside the full laws' and the seed's")
     p.add_argument("--corners", choices=("auto", "3d", "planar"), default="auto",
                    help="tip-corner gaps: the three-dimensional first touch of the rounded "
                         "tip edges over the face ('3d'), the planar rack-and-pinion model "
@@ -143,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         summary = run_study(preset, gearset, args.calibration, args.out, corners=args.corners,
                             sample_interval=args.sample_interval, notes=notes,
-                            on_case=_progress)
+                            on_case=_progress, baseline=not args.no_baseline)
     except CalibrationError as exc:
         raise CalibrationError(f"--calibration: {exc}") from exc
     for name, info in summary["cases"].items():

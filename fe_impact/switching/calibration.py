@@ -217,6 +217,16 @@ class LawSet:
     def n_stages(self) -> int:
         return len({s for s, _ in self.tables})
 
+    def pitch_point_only(self) -> LawSet | None:
+        """These laws as the calibration had them before the mesh cycle and the corner
+        laws: the flank kinds' impact laws at every position and on the tip edges. None
+        when that is what these laws are already."""
+        flank = {key: t for key, t in self.tables.items() if key[1] in FLANK_KINDS}
+        if len(flank) == len(self.tables) and not self.positions:
+            return None
+        return LawSet(flank, f"{self.source}, pitch-point laws only (no mesh cycle, no "
+                             "corner laws)", self.notes)
+
     def position_arrays(self, s_pitch: float, base_radius: float, size: int) -> np.ndarray:
         """The position tables in the kernel's path coordinate, shape (n_stages, 3, size).
 

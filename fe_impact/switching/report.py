@@ -309,6 +309,37 @@ def _seed_layout_table(rows: list[dict], key: str, conditions: list[str]) -> lis
     return lines
 
 
+def _baseline_lines(rows: list[dict], conditions: list[str], runs: dict[str, SwitchingRun],
+                    baseline: dict[str, SwitchingRun] | None) -> list[str]:
+    """The statistics on these laws beside the pitch-point-only laws' and the seed's."""
+    if baseline is None:
+        return []
+    laws = next(iter(baseline.values())).model.law_set.source
+    lines = ["## Beside the pitch-point-only laws and the seed", "",
+             "The same cases rerun on these laws reduced to what a calibration at the pitch "
+             "point alone gives: every tooth pair takes its impact's law at every position "
+             "and on the tip edges (" + laws + "). Cells: these laws / pitch point only / "
+             "seed; series statistics, then the impacts' (the seed has no impact "
+             "statistics).", "",
+             "| category | value | " + " | ".join(conditions) + " |",
+             "|---|---|" + "---|" * len(conditions)]
+    index = {(r["condition"], r["quantity"], r["statistic"]): r for r in rows}
+    for quantity in QUANTITIES:
+        for statistic in ("maximum", "average"):
+            cells = [f"{_fmt(r['model_series'])} / {_fmt(r['baseline_series'])} / "
+                     f"{_fmt(r['seed'])}" for r in (index[(c, quantity, statistic)]
+                                                   for c in conditions)]
+            lines.append(f"| {LABELS[quantity]} ({SEED_UNITS[quantity]}) | series {statistic} | "
+                         + " | ".join(cells) + " |")
+        cells = [f"{_fmt(r['model_impacts'])} / {_fmt(r['baseline_impacts'])}"
+                 for r in (index[(c, quantity, "maximum")] for c in conditions)]
+        lines.append("| | impacts' maximum | " + " | ".join(cells) + " |")
+    counts = [f"{len(runs[n].events)} / {len(baseline[n].events)}" for n in runs]
+    lines += ["", "Impacts per case, these laws / pitch point only: "
+              + ", ".join(f"{n} {c}" for n, c in zip(runs, counts, strict=True)) + ".", ""]
+    return lines
+
+
 def _magnitude_gap(rows: list[dict], quantity: str) -> str:
     """Typical log10 ratio seed/model of the maxima of one quantity."""
     ratios = [abs(r["seed"]) / abs(r["model_series"]) for r in rows
@@ -483,8 +514,10 @@ def _trend_lines(preset: Preset, runs: dict[str, SwitchingRun]) -> list[str]:
 
 
 def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict],
-                  notes: Sequence[str] = ()) -> str:
-    """The text of ``report.md``; ``notes`` (warnings about the run) come first."""
+                  notes: Sequence[str] = (),
+                  baseline: dict[str, SwitchingRun] | None = None) -> str:
+    """The text of ``report.md``; ``notes`` (warnings about the run) come first;
+    ``baseline``: the same cases on the pitch-point-only laws (`write_results`)."""
     table = SEED_TABLES[preset.seed_table]
     conditions = list(dict.fromkeys(r["condition"] for r in rows))
     first = next(iter(runs.values()))
@@ -533,6 +566,7 @@ def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict
         "",
         *_seed_layout_table(rows, "model_impacts", conditions),
         "",
+        *_baseline_lines(rows, conditions, runs, baseline),
         *_trend_lines(preset, runs),
         *_contact_lines(runs),
         *_clamp_lines(runs),
@@ -621,13 +655,16 @@ def _plot_impacts(runs: dict[str, SwitchingRun], path: Path) -> Path:
 # -- everything -----------------------------------------------------------------------------
 def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun],
                   status: str = "completed", missing: Sequence[str] = (),
-                  notes: Sequence[str] = ()) -> list[Path]:
+                  notes: Sequence[str] = (),
+                  baseline: dict[str, SwitchingRun] | None = None) -> list[Path]:
     """Write all result files of a study to ``out``; returns their paths.
 
     ``status`` is ``"completed"`` or ``"stopped"`` (interrupted: ``runs``
     holds the cases finished, ``missing`` names the others, and with no
     finished case only ``statistics.json`` is written). ``notes`` are
     warnings about the run, kept in statistics.json and report.md.
+    ``baseline``: the same cases on the pitch-point-only laws, whose statistics
+    go beside (columns ``baseline_series``, ``baseline_impacts``).
     """
     out = Path(out)
     if not runs:
@@ -648,6 +685,13 @@ def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun]
     rows = comparison_rows(preset, runs)
     header = ["condition", "quantity", "statistic", "unit", "model_series", "model_impacts",
               "seed"]
+    if baseline is not None:
+        index = {(r["condition"], r["quantity"], r["statistic"]): r
+                 for r in comparison_rows(preset, baseline)}
+        for r in rows:
+            b = index[(r["condition"], r["quantity"], r["statistic"])]
+            r["baseline_series"], r["baseline_impacts"] = b["model_series"], b["model_impacts"]
+        header += ["baseline_series", "baseline_impacts"]
     written.append(write_csv(out / "statistics.csv", header,
                              [[r[h] for h in header] for r in rows]))
     model = next(iter(runs.values())).model
@@ -670,9 +714,15 @@ def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun]
         } for name, run in runs.items()},
         "model": model_parameters(model),
     }
+    if baseline is not None:
+        first = next(iter(baseline.values()))
+        summary["baseline"] = {
+            "laws": first.model.law_set.source,
+            "cases": {name: {"impact_statistics": impact_statistics(run), "run": run.info}
+                      for name, run in baseline.items()}}
     written.append(write_json(out / "statistics.json", _clean(summary)))
     with atomic_path(out / "report.md") as tmp:
-        tmp.write_text(render_report(preset, runs, rows, notes))
+        tmp.write_text(render_report(preset, runs, rows, notes, baseline))
     written.append(out / "report.md")
     for quantity in QUANTITIES:
         written.append(_plot_quantity(preset, runs, quantity, out / f"{quantity}.png"))

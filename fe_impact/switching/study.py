@@ -30,12 +30,16 @@ def study_stages(preset: Preset) -> set[int]:
 def run_study(preset: Preset, gearset, calibration: str | Path | None, out: str | Path, *,
               corners: str = "auto", sample_interval: float = SAMPLE_INTERVAL,
               notes: Sequence[str] = (), search: bool = True,
-              on_case: Callable[[object], Callable | None] | None = None) -> dict:
+              on_case: Callable[[object], Callable | None] | None = None,
+              baseline: bool = True) -> dict:
     """Run every case of ``preset`` and write the study's files to ``out``.
 
     The laws are ``calibration``'s (or, with ``search``, ``./calibration.json``,
     else closed forms: `calibration.laws_for`). ``on_case(case)`` may return
-    a step hook ``(t, t_end)`` for the case's progress. On an interrupt the
+    a step hook ``(t, t_end)`` for the case's progress. With ``baseline``, the
+    cases run a second time on the same laws reduced to the pitch point
+    (`LawSet.pitch_point_only`: no mesh cycle, no corner laws), whose statistics
+    the files give beside the full laws' and the seed's. On an interrupt the
     finished cases are written, marked stopped, and the interrupt is raised
     again. Returns per case the steps, impacts, wall time and clamped law
     look-ups, and the laws' source.
@@ -65,7 +69,13 @@ def run_study(preset: Preset, gearset, calibration: str | Path | None, out: str 
                           missing=[c.name for c in preset.cases if c.name not in runs],
                           notes=notes)
         raise
-    write_results(out, preset, runs, notes=notes)
+    reduced = model.law_set.pitch_point_only() if baseline else None
+    before = None
+    if reduced is not None:
+        plain = model.with_laws(reduced)
+        before = {case.name: simulate(plain, case.schedule, sample_interval=sample_interval)
+                  for case in preset.cases}
+    write_results(out, preset, runs, notes=notes, baseline=before)
     return {"preset": preset.name, "laws": model.law_set.source,
             "cases": {name: {k: run.info[k] for k in ("steps", "impacts", "wall_s",
                                                        "clamped_low", "clamped_high")}

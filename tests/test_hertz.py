@@ -264,3 +264,20 @@ def test_thornton_restitution_closed_form():
     assert hertz.thornton_restitution(1e6) == pytest.approx(1.185 * 1e6 ** -0.25, rel=1e-3)
     with pytest.raises(ValueError, match="yield_ratio"):
         hertz.thornton_restitution(-1.0)
+
+
+def test_ellipse_yield_speed_is_the_spheres_for_a_sphere_and_reaches_yield():
+    # A sphere of its own mass: Johnson's rho v_y^2 / Y = 26 (Y/E*)^4 (seed eq. 15),
+    # whose constant is given to two digits (26 +- 0.5: 1% in v_y).
+    import math
+
+    E_star, Y, rho, R = 115.66e9, 835e6, 7860.0, 0.01
+    mass = rho * 4.0 / 3.0 * math.pi * R**3
+    v_y = hertz.ellipse_yield_speed(mass, R, R, E_star, Y)
+    assert v_y == pytest.approx(hertz.yield_onset_speed(Y, rho, E_star), rel=0.01)
+    # an ellipse: the Hertz impact at v_y peaks at 1.6 Y, to round-off
+    Rx, Ry, m = 0.1e-3, 0.4, 0.25
+    v_y = hertz.ellipse_yield_speed(m, Rx, Ry, E_star, Y)
+    k = 1.0 / hertz.ellipse_contact(1.0, Rx, Ry, E_star).delta ** 1.5
+    force = float(hertz.impact_from_stiffness(m, v_y, k).force_max)
+    assert hertz.ellipse_contact(force, Rx, Ry, E_star).p0 == pytest.approx(1.6 * Y, rel=1e-9)

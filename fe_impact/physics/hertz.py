@@ -506,6 +506,30 @@ def yield_onset_speed(Y: float, rho: float, E_star: float) -> float:
     return float(np.sqrt(26.0 * Y**5 / (rho * E_star**4)))
 
 
+def ellipse_yield_speed(mass: float, Rx: float, Ry: float, E_star: float, Y: float,
+                        pressure: float = 1.6) -> float:
+    """Impact speed at which an elliptical Hertz contact starts to yield [m/s].
+
+    A mass ``m`` closing at ``v`` on the contact of relative radii ``Rx``, ``Ry``
+    (`ellipse_contact`) peaks at ``F_max`` from ``m v^2 / 2 = (2/5) k
+    delta^(5/2)`` (`impact_from_stiffness`); first yield when its peak pressure
+    reaches ``pressure * Y`` (1.6 Y for nu = 0.3, Johnson 1985, section 6.2).
+    The ellipse's shape does not change with the load, so ``p0 ~ F^(1/3)``:
+    ``F_y = F_1 (pressure Y / p0_1)^3`` from the contact at ``F_1 = 1 N``, and
+    ``v_y = sqrt(4 k delta_y^(5/2) / (5 m))`` with ``delta_y = (F_y / k)^(2/3)``.
+    For a sphere of density ``rho`` and its own mass this is `yield_onset_speed`;
+    a tooth pair's effective mass is not its contact's sphere, so its yield
+    onset depends on the geometry.
+    """
+    mass = _require_positive("mass", mass)
+    Y = _require_positive("Y", Y)
+    unit = ellipse_contact(1.0, Rx, Ry, E_star)
+    k = 1.0 / unit.delta**1.5
+    force = (pressure * Y / unit.p0) ** 3
+    delta = (force / k) ** (2.0 / 3.0)
+    return float(np.sqrt(4.0 * k * delta**2.5 / (5.0 * mass)))
+
+
 def seed_restitution(yield_ratio: ArrayLike) -> np.ndarray | float:
     """The seed's restitution law, eq. 14: `fe_impact.physics.seed.restitution`.
 

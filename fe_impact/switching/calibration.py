@@ -319,13 +319,23 @@ def corner_radii(gearset: GearSet, stage_index: int, side: str) -> tuple[float, 
 def _closed_form_table(gearset: GearSet, stage_index: int, effective_mass: float,
                        kind: str, radii: tuple[float, float] | None = None) -> LawTable:
     """Seed eqs. 12-17 at the speeds `CLOSED_FORM_SPEEDS` for the contact of principal
-    relative radii ``radii`` (default: the flanks' design point, `contact_radii`)."""
+    relative radii ``radii`` (default: the flanks' design point, `contact_radii`).
+
+    The flanks' restitution is the seed's: eq. 14 with eq. 15's yield-onset speed
+    (a sphere's, 0.087 m/s for the seed's steel). A tip edge's (``radii`` given)
+    takes eq. 14 with its own (`fe_impact.physics.hertz.ellipse_yield_speed`: the
+    effective mass on the rounding's ellipse reaching 1.6 Y): a 0.1 mm rounding
+    reaches 1.6 Y under a few newtons, at a closing speed of about 1 mm/s, where
+    eq. 15 would call the corner elastic up to 87 mm/s.
+    """
     material = gearset.material
     E_star = hertz.effective_modulus(material.youngs_modulus, material.poisson_ratio)
     Rx, Ry = radii if radii is not None else contact_radii(gearset, stage_index)
     contact = hertz.ellipse_contact(_REFERENCE_LOAD, Rx, Ry, E_star)
     k = _REFERENCE_LOAD / contact.delta**1.5
-    v_y = seed.yield_speed(material.yield_strength, material.density, E_star)
+    v_y = (seed.yield_speed(material.yield_strength, material.density, E_star)
+           if radii is None else
+           hertz.ellipse_yield_speed(effective_mass, Rx, Ry, E_star, material.yield_strength))
     speeds = CLOSED_FORM_SPEEDS
     hits = hertz.impact_from_stiffness(effective_mass, speeds, k)  # eq. 16, per speed
     cmax = [seed.damping(k, seed.restitution(v / v_y), v, dm)

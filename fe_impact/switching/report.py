@@ -195,19 +195,16 @@ YIELD_PRESSURE = 1.6
 
 def _yield_speed(model: DriveModel, stage: int) -> float:
     """Closing speed [m/s] at which the Hertz impact of the stage's effective mass at the
-    flanks' design point reaches the yield-onset pressure `YIELD_PRESSURE` Y: ``p0``
-    grows as ``v^(2/5)`` (``F_max ~ v^(6/5)``, ``p0 ~ F^(1/3)``)."""
+    flanks' design point reaches the yield-onset pressure `YIELD_PRESSURE` Y
+    (`fe_impact.physics.hertz.ellipse_yield_speed`)."""
     from fe_impact.physics import hertz
     from fe_impact.switching.calibration import contact_radii
 
     material = model.gearset.material
     e_star = hertz.effective_modulus(material.youngs_modulus, material.poisson_ratio)
     rx, ry = contact_radii(model.gearset, stage - 1)
-    k = 100.0 / hertz.ellipse_contact(100.0, rx, ry, e_star).delta ** 1.5
-    v_ref = 0.1
-    force = float(hertz.impact_from_stiffness(model.effective_mass(stage), v_ref, k).force_max)
-    p0 = hertz.ellipse_contact(force, rx, ry, e_star).p0
-    return v_ref * (YIELD_PRESSURE * material.yield_strength / p0) ** 2.5
+    return hertz.ellipse_yield_speed(model.effective_mass(stage), rx, ry, e_star,
+                                     material.yield_strength, YIELD_PRESSURE)
 
 
 def _clamp_lines(runs: dict[str, SwitchingRun]) -> list[str]:

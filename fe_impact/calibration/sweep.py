@@ -551,13 +551,15 @@ def finished_record(out: Path, case: ImpactCase, settings: Settings,
 def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,
               cache: Path, workers: int | None = None, scheduler: str | None = None,
               progress: Callable[[int, int, str], None] | None = None,
-              studies: Sequence[str] = ()) -> Path:
+              studies: Sequence[str] = (), numba: Path | None = None) -> Path:
     """Run the sweep (resuming), then write calibration.json/.csv, the report and summary.json.
 
     ``studies``: the seed's switching condition sets
     (:data:`~fe_impact.switching.study.SEED_STUDIES`) to run on the finished
     calibration, each into ``switching/<name>/`` (on the sweep's workers while
-    the report is written); the report lists them.
+    the report is written); the report lists them. ``numba``: the folder of the
+    local workers' compiled kernels, held by the caller (:func:`numba_folder`);
+    None: one is taken for the run.
 
     ``summary.json`` says how the run ended (``status``), which cases are
     finished and which are missing. On SIGINT or SIGTERM
@@ -596,7 +598,7 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
         # the report's pictures and the studies are run on the sweep's workers before
         # they stop
         return _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-                         progress, finish)
+                         progress, finish, numba)
     except KeyboardInterrupt:
         if not written:    # an interrupted study leaves the calibration complete
             _write_summary(out, cases, sweep, settings, time.perf_counter() - t0, "stopped",
@@ -682,7 +684,8 @@ class CaseStopped(CalibrationError):
 
 
 def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-              progress, finish: Callable[[Draw], Path] | None = None) -> Path | None:
+              progress, finish: Callable[[Draw], Path] | None = None,
+              numba: Path | None = None) -> Path | None:
     log = logging.getLogger("distributed")
     level = log.level
     import dask.distributed  # noqa: F401
@@ -694,12 +697,13 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
 
     with contextlib.ExitStack() as stack:
         return _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
-                              sweep, progress, stack, finish)
+                              sweep, progress, stack, finish, numba)
 
 
 def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
                    progress, stack: contextlib.ExitStack,
-                   finish: Callable[[Draw], Path] | None = None) -> Path | None:
+                   finish: Callable[[Draw], Path] | None = None,
+                   numba: Path | None = None) -> Path | None:
     """Run ``todo`` on a local cluster or ``scheduler``; then, every case done, return
     ``finish(draw)`` with a :data:`~fe_impact.output.drawing.Draw` on the same workers."""
     from dask.distributed import Client, Event
@@ -711,7 +715,8 @@ def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
             raise CalibrationError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
         cluster = None
     else:
-        numba = stack.enter_context(numba_folder(Path(cache)))
+        if numba is None:
+            numba = stack.enter_context(numba_folder(Path(cache)))
         cluster, client = _local_cluster(workers or max(1, min(len(todo), _cores())), numba)
     stop_name = f"fe-impact-stop-{uuid.uuid4().hex}"
     try:

@@ -16,6 +16,7 @@ the exit status is 128 + the signal's number (130, 143).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import logging
 import os
@@ -253,6 +254,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         Settings,
         calibrate,
         check_scheduler_address,
+        numba_folder,
         plan_cases,
     )
     from fe_impact.errors import CalibrationError
@@ -266,67 +268,72 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         check_scheduler_address(args.scheduler)
     check_output_dir(args.out)
     check_output_dir(args.cache, "--cache")
-    if args.gearset is not None:
-        gearset = load_gearset(args.gearset)
-        text = args.gearset.read_text(encoding="utf-8-sig")
-    else:
-        gearset = default_gearset()
-        text = next(p for p in _default_candidates() if p.is_file()).read_text(
-            encoding="utf-8-sig")
-    settings = Settings(level=args.level, integrator=args.integrator,
-                        cycle_level=args.mesh_cycle_level)
-    cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)
-    if args.no_mesh_cycle and args.positions is not None:
-        raise CalibrationError("--positions and --no-mesh-cycle: give one or the other")
+    with contextlib.ExitStack() as stack:
+        # the local workers' compiled kernels, held for the run: the presets' first
+        # pass compiles the switching kernel into them, which the studies reuse
+        numba = (None if args.scheduler is not None
+                 else stack.enter_context(numba_folder(args.cache)))
+        if args.gearset is not None:
+            gearset = load_gearset(args.gearset)
+            text = args.gearset.read_text(encoding="utf-8-sig")
+        else:
+            gearset = default_gearset()
+            text = next(p for p in _default_candidates() if p.is_file()).read_text(
+                encoding="utf-8-sig")
+        settings = Settings(level=args.level, integrator=args.integrator,
+                            cycle_level=args.mesh_cycle_level)
+        cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)
+        if args.no_mesh_cycle and args.positions is not None:
+            raise CalibrationError("--positions and --no-mesh-cycle: give one or the other")
 
-    def positions(impacts: list) -> list:
-        if args.no_mesh_cycle:
-            return []
-        from fe_impact.calibration.meshcycle import DEFAULT_POSITIONS, plan_positions
+        def positions(impacts: list) -> list:
+            if args.no_mesh_cycle:
+                return []
+            from fe_impact.calibration.meshcycle import DEFAULT_POSITIONS, plan_positions
 
-        # The curves reach the largest impact force the sweep expects (Hertz
-        # estimate at the pitch point, a quarter above for the bending).
-        from fe_impact.gears.pairanalysis import hertz_impact_estimate
+            # The curves reach the largest impact force the sweep expects (Hertz
+            # estimate at the pitch point, a quarter above for the bending).
+            from fe_impact.gears.pairanalysis import hertz_impact_estimate
 
-        top = max((1.25 * hertz_impact_estimate(gearset, c.stage, settings.roll_angle_deg,
-                                                c.impact_speed).force_max for c in impacts),
-                  default=None)
-        return plan_positions(gearset, args.stages, args.positions if args.positions
-                              is not None else DEFAULT_POSITIONS, top_force=top)
+            top = max((1.25 * hertz_impact_estimate(gearset, c.stage, settings.roll_angle_deg,
+                                                    c.impact_speed).force_max for c in impacts),
+                      default=None)
+            return plan_positions(gearset, args.stages, args.positions if args.positions
+                                  is not None else DEFAULT_POSITIONS, top_force=top)
 
-    cycle = positions(cases)    # checks the options before the presets run
-    studies = () if args.no_switching else _seed_studies(gearset, args.stages)
-    if (studies and not args.no_preset_speeds and args.speeds is None
-            and args.impact_speeds is None):
-        extra = _preset_speed_cases(gearset, cases, studies, args.out)
-        if extra:
-            cases += extra
-            cycle = positions(cases)
-    n_impacts = len(cases)
-    cases += cycle
-    levels = settings.level if settings.position_level == settings.level or \
-        len(cases) == n_impacts else f"{settings.level} / {settings.position_level}"
-    print(f"calibrating {n_impacts} impacts and {len(cases) - n_impacts} mesh-cycle positions "
-          f"({levels} meshes, {settings.integrator}) -> {args.out}", flush=True)
-    bar = tqdm(total=len(cases), desc="  cases", unit="case")
+        cycle = positions(cases)    # checks the options before the presets run
+        studies = () if args.no_switching else _seed_studies(gearset, args.stages)
+        if (studies and not args.no_preset_speeds and args.speeds is None
+                and args.impact_speeds is None):
+            extra = _preset_speed_cases(gearset, cases, studies, args.out, numba)
+            if extra:
+                cases += extra
+                cycle = positions(cases)
+        n_impacts = len(cases)
+        cases += cycle
+        levels = settings.level if settings.position_level == settings.level or \
+            len(cases) == n_impacts else f"{settings.level} / {settings.position_level}"
+        print(f"calibrating {n_impacts} impacts and {len(cases) - n_impacts} mesh-cycle positions "
+              f"({levels} meshes, {settings.integrator}) -> {args.out}", flush=True)
+        bar = tqdm(total=len(cases), desc="  cases", unit="case")
 
-    def progress(done: int, total: int, last: str) -> None:
-        bar.update(done - bar.n)
-        if last:
-            bar.set_postfix_str(last)
+        def progress(done: int, total: int, last: str) -> None:
+            bar.update(done - bar.n)
+            if last:
+                bar.set_postfix_str(last)
 
-    try:
-        path = calibrate(text, cases, settings, args.out, args.cache, args.workers,
-                         args.scheduler, progress, studies)
-    finally:
-        bar.close()
-    print(f"wrote {path}, {args.out / 'calibration.csv'} and {args.out / 'report.md'}")
-    if studies:
-        print(f"switching studies {', '.join(studies)} on it: {args.out / 'switching'}")
-    return 0
+        try:
+            path = calibrate(text, cases, settings, args.out, args.cache, args.workers,
+                             args.scheduler, progress, studies, numba)
+        finally:
+            bar.close()
+        print(f"wrote {path}, {args.out / 'calibration.csv'} and {args.out / 'report.md'}")
+        if studies:
+            print(f"switching studies {', '.join(studies)} on it: {args.out / 'switching'}")
+        return 0
 
 
-def _preset_speed_cases(gearset, cases: list, studies, out: Path) -> list:
+def _preset_speed_cases(gearset, cases: list, studies, out: Path, numba: Path | None) -> list:
     """The loop's first pass: the seed presets on the closed-form laws, their closing
     speeds written to ``out/preset_demand.json``, and an FE impact at the top of each
     stage whose presets close faster than its planned impacts."""
@@ -335,7 +342,7 @@ def _preset_speed_cases(gearset, cases: list, studies, out: Path) -> list:
 
     print(f"switching presets {', '.join(studies)} on the closed-form laws: their closing "
           "speeds ...", flush=True)
-    demand = preset_demand(gearset, studies)
+    demand = preset_demand(gearset, studies, numba=numba)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "preset_demand.json", {**demand.to_dict(), "top_margin": TOP_MARGIN,
                                             "units": {"speed": "m/s", "force": "N"}})

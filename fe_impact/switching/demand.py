@@ -97,14 +97,40 @@ def _run_preset(gearset: GearSet, name: str) -> list[tuple[int, int, float, floa
     return out
 
 
-def _own_numba_cache(root: str) -> None:
-    """Pool initializer: this process's numba cache in ``root/<pid>``."""
+def _run_in_processes(gearset: GearSet, presets: Sequence[str], n: int, numba: Path
+                      ) -> list[tuple[int, int, float, float]]:
+    """`_run_preset` of every preset on ``n`` fresh processes, process ``i`` compiling
+    its kernels into ``numba/w<i>`` (the folders of a local Dask cluster's workers).
+
+    Each process gets its folder in its environment when it starts: the kernel's
+    cache location is fixed when the module is imported, and two processes
+    compiling one cached function into one folder at once can leave files that
+    crash a later load (numba/numba#4807).
+    """
+    import multiprocessing
     import os
 
-    import numba.core.config
-
-    os.environ["NUMBA_CACHE_DIR"] = str(Path(root) / str(os.getpid()))
-    numba.core.config.reload_config()
+    context = multiprocessing.get_context("spawn")
+    pools = []
+    before = os.environ.get("NUMBA_CACHE_DIR")
+    try:
+        for i in range(n):
+            os.environ["NUMBA_CACHE_DIR"] = str(numba / f"w{i}")
+            pool = ProcessPoolExecutor(1, mp_context=context)
+            pool.submit(os.getpid).result()     # started now, with this environment
+            pools.append(pool)
+    finally:
+        if before is None:
+            os.environ.pop("NUMBA_CACHE_DIR", None)
+        else:
+            os.environ["NUMBA_CACHE_DIR"] = before
+    try:
+        futures = [pools[k % n].submit(_run_preset, gearset, name)
+                   for k, name in enumerate(presets)]
+        return [r for f in futures for r in f.result()]
+    finally:
+        for pool in pools:
+            pool.shutdown(cancel_futures=True)
 
 
 def _key(gearset: GearSet, presets: Sequence[str]) -> str:
@@ -120,9 +146,15 @@ def _key(gearset: GearSet, presets: Sequence[str]) -> str:
 
 
 def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
-                  workers: int = 2) -> Demand:
+                  workers: int = 2, numba: Path | None = None) -> Demand:
     """The closing speeds the seed's condition sets produce on ``gearset`` with the
-    closed-form laws (module docstring), from the user's cache when it has them."""
+    closed-form laws (module docstring), from the user's cache when it has them.
+
+    ``numba``: the calibration's folder of compiled kernels
+    (:func:`fe_impact.calibration.sweep.numba_folder`); process ``i`` of the pool
+    compiles into its ``w<i>``, which the sweep's worker ``i`` then loads (the
+    switching studies at its end need the same kernel). None: a temporary folder.
+    """
     from fe_impact.runtime import user_cache
     from fe_impact.switching.simulation import LAW_NAMES
     from fe_impact.switching.study import SEED_STUDIES
@@ -139,11 +171,9 @@ def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
         # each process compiles the kernel into a folder of its own: two processes
         # compiling one cached function into one folder can leave files that crash a
         # later load (numba/numba#4807)
-        with tempfile.TemporaryDirectory(prefix="fe-impact-numba-") as numba_root, \
-                ProcessPoolExecutor(min(workers, len(presets)), initializer=_own_numba_cache,
-                                    initargs=(numba_root,)) as pool:
-            rows = [r for part in pool.map(_run_preset, [gearset] * len(presets), presets)
-                    for r in part]
+        with tempfile.TemporaryDirectory(prefix="fe-impact-numba-") as scratch:
+            rows = _run_in_processes(gearset, presets, min(workers, len(presets)),
+                                     Path(numba or scratch))
     else:
         rows = [r for name in presets for r in _run_preset(gearset, name)]
     stages: dict[int, dict[str, LawDemand]] = {}

@@ -27,12 +27,26 @@ def test_a_stage_gets_an_fe_impact_only_where_the_presets_close_faster():
     gearset = default_gearset()
     planned = plan_cases(gearset)          # 12.5, 37.6 and 125 mm/s on every stage
     demand = _demand([(1, "mesh", 0.05), (2, "switch", 0.16), (3, "corner-recess", 0.5)])
-    (case,) = D.top_speed_cases(demand, planned, gearset)
+    cases, lines = D.cover(demand, planned, gearset)
     # stage 1 stays within its cases; stage 3's fast impacts took a corner law (the
-    # flank FE cases do not calibrate it); stage 2's switch impact needs one more
+    # flank FE cases do not calibrate it); stage 2's switch impacts need a faster case,
+    # which takes the place of its fastest (three planned: the cost stays)
+    assert len(cases) == len(planned) and len(lines) == 1
+    changed = [c for c in cases if c not in planned]
+    (case,) = changed
     assert (case.stage, case.kind, case.face_teeth) == (2, "mesh", 68)
     assert case.impact_speed == pytest.approx(0.2)       # 1.2 x 0.16 = 0.192 -> 0.20
     assert case.speed_rpm is None and case.id == "stage2_mesh_200mms"
+    gone = [c for c in planned if c not in cases]
+    assert [c.id for c in gone] == ["stage2_mesh_1000rpm"]
+    assert "in place of stage2_mesh_1000rpm" in lines[0]
+    # stages with fewer cases keep them and get one more: without the 1000 r/min cases
+    # stage 1 (37.6 mm/s) is outrun too (50 mm/s -> 60)
+    few = [c for c in planned if c.speed_rpm != 1000.0]
+    cases, _ = D.cover(demand, few, gearset)
+    added = cases[len(few):]
+    assert cases[:len(few)] == few
+    assert [(c.stage, round(c.impact_speed, 6)) for c in added] == [(1, 0.06), (2, 0.2)]
 
 
 def test_the_demand_is_counted_per_stage_and_law_and_cached(tmp_path, monkeypatch):

@@ -146,11 +146,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="do not end with the seed's switching studies (Tables 1-4 and the two "
                         "switching runs, about 20 s on two workers) on the calibration")
     c.add_argument("--no-preset-speeds", action="store_true",
-                   help="do not add FE impacts up to the closing speeds the seed's switching "
-                        "presets produce with the closed-form laws (by default, a stage "
-                        "whose presets close faster than its fastest planned impact gets one "
-                        "more, at 1.2 times their fastest; about 20 s the first time for a "
-                        "gear set, then cached)")
+                   help="do not fit the FE impacts to the closing speeds the seed's "
+                        "switching presets produce with the closed-form laws (by default, a "
+                        "stage whose presets close faster than its fastest planned impact "
+                        "has that one struck at 1.2 times their fastest instead; about 50 s "
+                        "the first time for a gear set, then cached)")
     c.add_argument("--level", default="default", help="mesh level: coarse, default or fine")
     c.add_argument("--mesh-cycle-level", default=None, metavar="LEVEL",
                    help="mesh level of the mesh-cycle positions (default: one level below "
@@ -305,9 +305,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         studies = () if args.no_switching else _seed_studies(gearset, args.stages)
         if (studies and not args.no_preset_speeds and args.speeds is None
                 and args.impact_speeds is None):
-            extra = _preset_speed_cases(gearset, cases, studies, args.out, numba)
-            if extra:
-                cases += extra
+            covered = _cover_presets(gearset, cases, studies, args.out, numba)
+            if covered != cases:
+                cases = covered
                 cycle = positions(cases)
         n_impacts = len(cases)
         cases += cycle
@@ -333,12 +333,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         return 0
 
 
-def _preset_speed_cases(gearset, cases: list, studies, out: Path, numba: Path | None) -> list:
+def _cover_presets(gearset, cases: list, studies, out: Path, numba: Path | None) -> list:
     """The loop's first pass: the seed presets on the closed-form laws, their closing
-    speeds written to ``out/preset_demand.json``, and an FE impact at the top of each
-    stage whose presets close faster than its planned impacts."""
+    speeds written to ``out/preset_demand.json``, and the planned impacts adjusted to
+    them (:func:`fe_impact.switching.demand.cover`)."""
     from fe_impact.output.files import write_json
-    from fe_impact.switching.demand import TOP_MARGIN, preset_demand, top_speed_cases
+    from fe_impact.switching.demand import TOP_MARGIN, cover, preset_demand
 
     print(f"switching presets {', '.join(studies)} on the closed-form laws: their closing "
           "speeds ...", flush=True)
@@ -346,12 +346,10 @@ def _preset_speed_cases(gearset, cases: list, studies, out: Path, numba: Path | 
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "preset_demand.json", {**demand.to_dict(), "top_margin": TOP_MARGIN,
                                             "units": {"speed": "m/s", "force": "N"}})
-    extra = top_speed_cases(demand, cases, gearset)
-    for case in extra:
-        print(f"  stage {case.stage}: flank impacts up to "
-              f"{demand.top_speed(case.stage) * 1e3:.4g} mm/s: one more FE impact at "
-              f"{case.impact_speed * 1e3:.4g} mm/s", flush=True)
-    return extra
+    covered, lines = cover(demand, cases, gearset)
+    for line in lines:
+        print(f"  {line}", flush=True)
+    return covered
 
 
 def _seed_studies(gearset, stages) -> tuple[str, ...]:

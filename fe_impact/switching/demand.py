@@ -34,7 +34,7 @@ from fe_impact.gears.gearset import GearSet
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Demand", "LawDemand", "preset_demand", "top_speed_cases"]
+__all__ = ["Demand", "LawDemand", "cover", "preset_demand", "top_speed"]
 
 #: The closing speed of an FE case added at the top of a stage's range is the
 #: largest the closed-form presets produce times this margin, rounded up to two
@@ -205,16 +205,31 @@ def top_speed(speed: float) -> float:
     return math.ceil(v / scale - 1e-9) * scale
 
 
-def top_speed_cases(demand: Demand, planned: Sequence, gearset: GearSet) -> list:
-    """FE impact cases (kind ``mesh``) at the top of each stage's demand where the
-    planned cases stop below the flank impacts the presets produce (`top_speed`)."""
+def cover(demand: Demand, planned: Sequence, gearset: GearSet) -> tuple[list, list[str]]:
+    """The planned FE impacts adjusted to the closing speeds the presets produce.
+
+    A stage whose flank impacts (mesh and switch laws) close faster than its fastest
+    planned impact gets an impact at `top_speed` of their fastest, in place of its
+    fastest planned one when it has three or more (the main job's 100, 300 and
+    1000 r/min: the calibration then spans 100 r/min to what the presets ask, at
+    the same cost), else beside them. Returns the cases and one line per change.
+    """
     from fe_impact.calibration.sweep import ImpactCase
 
-    out = []
+    cases, lines = list(planned), []
     for stage in sorted({c.stage for c in planned}):
         need = demand.top_speed(stage)
-        have = max(c.impact_speed for c in planned if c.stage == stage)
-        if need is not None and need > have:
-            out.append(ImpactCase(stage, gearset.stages[stage - 1].teeth, "mesh",
-                                  top_speed(need)))
-    return out
+        mesh = [c for c in cases if c.stage == stage and c.kind == "mesh"]
+        if need is None or not mesh or need <= max(c.impact_speed for c in mesh):
+            continue
+        case = ImpactCase(stage, gearset.stages[stage - 1].teeth, "mesh", top_speed(need))
+        fastest = max(mesh, key=lambda c: c.impact_speed)
+        what = f"stage {stage}: flank impacts up to {need * 1e3:.4g} mm/s: an FE impact at " \
+               f"{case.impact_speed * 1e3:.4g} mm/s"
+        if len(mesh) >= 3:
+            cases[cases.index(fastest)] = case
+            what += f" in place of {fastest.id} ({fastest.impact_speed * 1e3:.4g} mm/s)"
+        else:
+            cases.append(case)
+        lines.append(what)
+    return cases, lines

@@ -205,8 +205,9 @@ def _demand_lines(out: Path) -> list[str]:
              f"The same condition sets ({', '.join(demand['presets'])}) run first on the "
              "closed-form laws: per stage and law taken at the onset, the impacts and their "
              "closing speeds. A stage whose flank impacts (mesh and switch laws) closed "
-             "faster than its fastest planned FE impact got one more FE impact at "
-             f"{demand.get('top_margin', 1.2):g} times that speed (rounded up); slower "
+             "faster than its fastest planned FE impact had that one struck at "
+             f"{demand.get('top_margin', 1.2):g} times their fastest instead (rounded up; "
+             "beside the others when fewer than three were planned); slower "
              "impacts than the slowest FE case are elastic and quasi-static (the switching "
              "reports' clamp tables), the corner laws are closed forms.", "",
              "| stage | law | impacts | closing speed min / median / max [mm/s] | largest "

@@ -40,6 +40,10 @@ def test_default_plan_is_three_stages_by_three_speeds():
     pinion = gearset.pinion
     r_bp = 0.5 * gearset.module * pinion.teeth * math.cos(math.radians(pinion.pressure_angle_deg))
     assert kin.impact_speed == pytest.approx(r_bp * 300 * math.pi / 30 * (68 / 56 - 1), rel=1e-12)
+    assert len(plan_cases(gearset, switch="eq5")) == len(plan_cases(gearset, switch="kinematic"))\
+        == 9 + 6
+    assert {c.basis for c in plan_cases(gearset, switch="kinematic") if c.kind == "switch"} \
+        == {"kinematic"}
 
 
 @pytest.mark.parametrize("kwargs,pattern", [

@@ -290,7 +290,7 @@ def test_ratio_switch_impact_yields(tmp_path):
     energy balance (kinetic + strain + penalty + plastic dissipation) must
     still close within 2% (measured 0.6%).
     """
-    argv = ["calibrate", "--no-switching", "--stages", "2", "--speeds", "1000", "--switch",
+    argv = ["calibrate", "--no-switching", "--stages", "2", "--speeds", "1000", "--switch", "eq5",
             "--level", "coarse", "--no-mesh-cycle",
             "--workers", "2", "--out", str(tmp_path / "run"), "--cache", str(tmp_path / "c")]
     assert main(argv) == 0

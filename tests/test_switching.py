@@ -706,12 +706,17 @@ def test_a_pair_on_a_tip_edge_feels_the_edges_law():
     # its slot holding a corner law (no damping): the pair's force is k_in h^n_in
     # exactly, and the flank law's k h^n once the corner law is absent (NaN).
     from fe_impact.switching import _kernel as K
-    from fe_impact.switching.simulation import _pack
+    from fe_impact.switching.simulation import _pack, _start_segment
 
     model = DriveModel(corners="planar", **QUIET)
-    pk = _pack(model, StageSchedule((Segment(1e-3, 1, 0.0),)), 1e-4)
+    schedule = StageSchedule((Segment(1e-3, 1, 0.0),))
+    pk = _pack(model, schedule, 1e-4)
     p, geo = pk.p, model.geometry
     y = np.zeros(2 + 2 * (model.n_stages + 1))
+    # the run's set-up of its first segment: engaged ring, backlash, default law (the
+    # pairs without a law of their own, pressed too, take it)
+    _start_segment(model, pk, schedule.segments[0], 0.0, y, True)
+    y[:] = 0.0
     dy, aux = np.zeros_like(y), np.zeros(K.N_AUX)
     pairs, npairs = np.zeros((2, K.MAXPAIR), dtype=K.PAIR), np.zeros(2, dtype=np.int64)
 

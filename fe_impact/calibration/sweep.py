@@ -204,10 +204,15 @@ def mesh_impact_speed(pinion_pitch_radius: float, pressure_angle: float, rpm: fl
 
 
 def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
-               impact_speeds=None, switch: bool = False) -> list[ImpactCase]:
+               impact_speeds=None, switch: bool | str = False) -> list[ImpactCase]:
     """The sweep: every stage at every speed (r/min via eq. 4, or impact speeds in m/s);
-    with ``switch``, also the switches into stages 2.. at each speed's eq. 5 and
-    kinematic switching speeds (module docstring)."""
+    with ``switch``, also the switches into stages 2.. at each speed's eq. 5
+    (``"eq5"``), kinematic (``"kinematic"``) or both (``"both"`` or True) switching
+    speeds (module docstring)."""
+    if switch is True:
+        switch = "both"
+    if switch not in (False, None, "eq5", "kinematic", "both"):
+        raise CalibrationError(f"--switch {switch!r}: pick eq5, kinematic or both")
     from fe_impact.switching.geometry import mesh_geometry, seed_switching_speed, switching_speed
 
     n = len(gearset.stages)
@@ -235,11 +240,14 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
             if switch and s > 1:
                 w = rpm * 2.0 * math.pi / 60.0
                 r_f = 0.5 * gearset.module * teeth
-                vs = seed_switching_speed(w, pin.pitch_radius, r_f, teeth / pin.teeth, alpha)
-                cases.append(ImpactCase(s, teeth, "switch", vs, float(rpm)))
-                vk = switching_speed(w, pin.teeth, gearset.stages[s - 2].teeth, teeth,
-                                     mesh_geometry(gearset).base_radius)
-                cases.append(ImpactCase(s, teeth, "switch", vk, float(rpm), "kinematic"))
+                if switch in ("eq5", "both"):
+                    vs = seed_switching_speed(w, pin.pitch_radius, r_f, teeth / pin.teeth,
+                                              alpha)
+                    cases.append(ImpactCase(s, teeth, "switch", vs, float(rpm)))
+                if switch in ("kinematic", "both"):
+                    vk = switching_speed(w, pin.teeth, gearset.stages[s - 2].teeth, teeth,
+                                         mesh_geometry(gearset).base_radius)
+                    cases.append(ImpactCase(s, teeth, "switch", vk, float(rpm), "kinematic"))
     _check_impact_speeds(cases, impact_speeds is not None)
     return cases
 

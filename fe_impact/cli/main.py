@@ -133,9 +133,11 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--speeds", type=_float_list,
                    help="operating (pinion) speeds in r/min (default 100,300,1000)")
     c.add_argument("--impact-speeds", type=_float_list, help="impact speeds in m/s instead")
-    c.add_argument("--switch", action="store_true",
+    c.add_argument("--switch", nargs="?", const="both", default=None,
+                   choices=("eq5", "kinematic", "both"),
                    help="also ratio-switch impacts into stages 2.., at each speed's seed "
-                        "eq. 5 and rigid-kinematics switching speeds")
+                        "eq. 5 switching speed, its rigid-kinematics one, or both (the "
+                        "default when no value is given)")
     c.add_argument("--positions", type=_positions, default=None, metavar="N|DEG,...",
                    help="mesh cycle: quasi-static single-pair load-approach curves at N "
                         "positions along the path of contact (default 9, ends included) or "

@@ -109,3 +109,69 @@ def test_roll_angles_inside_the_path_and_unknown_sides_are_refused():
         corner_contact(PAIR, edge, "approach", 0.0)
     with pytest.raises(GeometryError, match=r"corner side = 'tip'.*approach.*recess"):
         corner_contact(PAIR, edge, "tip", 0.3)
+
+
+def test_a_corner_contact_places_the_pair_at_the_edges_first_touch():
+    # The tooth pair built for a corner contact touches where corner_contact says: the
+    # point lies on both members (the flank of one, the rounding of the other), with the
+    # normal out of the face gear, at zero gap once each member is where it says.
+    import math
+
+    from fe_impact.gears import default_gearset
+    from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
+    from fe_impact.switching.geometry import mesh_geometry
+
+    gearset = default_gearset()
+    line = mesh_geometry(gearset)
+    for side in ("approach", "recess"):
+        roll = float(line.corner_roll(side, getattr(line, side).delta_at(10e-6)))
+        spec = PairSpec(stage=1, roll_angle_deg=math.degrees(roll), contact=f"corner-{side}",
+                        level="coarse", gap=1e-6, impact_speed=0.02)
+        pair, analysis = analyse_stage_pair(gearset, spec)
+        c = analysis.contact
+        assert not c.on_flank
+        # the same first touch as the corner module's
+        edge = (face_edge_rounding if side == "approach" else pinion_edge_rounding)(
+            pair, gearset.face_tip_edge_radius if side == "approach"
+            else gearset.pinion.tip_edge_radius)
+        touch = corner_contact(pair, edge, side, roll)
+        np.testing.assert_allclose(c.point, touch.point, atol=1e-12)
+        # normal out of the face gear: the face gear's tip is at +y of its flank's
+        # contact, the pinion lies on the side the normal points to
+        assert abs(np.linalg.norm(c.normal) - 1.0) < 1e-12
+        assert c.normal @ np.array([1.0, 0.0, 0.0]) > 0.5
+        # the gap is opened by turning the pinion back by gap / lever
+        assert analysis.pinion_roll_placed - c.roll_angle == pytest.approx(
+            spec.gap / analysis.masses.pinion_lever, rel=1e-12)
+    with pytest.raises(GeometryError, match="no approach corner contact"):
+        analyse_stage_pair(gearset, PairSpec(stage=1, roll_angle_deg=0.0,
+                                             contact="corner-approach"))
+
+
+def test_the_meshed_rounding_section_lies_on_the_exact_rounding():
+    # The face gear's section in a plane z = c: every point at distance rho from the
+    # balls' centre curve (sampled every 0.5 um: the distance error of the sampling is
+    # (0.25 um)^2 / (2 rho) < 1e-9 m), its ends on the tip plane and on the flank.
+    from scipy.spatial import cKDTree
+
+    from fe_impact.gears import default_gearset
+    from fe_impact.meshing.pairgeometry import (
+        _face_flank_at_plane,
+        _face_rounding_section,
+        _FaceFlank,
+    )
+
+    gearset = default_gearset()
+    pair = GearPair.from_gearset(gearset, 1)
+    rho = gearset.face_tip_edge_radius
+    for c in (0.083, 0.088, 0.094):   # over the face, 82.5 .. 96 mm
+        arc = _face_rounding_section(pair, rho, c, 0.0)
+        lengths = np.arange(c - 0.2e-3, c + 0.2e-3, 0.5e-6)
+        centres = pair.face_to_mesh(face_edge_rounding(pair, rho, lengths=lengths).centres,
+                                    0.0)
+        distance, _ = cKDTree(centres).query(arc)
+        np.testing.assert_allclose(distance, rho, atol=1e-9)
+        assert np.allclose(arc[:, 2], c, atol=1e-15)
+        assert arc[0, 1] == pytest.approx(pair.face.tip_height, abs=1e-12)
+        flank = _face_flank_at_plane(_FaceFlank(pair.face), c, arc[-1:, 1], 0.0, 1, 0.0)[0]
+        np.testing.assert_allclose(flank, arc[-1], atol=1e-12)

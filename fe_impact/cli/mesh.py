@@ -57,6 +57,14 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="unloaded teeth on each side of both sectors, 0..2 (default 1: the "
                         "loaded teeth's roots free as in the whole gear; 0 holds the sector "
                         "cuts half a pitch beside them, which stiffens the pair)")
+    p.add_argument("--contact", default="flank",
+                   choices=("flank", "corner-approach", "corner-recess"),
+                   help="where the teeth touch: on the flanks (default), or at the first "
+                        "touch of the face gear's rounded tip edge on the pinion before the "
+                        "path of contact (corner-approach) or of the pinion's on the face "
+                        "gear after it (corner-recess); --roll-angle must then lie beyond "
+                        "the path's end (`fe-impact geometry` gives the path's ends). The "
+                        "touching edge is rounded and the lofts refined around the touch")
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument("--reuse", action="store_true",
                    help="keep the files in --out if they were made from the same inputs")
@@ -103,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
     print("  tooth contact analysis, geometry and mesh ...", flush=True)
     pair = build_pair(gearset, args.stage, args.roll_angle, args.level, args.order,
                       args.gap * 1e-6, args.impact_speed, args.out, reuse=args.reuse,
-                      n_face_teeth=args.face_teeth, neighbour_teeth=args.neighbour_teeth)
+                      n_face_teeth=args.face_teeth, neighbour_teeth=args.neighbour_teeth,
+                      contact=args.contact)
     c, e, s = pair.contact, pair.ellipse, pair.stats
     print(f"  contact point {np.round(c.point * 1e3, 4).tolist()} mm, normal "
           f"{np.round(c.normal, 5).tolist()}", flush=True)

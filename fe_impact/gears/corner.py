@@ -59,6 +59,7 @@ __all__ = [
     "flank_end_roll",
     "midplane_rounding",
     "pinion_edge_rounding",
+    "pinion_rounding_roll",
 ]
 
 #: The two tip edges a pair can touch on: the face gear's before the path
@@ -145,30 +146,34 @@ def pinion_edge_rounding(pair: GearPair, radius: float, n: int = EDGE_SECTIONS,
     point ``2 rho`` below the tip to the tip.
     """
     pinion = pair.pinion
-    r_a = pinion.tip_radius
     if axial is None:
         face = pair.face
         axial = np.linspace(max(-0.5 * pinion.face_width, face.face_inner - pair.z0),
                             min(0.5 * pinion.face_width, face.face_outer - pair.z0), n)
     axial = np.asarray(axial, float)
-    n = len(axial)
-    r_b = pinion.base_radius
-    low = np.full(n, math.sqrt(max((r_a - 2.0 * radius) ** 2 / r_b**2 - 1.0, 0.0)))
-    high = np.full(n, pinion.theta_tip)
-
-    def centres(theta: NDArray) -> tuple[NDArray, NDArray]:
-        s = pinion.flank_surface(axial, theta, side=1)
-        return s.points - radius * s.normals, s.normals
-
-    for _ in range(_HALVINGS):
-        mid = 0.5 * (low + high)
-        c, _ = centres(mid)
-        outside = np.hypot(c[:, 0], c[:, 1]) > r_a - radius
-        low, high = np.where(outside, low, mid), np.where(outside, mid, high)
-    c, normals = centres(0.5 * (low + high))
+    s = pinion.flank_surface(axial, pinion_rounding_roll(pinion, radius, axial), side=1)
+    c, normals = s.points - radius * s.normals, s.normals
     land = np.zeros_like(c)
     land[:, :2] = c[:, :2] / np.hypot(c[:, 0], c[:, 1])[:, None]
     return EdgeRounding(radius, axial, c, normals, land)
+
+
+def pinion_rounding_roll(pinion, radius: float, axial: NDArray) -> NDArray:
+    """Roll parameter ``theta`` [rad] at which a tip-edge rounding of ``radius`` leaves
+    the pinion's (crowned) right flank at the axial positions ``axial`` [m]: where the
+    centre ``p - rho nu`` lies on the cylinder of radius ``r_a - rho`` (bisection from
+    the point ``2 rho`` below the tip to the tip)."""
+    axial = np.asarray(axial, float)
+    r_a, r_b = pinion.tip_radius, pinion.base_radius
+    low = np.full(axial.shape, math.sqrt(max((r_a - 2.0 * radius) ** 2 / r_b**2 - 1.0, 0.0)))
+    high = np.full(axial.shape, pinion.theta_tip)
+    for _ in range(_HALVINGS):
+        mid = 0.5 * (low + high)
+        s = pinion.flank_surface(axial, mid, side=1)
+        c = s.points - radius * s.normals
+        outside = np.hypot(c[..., 0], c[..., 1]) > r_a - radius
+        low, high = np.where(outside, low, mid), np.where(outside, mid, high)
+    return 0.5 * (low + high)
 
 
 def midplane_rounding(pair: GearPair, radius: float, side: str, roll_angle: float
@@ -287,6 +292,9 @@ class CornerContact:
         The rounding's curvatures (``1/rho`` across the edge) and the mating
         flank's, each about its own outward normal, mesh frame.
     relative : RelativeCurvature
+    foot : tuple of float
+        The touch on the mating flank in its own parameters: ``(u, theta)`` on the
+        pinion (approach), ``(L, h)`` on the face gear (recess).
     """
 
     side: str
@@ -301,6 +309,7 @@ class CornerContact:
     edge: PrincipalCurvatures
     flank: PrincipalCurvatures
     relative: RelativeCurvature
+    foot: tuple[float, float] = (math.nan, math.nan)
 
     def ellipse(self, force: float, e_star: float) -> ContactEllipse:
         """Hertz ellipse of the touch under ``force`` [N] (``E*`` [Pa])."""
@@ -529,7 +538,7 @@ def _touch(c: _Corner, i: int, turn: float, gap: float, section: float, at_end: 
     rounding = _edge_curvatures(edge, i, held, -normal)
     relative = relative_curvature(flank, rounding)
     return CornerContact(c.side, roll, gap, turn, section, point, normal, on_arc, at_end,
-                         rounding, flank, relative)
+                         rounding, flank, relative, (float(a[i]), float(b[i])))
 
 
 def _edge_curvatures(edge: EdgeRounding, i: int, to_mesh: NDArray, outward: NDArray

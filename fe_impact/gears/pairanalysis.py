@@ -33,6 +33,7 @@ from fe_impact.gears.tca import (
 from fe_impact.physics import hertz
 
 __all__ = [
+    "CONTACTS",
     "LEVEL_NAMES",
     "MAX_IMPACT_SPEED",
     "REPORT_FORCES",
@@ -42,11 +43,14 @@ __all__ = [
     "ReducedMasses",
     "analyse_pair",
     "analyse_stage_pair",
+    "corner_contact_point",
     "hertz_impact_estimate",
 ]
 
 #: Loads [N] at which tca.json lists the Hertz ellipse.
 REPORT_FORCES = (37.0, 100.0, 1000.0)
+#: Where a pair is built to touch (:attr:`PairSpec.contact`).
+CONTACTS = ("flank", "corner-approach", "corner-recess")
 #: How the impact speed is shared by the rotors (:attr:`PairSpec.velocity_split`).
 VELOCITY_SPLITS = ("momentum", "pinion", "face_gear")
 #: Largest impact speed a tooth pair is built for, m/s (the seed's fastest
@@ -97,6 +101,12 @@ class PairSpec:
         otherwise all of it on one rotor.
     pinion_axial_position : float or None
         See :class:`~fe_impact.gears.tca.GearPair` (m; None: at ``L = r_2``).
+    contact : {"flank", "corner-approach", "corner-recess"}
+        Where the teeth touch: on the flanks (the tooth contact analysis at the
+        roll angle), or the first touch of a rounded tip edge on the mating
+        flank (:func:`~fe_impact.gears.corner.corner_contact`): the face gear's
+        edge before the path of contact, the pinion's after it. A corner contact
+        builds the touching tip edge rounded (the gear set's ``tip_edge_radius_mm``).
     """
 
     stage: int = 1
@@ -111,8 +121,11 @@ class PairSpec:
     design_force: float | None = None
     velocity_split: str = "momentum"
     pinion_axial_position: float | None = None
+    contact: str = "flank"
 
     def __post_init__(self) -> None:
+        if self.contact not in CONTACTS:
+            raise GeometryError(f"contact = {self.contact!r}; pick one of {list(CONTACTS)}")
         if self.level not in LEVEL_NAMES:
             raise MeshError(f"level = {self.level!r}; pick one of {list(LEVEL_NAMES)}")
         if self.order not in (1, 2) or isinstance(self.order, bool):
@@ -261,6 +274,8 @@ def _stage_contact(gearset, spec: PairSpec) -> tuple[GearPair, ContactPoint]:
             f"stage = {spec.stage}; this gear set has stages 1..{len(gearset.stages)}"
         )
     pair = GearPair.from_gearset(gearset, spec.stage, spec.pinion_axial_position)
+    if spec.contact != "flank":
+        return pair, corner_contact_point(gearset, pair, spec)
     contact = pair.contact(np.radians(spec.roll_angle_deg))
     if not contact.on_flank:
         raise GeometryError(
@@ -269,6 +284,44 @@ def _stage_contact(gearset, spec: PairSpec) -> tuple[GearPair, ContactPoint]:
             f"{contact.face_parameters[1] * 1e3:.3f} mm); pick an angle nearer 0"
         )
     return pair, contact
+
+
+def corner_contact_point(gearset, pair: GearPair, spec: PairSpec) -> ContactPoint:
+    """The first touch of ``spec``'s rounded tip edge, as the contact the tooth pair is
+    built and placed for: both members where the edge touches (the pinion turned by
+    the closing turn on the approach side, the face gear on the recess side), the
+    normal out of the face gear, each member's curvatures (the rounding's on the
+    edge's member) and their relative curvature."""
+    from fe_impact.gears.corner import corner_contact, face_edge_rounding, pinion_edge_rounding
+
+    side = spec.contact.removeprefix("corner-")
+    if side == "approach":
+        radius, key, make = gearset.face_tip_edge_radius, "face_gear", face_edge_rounding
+    else:
+        radius, key, make = gearset.pinion.tip_edge_radius, "pinion", pinion_edge_rounding
+    if radius <= 0.0:
+        raise GeometryError(f"contact = {spec.contact!r} needs a rounded tip edge: "
+                            f"{key}.tip_edge_radius_mm = 0")
+    roll = math.radians(spec.roll_angle_deg)
+    touch = corner_contact(pair, make(pair, radius), side, roll)
+    phi2 = pair.nominal_face_angle(roll)
+    if side == "approach":      # the pinion turned onto the face gear's edge
+        roll_closed, face_angle = roll + touch.turn, phi2
+        normal = -touch.normal
+        pinion_parameters, face_parameters = touch.foot, (touch.section, pair.face.tip_height)
+        pinion_curvature, face_curvature = touch.flank, touch.edge
+    else:                       # the face gear turned onto the pinion's edge
+        roll_closed, face_angle = roll, phi2 + touch.turn
+        normal = touch.normal
+        pinion_parameters = (touch.section, pair.pinion.theta_tip)
+        face_parameters = touch.foot
+        pinion_curvature, face_curvature = touch.edge, touch.flank
+    return ContactPoint(
+        roll_angle=roll_closed, face_angle=face_angle,
+        transmission_error=face_angle - pair.nominal_face_angle(roll_closed),
+        point=touch.point, normal=normal, pinion_parameters=pinion_parameters,
+        face_parameters=face_parameters, pinion_curvature=pinion_curvature,
+        face_curvature=face_curvature, relative=touch.relative, on_flank=False, residual=0.0)
 
 
 def analyse_stage_pair(gearset, spec: PairSpec) -> tuple[GearPair, PairAnalysis]:

@@ -140,8 +140,63 @@ def _turned(xy: NDArray, angle: float) -> NDArray:
     return np.stack([c * xy[:, 0] + s * xy[:, 1], c * xy[:, 1] - s * xy[:, 0]], axis=-1)
 
 
+#: Points along a tip-edge rounding's arc in a section.
+_ARC_POINTS = 13
+
+
+def _arc(centre: NDArray, start: NDArray, end: NDArray, n: int = _ARC_POINTS) -> NDArray:
+    """Points (n, 2) of the circle about ``centre`` from ``start`` to ``end`` (the shorter
+    way; both at the same distance from the centre)."""
+    a0 = math.atan2(start[1] - centre[1], start[0] - centre[0])
+    a1 = math.atan2(end[1] - centre[1], end[0] - centre[0])
+    a1 = a0 + (a1 - a0 + math.pi) % (2.0 * math.pi) - math.pi
+    radius = float(np.linalg.norm(start - centre))
+    t = np.linspace(a0, a1, n)
+    out = centre + radius * np.stack([np.cos(t), np.sin(t)], axis=-1)
+    out[0], out[-1] = start, end
+    return out
+
+
+def _rounded_pinion_profile(pinion, u: float, radius: float) -> list[tuple[str, NDArray]]:
+    """The transverse profile at ``u`` with its right flank's tip edge rounded.
+
+    The rounding (:func:`~fe_impact.gears.corner.pinion_edge_rounding`) leaves the
+    crowned flank at :func:`~fe_impact.gears.corner.pinion_rounding_roll` and meets
+    the tip cylinder ``r_a``; the pieces ``tip`` (from the left flank's end to the
+    rounding, its radius running linearly from that end's to ``r_a``),
+    ``round_right`` (the arc) and ``flank_right`` (from the rounding down) replace
+    the sharp ones.
+    """
+    from fe_impact.gears.corner import pinion_rounding_roll
+
+    prof = pinion.transverse_profile(u=u, n_flank=60, n_fillet=30, n_tip=12, n_root=8)
+    theta = float(pinion_rounding_roll(pinion, radius, np.array([u]))[0])
+    flank = pinion.flank_surface(u, np.linspace(pinion.theta_form, theta, 60), side=1)
+    start = flank.points[-1]
+    centre = (start - radius * flank.normals[-1])[:2]
+    land = centre / np.linalg.norm(centre) * pinion.tip_radius
+    left_end = prof.segment("tip").points[0]
+    a0, a1 = math.atan2(left_end[0], left_end[1]), math.atan2(land[0], land[1])
+    w = np.linspace(0.0, 1.0, 12)
+    r = (1.0 - w) * np.linalg.norm(left_end) + w * pinion.tip_radius
+    a = (1.0 - w) * a0 + w * a1
+    tip = np.stack([r * np.sin(a), r * np.cos(a)], axis=-1)
+    tip[0] = left_end
+    out = []
+    for seg in prof.segments:
+        if seg.name == "tip":
+            out.append(("tip", tip))
+            out.append(("round_right", _arc(centre, land, start[:2])))
+        elif seg.name == "flank_right":
+            out.append(("flank_right", flank.points[::-1, :2]))
+        else:
+            out.append((seg.name, seg.points))
+    return out
+
+
 def _pinion_section(pair: GearPair, roll: float, u: float, rim: float,
-                    n_teeth: int = 1, neighbours: int = 0) -> list[Piece]:
+                    n_teeth: int = 1, neighbours: int = 0, edge_radius: float = 0.0
+                    ) -> list[Piece]:
     """Closed transverse section of the pinion sector at axial position ``u``.
 
     ``n_teeth`` adjacent teeth: tooth ``k`` is the placed tooth turned back by
@@ -149,7 +204,8 @@ def _pinion_section(pair: GearPair, roll: float, u: float, rim: float,
     pitches); its pieces carry the suffix ``_k`` (none for ``k = 0``).
     ``neighbours`` more teeth on each side, ``k = -neighbours .. -1`` and
     ``n_teeth .. n_teeth + neighbours - 1``. The sector is cut half a pitch
-    beyond its outer teeth.
+    beyond its outer teeth. ``edge_radius`` > 0 rounds the placed tooth's right
+    flank's tip edge (:func:`_rounded_pinion_profile`; the other edges stay sharp).
     """
     p = pair.pinion
     prof = p.transverse_profile(u=u, n_flank=60, n_fillet=30, n_tip=12, n_root=8)
@@ -159,8 +215,9 @@ def _pinion_section(pair: GearPair, roll: float, u: float, rim: float,
     rim_l = rim * np.array([np.sin(left), np.cos(left)])
     rim_r = rim * np.array([np.sin(right), np.cos(right)])
     seg = [(s.name, s.points) for s in prof.segments]
+    rounded = _rounded_pinion_profile(p, u, edge_radius) if edge_radius > 0.0 else seg
     teeth = [(name if k == 0 else f"{name}_{k}", _turned(xy, 2 * k * a) if k else xy)
-             for k in range(first, last + 1) for name, xy in seg]
+             for k in range(first, last + 1) for name, xy in (rounded if k == 0 else seg)]
     arc = np.linspace(right, left, 1 + 8 * (last - first + 1))
     pieces2d = [
         ("hub_left", _line(rim_l, teeth[0][1][0])),
@@ -193,14 +250,83 @@ def _face_flank_at_plane(flank: _FaceFlank, c: float, heights: NDArray, centre: 
     return np.stack([radius * np.sin(angle), heights, radius * np.cos(angle)], axis=-1)
 
 
+def _face_rounding_in_plane(flank: _FaceFlank, c: float, face_angle: float, tip: float,
+                            radius: float) -> tuple[float, NDArray, NDArray]:
+    """The placed tooth's plus flank's tip-edge rounding in the plane ``z = c``.
+
+    The circle of ``radius`` tangent to the flank's section (from inside the
+    tooth) and to the tip line ``y = tip``: returns the height where it leaves
+    the flank, its centre and the tangency on the tip line (``(x, y)``, mesh
+    frame). It is the section of the rounding of
+    :func:`~fe_impact.gears.corner.face_edge_rounding` to first order in the
+    angle between the edge and the plane's normal; the mesh's nodes on it are
+    moved onto the exact rounding (:func:`snap_flanks`).
+    """
+    from scipy.optimize import brentq
+
+    def centre(h: float) -> NDArray:
+        step = 1e-7
+        a, b = (_face_flank_at_plane(flank, c, np.array([h, h - step]), 0.0, 1, face_angle)
+                [:, :2])
+        t = (a - b) / np.linalg.norm(a - b)      # up the flank
+        n = np.array([t[1], -t[0]])              # out of the tooth: the plus flank is at +x
+        return a - radius * n
+
+    h = brentq(lambda h: centre(h)[1] - (tip - radius), tip - 2.0 * radius, tip, xtol=1e-13)
+    cen = centre(h)
+    return h, cen, np.array([cen[0], tip])
+
+
+def _face_rounding_section(pair: GearPair, radius: float, c: float, face_angle: float,
+                           n: int = _ARC_POINTS) -> NDArray:
+    """The plus flank's rounded tip edge (:func:`~fe_impact.gears.corner.face_edge_rounding`)
+    cut by the plane ``z = c`` of the mesh frame: points (n, 3) from the tip land to the
+    flank, each on a ball's characteristic circle (centre ``C(L)``, radius ``rho``,
+    in the plane normal to the edge), the edge position ``L`` found for each so that
+    the point lies in the plane (a few fixed-point steps along the edge)."""
+    from fe_impact.gears.corner import face_edge_rounding
+
+    psi = np.linspace(1.0, 0.0, n)            # 1: on the tip land, 0: on the flank
+    rot = pair.face_rotation(face_angle)
+    lengths = np.full(n, float(c))
+    step = 1e-6
+    for _ in range(6):
+        here = face_edge_rounding(pair, radius, lengths=lengths)
+        ahead = face_edge_rounding(pair, radius, lengths=lengths + step)
+        centre = here.centres @ rot.T
+        tangent = (ahead.centres - here.centres) @ rot.T
+        tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+        e1 = here.flank_normals @ rot.T
+        e1 -= (e1 * tangent).sum(axis=1)[:, None] * tangent
+        e1 /= np.linalg.norm(e1, axis=1)[:, None]
+        land = here.land_normals @ rot.T
+        e2 = land - (land * tangent).sum(axis=1)[:, None] * tangent
+        e2 -= (e2 * e1).sum(axis=1)[:, None] * e1
+        e2 /= np.linalg.norm(e2, axis=1)[:, None]
+        span = np.arccos(np.clip((land * e1).sum(axis=1) / np.linalg.norm(land, axis=1),
+                                 -1.0, 1.0))
+        d = np.cos(psi * span)[:, None] * e1 + np.sin(psi * span)[:, None] * e2
+        points = centre + radius * d
+        dz = points[:, 2] - c
+        slope = (ahead.centres @ rot.T)[:, 2] - centre[:, 2]
+        lengths = lengths - dz * step / slope
+        if np.abs(dz).max() < 1e-12:
+            break
+    points[:, 2] = c
+    return points
+
+
 def _face_section(pair: GearPair, flank: _FaceFlank, face_angle: float, c: float,
-                  n_teeth: int, bottom: float, neighbours: int = 0) -> list[Piece]:
+                  n_teeth: int, bottom: float, neighbours: int = 0,
+                  edge_radius: float = 0.0) -> list[Piece]:
     """Closed section of the face-gear sector in the plane ``z = c`` (mesh frame).
 
     Teeth ``i = 0 .. n_teeth - 1`` counted from the placed one towards ``-x``
     (pieces ``flank_minus_i``, ``tip_i``, ``flank_plus_i``), and
     ``neighbours`` more on each side (``i < 0`` towards ``+x``); the sector is
-    cut half a pitch beyond its outer teeth.
+    cut half a pitch beyond its outer teeth. ``edge_radius`` > 0 rounds the
+    placed tooth's plus flank's tip edge (piece ``round_plus_0`` between
+    ``tip_0`` and ``flank_plus_0``, :func:`_face_rounding_in_plane`).
     """
     f = pair.face
     pitch = 2 * np.pi / f.teeth
@@ -217,6 +343,28 @@ def _face_section(pair: GearPair, flank: _FaceFlank, face_angle: float, c: float
     corner = pieces[0][1][-1]
     for j in range(first, last + 1):
         minus = _face_flank_at_plane(flank, c, heights, j * pitch, -1, face_angle)
+        if j == 0 and edge_radius > 0.0:
+            if f.face_inner + edge_radius < c < f.face_outer - edge_radius:
+                arc = _face_rounding_section(pair, edge_radius, c, face_angle)
+            else:   # beyond the face (the ring cuts it off): the circle in the plane
+                _, centre, land = _face_rounding_in_plane(flank, c, face_angle, f.tip_height,
+                                                          edge_radius)
+                h = _face_rounding_in_plane(flank, c, face_angle, f.tip_height,
+                                            edge_radius)[0]
+                end = _face_flank_at_plane(flank, c, np.array([h]), 0.0, 1, face_angle)[0]
+                arc = np.concatenate([_arc(centre, land[:2], end[:2]),
+                                      np.full((_ARC_POINTS, 1), c)], axis=1)
+            up = np.concatenate([heights[heights < flank.h_ext],
+                                 np.linspace(flank.h_ext, arc[-1, 1], 60)])
+            plus = _face_flank_at_plane(flank, c, up, 0.0, 1, face_angle)
+            arc[-1] = plus[-1]     # the same point, to round-off
+            pieces.append(("root", _line(corner, minus[0])))
+            pieces.append(("flank_minus_0", minus))
+            pieces.append(("tip_0", _line(minus[-1], arc[0])))
+            pieces.append(("round_plus_0", arc))
+            pieces.append(("flank_plus_0", plus[::-1]))
+            corner = plus[0]
+            continue
         plus = _face_flank_at_plane(flank, c, heights, j * pitch, 1, face_angle)
         pieces.append(("root", _line(corner, minus[0])))
         pieces.append((f"flank_minus_{-j}", minus))
@@ -301,49 +449,75 @@ _PINION_GROUPS = {"pinion_flank": ("flank_right",),
                   "pinion_hub": ("hub_left", "hub_right", "hub_rim")}
 _FACE_GROUPS = {"face_flank": ("flank_plus_0",),
                 "face_hub": ("hub_left", "hub_right", "hub_bottom")}
+#: The contacting flanks' rounded tip edges, when they are rounded.
+_PINION_EDGE = {"pinion_edge": ("round_right",)}
+_FACE_EDGE = {"face_edge": ("round_plus_0",)}
 #: Loft section spacing [modules]. The flanks vary slowly along the face (the
 #: crowning is a parabola), and the lofts are exact at the sections: measured
 #: flank deviation below 0.01 um between sections at this spacing.
 _SECTION_MODULES = 0.5
 
 
-def _stations_through(lo: float, hi: float, at: float, step: float) -> NDArray:
-    """About ``step``-spaced positions over ``[lo, hi]``, one of them at ``at``."""
+def _stations_through(lo: float, hi: float, at: float, step: float,
+                      fine: tuple[float, float] | None = None) -> NDArray:
+    """About ``step``-spaced positions over ``[lo, hi]``, one of them at ``at``; with
+    ``fine = (half_width, fine_step)``, ``fine_step``-spaced within ``half_width`` of
+    ``at`` (a corner contact: the lofts are exact at the sections only, and its
+    elements are microns small)."""
+    if fine is not None:
+        half, small = fine
+        a, b = max(lo, at - half), min(hi, at + half)
+        core = np.concatenate([np.linspace(a, at, max(2, int(math.ceil((at - a) / small)) + 1)),
+                               np.linspace(at, b, max(2, int(math.ceil((b - at) / small))
+                                                      + 1))[1:]])
+        outer = [x for x in _stations_through(lo, hi, at, step) if x < a or x > b]
+        return np.sort(np.concatenate([core, outer]))
     left = np.linspace(lo, at, max(2, int(math.ceil((at - lo) / step)) + 1))
     right = np.linspace(at, hi, max(2, int(math.ceil((hi - at) / step)) + 1))
     return np.concatenate([left, right[1:]])
 
 
+#: Corner contacts: loft sections every FINE_STEP [m] within FINE_HALF of the contact.
+FINE_HALF, FINE_STEP = 2.5e-3, 0.5e-3
+
+
 def _add_pinion(model, pair: GearPair, analysis: PairAnalysis, n_teeth: int = 1,
-                groups: dict[str, tuple[str, ...]] | None = None
+                groups: dict[str, tuple[str, ...]] | None = None, edge_radius: float = 0.0
                 ) -> tuple[int, dict[str, list[int]]]:
     """The pinion sector over its face width (one loft of transverse sections).
 
     ``n_teeth`` adjacent teeth (:func:`_pinion_section`); ``groups`` maps each
-    surface group to its section pieces (default :data:`_PINION_GROUPS`).
+    surface group to its section pieces (default :data:`_PINION_GROUPS`, with
+    ``pinion_edge`` when ``edge_radius`` rounds the contacting flank's tip edge).
     """
+    if groups is None:
+        groups = {**_PINION_GROUPS, **(_PINION_EDGE if edge_radius > 0.0 else {})}
     p, spec = pair.pinion, analysis.spec
     rim = p.root_radius - spec.rim_modules * p.module
     u_c = float(np.clip(analysis.contact.point[2] - pair.z0, -0.4 * p.face_width,
                         0.4 * p.face_width))
+    fine = (FINE_HALF, FINE_STEP) if spec.contact != "flank" else None
     us = _stations_through(-0.5 * p.face_width, 0.5 * p.face_width, u_c,
-                           _SECTION_MODULES * p.module)
+                           _SECTION_MODULES * p.module, fine)
     sections = [_pinion_section(pair, analysis.pinion_roll_placed, u, rim, n_teeth,
-                                spec.neighbour_teeth) for u in us]
+                                spec.neighbour_teeth, edge_radius) for u in us]
     solid = _loft(model, sections, int(np.argmin(np.abs(us - u_c))))
     model.occ.synchronize()
-    return solid.volume, _classify(model, solid, _PINION_GROUPS if groups is None else groups)
+    return solid.volume, _classify(model, solid, groups)
 
 
 def _add_face_gear(model, pair: GearPair, analysis: PairAnalysis,
-                   groups: dict[str, tuple[str, ...]] | None = None
+                   groups: dict[str, tuple[str, ...]] | None = None, edge_radius: float = 0.0
                    ) -> tuple[int, dict[str, list[int]]]:
     """The face-gear sector: a loft of sections ``z = const``, cut by the ring.
 
     ``groups`` maps each surface group to its section pieces (default
-    :data:`_FACE_GROUPS`; tooth ``j`` of the sector, counted from the placed
-    one towards ``-x``, has the pieces ``flank_plus_j`` and ``flank_minus_j``).
+    :data:`_FACE_GROUPS`, with ``face_edge`` when ``edge_radius`` rounds the
+    contacting flank's tip edge; tooth ``j`` of the sector, counted from the
+    placed one towards ``-x``, has the pieces ``flank_plus_j`` and ``flank_minus_j``).
     """
+    if groups is None:
+        groups = {**_FACE_GROUPS, **(_FACE_EDGE if edge_radius > 0.0 else {})}
     f, spec, contact = pair.face, analysis.spec, analysis.contact
     flank = _FaceFlank(f)
     bottom = f.root_height - spec.rim_modules * f.module
@@ -351,11 +525,12 @@ def _add_face_gear(model, pair: GearPair, analysis: PairAnalysis,
     widest = (spec.n_face_teeth - 0.5 + spec.neighbour_teeth) * pitch + abs(contact.face_angle)
     margin = 0.5 * f.module
     z_c = contact.point[2]
+    fine = (FINE_HALF, FINE_STEP) if spec.contact != "flank" else None
     cs = _stations_through(f.face_inner * np.cos(widest) - margin, f.face_outer + margin, z_c,
-                           _SECTION_MODULES * f.module)
+                           _SECTION_MODULES * f.module, fine)
     angle = contact.face_angle
     sections = [_face_section(pair, flank, angle, c, spec.n_face_teeth, bottom,
-                              spec.neighbour_teeth) for c in cs]
+                              spec.neighbour_teeth, edge_radius) for c in cs]
     solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
     ring = _annulus(model, f.face_inner * MM, f.face_outer * MM, (bottom - margin) * MM,
                     (f.tip_height + margin) * MM)
@@ -364,12 +539,13 @@ def _add_face_gear(model, pair: GearPair, analysis: PairAnalysis,
     if len(out) != 1:
         raise MeshError(f"face-gear sector: the cut by the ring gave {len(out)} volumes")
     solid.volume = out[0][1]
-    return solid.volume, _classify(model, solid, _FACE_GROUPS if groups is None else groups)
+    return solid.volume, _classify(model, solid, groups)
 
 
 def add_sectors(model, pair: GearPair, analysis: PairAnalysis, *, pinion_teeth: int = 1,
                 pinion_groups: dict[str, tuple[str, ...]] | None = None,
                 face_groups: dict[str, tuple[str, ...]] | None = None,
+                edge_radii: tuple[float, float] = (0.0, 0.0),
                 ) -> tuple[dict[str, int], dict[str, list[int]]]:
     """Both sectors in ``model`` (OCC, millimetres), placed as ``analysis`` says.
 
@@ -378,9 +554,12 @@ def add_sectors(model, pair: GearPair, analysis: PairAnalysis, *, pinion_teeth: 
     one and the next ones turned back by one angular pitch each); the groups
     map surface-group names to section pieces (see :func:`_add_pinion` and
     :func:`_add_face_gear`; default: one flank per sector and the hubs).
+    ``edge_radii`` (pinion, face gear) [m] round the contacting flanks' tip edges
+    (0: sharp), which then form the groups ``pinion_edge`` and ``face_edge``.
     """
-    pinion, pinion_faces = _add_pinion(model, pair, analysis, pinion_teeth, pinion_groups)
-    face, face_faces = _add_face_gear(model, pair, analysis, face_groups)
+    pinion, pinion_faces = _add_pinion(model, pair, analysis, pinion_teeth, pinion_groups,
+                                       edge_radii[0])
+    face, face_faces = _add_face_gear(model, pair, analysis, face_groups, edge_radii[1])
     extra = [(3, t) for _, t in model.getEntities(3) if t not in (pinion, face)]
     if extra:  # construction leftovers of the boolean
         model.occ.remove(extra, recursive=True)
@@ -401,25 +580,98 @@ def free_entities(model, volumes: list[tuple[int, int]]) -> list[tuple[int, int]
 
 
 # -- the mesh on the exact flanks --------------------------------------------------------
-def snap_flanks(model, pair: GearPair, analysis: PairAnalysis,
-                groups: dict[str, list[int]]) -> NDArray:
-    """Move the mesh nodes of both flanks onto the exact flanks; largest move per flank [m].
+def _surface_nodes(model, surfaces: list[int]) -> tuple[NDArray, NDArray]:
+    """Node tags and coordinates [m] of ``surfaces``, their boundaries included."""
+    nodes, coords = [], []
+    for surface in surfaces:
+        t, c, _ = model.mesh.getNodes(2, surface, includeBoundary=True)
+        nodes.append(t)
+        coords.append(c.reshape(-1, 3))
+    nodes, first = np.unique(np.concatenate(nodes), return_index=True)
+    return nodes, np.concatenate(coords)[first] / MM
 
-    ``groups`` are the surface tags of :func:`add_sectors`.
+
+def snap_flanks(model, pair: GearPair, analysis: PairAnalysis,
+                groups: dict[str, list[int]], edge_radii: tuple[float, float] = (0.0, 0.0)
+                ) -> NDArray:
+    """Move the mesh nodes of both flanks onto the exact flanks, and those of rounded tip
+    edges (groups ``pinion_edge``, ``face_edge``, radii ``edge_radii``) onto the exact
+    roundings; largest move per flank [m].
+
+    ``groups`` are the surface tags of :func:`add_sectors`. A node on the line where
+    a rounding leaves its flank stays on the flank.
     """
     moves = []
+    corner = analysis.spec.contact != "flank"
     for group, snap in (("pinion_flank", _snap_pinion), ("face_flank", _snap_face)):
-        nodes, coords = [], []
-        for surface in groups[group]:
-            t, c, _ = model.mesh.getNodes(2, surface, includeBoundary=True)
-            nodes.append(t)
-            coords.append(c.reshape(-1, 3))
-        nodes, first = np.unique(np.concatenate(nodes), return_index=True)
-        x = np.concatenate(coords)[first] / MM
+        nodes, x = _surface_nodes(model, groups[group])
+        if corner:
+            # a corner contact's solids are exact where their sections are fine; beyond,
+            # the narrow rounded tip's elements do not survive a move onto the flank
+            near = np.abs(x[:, 2] - analysis.contact.point[2]) < FINE_HALF
+            nodes, x = nodes[near], x[near]
         exact = snap(pair, analysis, x)
-        moves.append(float(np.linalg.norm(exact - x, axis=1).max()))
+        moves.append(float(np.linalg.norm(exact - x, axis=1).max(initial=0.0)))
         set_nodes(nodes, exact * MM)
+        edge = group.replace("flank", "edge")
+        if edge not in groups:
+            continue
+        edge_nodes, y = _surface_nodes(model, groups[edge])
+        # only where the lofts have their fine sections (FINE_HALF of the contact): there
+        # the rounding is built exact to 0.01 um; beyond, between sections 1.5 mm apart,
+        # it is off by up to 20 um, and moving a node that far turns elements over
+        keep = (~np.isin(edge_nodes, nodes)
+                & (np.abs(y[:, 2] - analysis.contact.point[2]) < FINE_HALF))
+        radius = edge_radii[0] if group.startswith("pinion") else edge_radii[1]
+        on_edge = _snap_edge(pair, analysis, group.split("_")[0], radius, y[keep])
+        moves[-1] = max(moves[-1], float(np.linalg.norm(on_edge - y[keep], axis=1).max(
+            initial=0.0)))
+        set_nodes(edge_nodes[keep], on_edge * MM)
     return np.array(moves)
+
+
+def _snap_edge(pair: GearPair, analysis: PairAnalysis, body: str, radius: float,
+               x: NDArray) -> NDArray:
+    """Points ``x`` (n, 3) [m, mesh frame] moved onto the exact rounding of ``body``'s
+    tip edge (:func:`~fe_impact.gears.corner.pinion_edge_rounding` or
+    :func:`~fe_impact.gears.corner.face_edge_rounding`): each onto the ball of the
+    centre nearest it, along the line from that centre, which is the rounding's normal
+    there (the centre curve sampled every 10 um, the nearest refined by a parabola
+    through it and its neighbours)."""
+    from fe_impact.gears.corner import face_edge_rounding, pinion_edge_rounding
+
+    if not len(x):
+        return x
+    if body == "pinion":
+        roll = analysis.pinion_roll_placed
+        rot = pair.pinion_rotation(roll)
+        local = (x - np.array([0.0, pair.pinion.pitch_radius, pair.z0])) @ rot
+        p = pair.pinion
+        u = np.clip(local[:, 2], -0.5 * p.face_width, 0.5 * p.face_width)
+        edge = pinion_edge_rounding(pair, radius, axial=u)
+        c = edge.centres
+        d = local - c
+        d[:, 2] = 0.0                      # in the transverse plane of the node
+        on = c + radius * d / np.linalg.norm(d, axis=1)[:, None]
+        on[:, 2] = local[:, 2]
+        return pair.pinion_to_mesh(on, roll)
+    angle = analysis.contact.face_angle
+    local = x @ pair.face_rotation(angle)
+    f = pair.face
+    n = max(3, int(math.ceil((f.face_outer - f.face_inner) / 1e-5)) + 1)
+    edge = face_edge_rounding(pair, radius, n=n)
+    from scipy.spatial import cKDTree
+
+    i = np.clip(cKDTree(edge.centres).query(local)[1], 1, n - 2)
+    d0, d1, d2 = (np.linalg.norm(local - edge.centres[i + k], axis=1) for k in (-1, 0, 1))
+    den = d0 - 2.0 * d1 + d2
+    shift = np.clip(np.divide(0.5 * (d0 - d2), den, out=np.zeros_like(den), where=den > 0),
+                    -1.0, 1.0)
+    lengths = edge.parameter[i] + shift * (edge.parameter[1] - edge.parameter[0])
+    c = face_edge_rounding(pair, radius, lengths=lengths).centres
+    d = local - c
+    on = c + radius * d / np.linalg.norm(d, axis=1)[:, None]
+    return pair.face_to_mesh(on, angle)
 
 
 def _snap_pinion(pair: GearPair, analysis: PairAnalysis, x: NDArray) -> NDArray:

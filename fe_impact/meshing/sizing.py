@@ -105,6 +105,9 @@ class PairDesign:
     analysis: PairAnalysis
     sizes: dict[str, float]
     stretch: ContactStretch
+    #: Tip-edge rounding radii [m] of the pinion and the face gear built into the
+    #: solids (a corner contact's; 0: sharp).
+    edge_radii: tuple[float, float] = (0.0, 0.0)
 
     @property
     def ellipse(self) -> ContactEllipse:
@@ -124,8 +127,12 @@ def design_pair(gearset, spec: PairSpec, max_stretch: float | None = None,
     factor = float(np.clip(level.major_fraction * ellipse.a / minor, 1.0, cap))
     sizes = {"minor": minor, "major": factor * minor, "factor": factor,
              "far": level.far_modules * pair.pinion.module}
+    from fe_impact.meshing.toothpair import _edge_radii
+
+    radii = _edge_radii(gearset, spec)
     return PairDesign(pair=pair, analysis=analysis, sizes=sizes,
-                      stretch=_stretch(analysis.contact, spec, ellipse, sizes, reach))
+                      stretch=_stretch(analysis.contact, spec, ellipse, sizes, reach),
+                      edge_radii=radii)
 
 
 def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllipse,
@@ -171,6 +178,55 @@ def _box_distance(axes: NDArray, centre: NDArray, half: tuple[float, ...]) -> st
     return "Sqrt(" + "+".join(terms) + ")"
 
 
+def _segment_distance(a: NDArray, b: NDArray) -> str:
+    """MathEval expression: distance [mm] from the segment from ``a`` to ``b`` [mm]."""
+    d = b - a
+    length = float(np.linalg.norm(d))
+    t = d / length
+    dot = "+".join(f"({tc:.17g})*({v}-({ac:.17g}))" for tc, v, ac in zip(t, "xyz", a,
+                                                                         strict=True))
+    along = f"Min(Max({dot},0),{length:.17g})"
+    return "Sqrt(" + "+".join(f"({v}-({ac:.17g})-({tc:.17g})*{along})^2"
+                              for v, ac, tc in zip("xyz", a, t, strict=True)) + ")"
+
+
+#: Segments of the polyline through a rounded tip edge's centres in its size term.
+EDGE_SEGMENTS = 8
+
+
+def _edge_terms(design: PairDesign, to_space=None) -> list[tuple[float, str]]:
+    """Size terms [mm] of the rounded tip edges of a corner contact: about the rounding's
+    radius on the rounding (its arc then takes one or two elements, which the snapping
+    puts on the exact rounding; the contact zone is much finer), graded away from the
+    polyline through the balls' centres. ``to_space`` maps the polyline's points (m)
+    into the space the field lives in (the stretched space); default physical."""
+    from fe_impact.gears.corner import face_edge_rounding, pinion_edge_rounding
+
+    analysis, pair = design.analysis, design.pair
+    if analysis.spec.contact == "flank":
+        return []
+    radii = design.edge_radii
+    terms = []
+    for radius, centres in (
+            (radii[0], lambda r: pair.pinion_to_mesh(
+                pinion_edge_rounding(pair, r, n=EDGE_SEGMENTS + 1).centres,
+                analysis.pinion_roll_placed)),
+            (radii[1], lambda r: pair.face_to_mesh(
+                face_edge_rounding(pair, r, n=EDGE_SEGMENTS + 1).centres,
+                analysis.contact.face_angle))):
+        if radius <= 0.0:
+            continue
+        points = centres(radius)
+        if to_space is not None:
+            points = to_space(points)
+        points = points * MM
+        distance = "Min(" * (len(points) - 2) + _segment_distance(points[0], points[1])
+        for a, b in zip(points[1:-1], points[2:], strict=True):
+            distance += "," + _segment_distance(a, b) + ")"
+        terms.append((radius * MM, distance))
+    return terms
+
+
 def _set_size_field(model, terms: list[tuple[float, str]], gradation: float, far: float) -> None:
     """Background size ``min(far, min_i(size_i + gradation d_i))`` [mm], all else off.
 
@@ -206,7 +262,8 @@ def reference_size_field(model, design: PairDesign) -> None:
     width, depth = _zone_half_widths(design)
     half = (st.half_length * MM, width * MM, depth * MM)
     distance = _box_distance(st.axes, st.origin * MM, half)
-    _set_size_field(model, [(0.7 * design.sizes["minor"] * MM, distance)],
+    _set_size_field(model, [(0.7 * design.sizes["minor"] * MM, distance),
+                            *_edge_terms(design)],
                     0.5 * level.gradation, 0.5 * design.sizes["far"] * MM)
 
 
@@ -219,5 +276,6 @@ def size_field(model, design: PairDesign) -> None:
     lo, hi = st.mapped_interval(st.half_length)
     centre = (st.origin + 0.5 * (lo + hi) * st.axes[0]) * MM
     half = (0.5 * (hi - lo) * MM, width * MM, depth * MM)
-    _set_size_field(model, [(sizes["minor"] * MM, _box_distance(st.axes, centre, half))],
+    _set_size_field(model, [(sizes["minor"] * MM, _box_distance(st.axes, centre, half)),
+                            *_edge_terms(design, st.to_mesh)],
                     level.gradation, sizes["far"] * MM)

@@ -212,8 +212,11 @@ class PairMesh:
 
 def pair_key(gearset, spec: PairSpec) -> str:
     """Deterministic hash (16 hex digits) of the gear set and the mesh parameters."""
+    fields = asdict(spec)
+    if fields["contact"] == "flank":   # the key of the meshes before corner contacts
+        del fields["contact"]
     payload = json.dumps(
-        {"gearset": asdict(gearset), "spec": asdict(spec), "format": 1},
+        {"gearset": asdict(gearset), "spec": fields, "format": 1},
         sort_keys=True, default=repr,
     )
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
@@ -304,12 +307,12 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
         model.mesh.optimize("Relocate3D")
     if spec.order == 2:  # mid-edge nodes straight in physical space, then snapped
         model.mesh.setOrder(2)
-    moves = snap_flanks(model, design.pair, design.analysis, groups)
+    moves = snap_flanks(model, design.pair, design.analysis, groups, design.edge_radii)
     logger.info("flank nodes moved onto the exact flanks by at most %.3g um (pinion), "
                 "%.3g um (face gear)", moves[0] * 1e6, moves[1] * 1e6)
     for name, tag in volumes.items():
         model.addPhysicalGroup(3, [tag], name=name)
-    for name, faces in groups.items():
+    for name, faces in _contact_groups(groups).items():
         model.addPhysicalGroup(2, faces, name=name)
     stats = _statistics(model, volumes, time.perf_counter() - started, design.sizes)
     if stats.min_sicn <= MIN_SICN:
@@ -595,9 +598,17 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
     from fe_impact import __version__
     from fe_impact.atomic import atomic_path
 
+    if spec.contact != "flank":
+        # built in place, with sections refined around the corner contact: the solids
+        # of one corner position serve no other
+        return add_sectors(model, design.pair, design.analysis,
+                           edge_radii=_edge_radii(gearset, spec))
+
     # the version too: solids shared on disk (share_solids) outlive the process
-    blob = json.dumps({"gearset": asdict(gearset), "version": __version__,
-                       **{k: getattr(spec, k) for k in _SOLID_FIELDS}},
+    fields = {k: getattr(spec, k) for k in _SOLID_FIELDS}
+    if spec.contact != "flank":   # rounded tip edges: other solids
+        fields["rounded"] = True
+    blob = json.dumps({"gearset": asdict(gearset), "version": __version__, **fields},
                       sort_keys=True, default=repr)
     key = hashlib.sha256(blob.encode()).hexdigest()[:16]
     pair, analysis, occ = design.pair, design.analysis, model.occ
@@ -614,10 +625,11 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         # a mesh then depends on its own parameters only, not on which case
         # the process happened to build the solids for (measured before: a
         # coarse stage-3 position meshed to 82.5k or 159k DOFs by the order).
-        home = replace(spec, roll_angle_deg=0.0, gap=0.0)
+        home = replace(spec, roll_angle_deg=0.0, gap=0.0, contact="flank")
         pair_home, analysis_home = ((pair, analysis) if home == spec
                                     else analyse_stage_pair(gearset, home))
-        volumes, groups = add_sectors(model, pair_home, analysis_home)
+        volumes, groups = add_sectors(model, pair_home, analysis_home,
+                                      edge_radii=_edge_radii(gearset, spec))
         brep = _solids_dir() / f"{key}.brep"
         model.setVisibility(free_entities(model, [(3, t) for t in volumes.values()]), 0)
         gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 1)
@@ -641,7 +653,19 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         logger.warning("%s; building the sectors again", exc)
         occ.remove(model.getEntities(3), recursive=True)
         occ.synchronize()
-        return add_sectors(model, pair, analysis)
+        return add_sectors(model, pair, analysis, edge_radii=_edge_radii(gearset, spec))
+
+
+def _edge_radii(gearset, spec: PairSpec) -> tuple[float, float]:
+    """Tip-edge rounding radii [m] of the contacting flanks of the pinion and the face
+    gear: the touching edge's for a corner contact (the face gear's on the approach
+    side, the pinion's on the recess side), the others sharp, as for a flank contact:
+    those edges lie far from the contact, and a rounding there only costs elements."""
+    if spec.contact == "corner-approach":
+        return 0.0, gearset.face_tip_edge_radius
+    if spec.contact == "corner-recess":
+        return gearset.pinion.tip_edge_radius, 0.0
+    return 0.0, 0.0
 
 
 def _turned_solids(model, design: PairDesign, solids: _Solids
@@ -705,6 +729,15 @@ def _turned_solids(model, design: PairDesign, solids: _Solids
             places[group].append(i)
     solids.index = ({k: tags.index(t) for k, t in volumes.items()}, places)
     return volumes, groups
+
+
+def _contact_groups(groups: dict[str, list[int]]) -> dict[str, list[int]]:
+    """The mesh's surface groups: a rounded tip edge belongs to its flank's group (the
+    contact surface), kept apart only for the snapping."""
+    out = {k: list(v) for k, v in groups.items() if not k.endswith("_edge")}
+    for body in ("pinion", "face"):
+        out[f"{body}_flank"] = out[f"{body}_flank"] + groups.get(f"{body}_edge", [])
+    return out
 
 
 def _body(group: str) -> str:

@@ -60,6 +60,7 @@ __all__ = [
     "midplane_rounding",
     "pinion_edge_rounding",
     "pinion_rounding_roll",
+    "touching_edge",
 ]
 
 #: The two tip edges a pair can touch on: the face gear's before the path
@@ -156,6 +157,17 @@ def pinion_edge_rounding(pair: GearPair, radius: float, n: int = EDGE_SECTIONS,
     land = np.zeros_like(c)
     land[:, :2] = c[:, :2] / np.hypot(c[:, 0], c[:, 1])[:, None]
     return EdgeRounding(radius, axial, c, normals, land)
+
+
+def touching_edge(gearset, side: str) -> tuple[float, str, object]:
+    """The tip edge that touches on ``side``: its rounding radius [m], the gear-set key
+    that gives it and the builder of its rounding (:func:`face_edge_rounding` on the
+    approach side, :func:`pinion_edge_rounding` on the recess side)."""
+    if side not in CORNER_SIDES:
+        raise GeometryError(f"corner side = {side!r}: pick one of {list(CORNER_SIDES)}")
+    if side == "approach":
+        return gearset.face_tip_edge_radius, "face_gear", face_edge_rounding
+    return gearset.pinion.tip_edge_radius, "pinion", pinion_edge_rounding
 
 
 def pinion_rounding_roll(pinion, radius: float, axial: NDArray) -> NDArray:

@@ -292,13 +292,10 @@ def corner_contact_point(gearset, pair: GearPair, spec: PairSpec) -> ContactPoin
     the closing turn on the approach side, the face gear on the recess side), the
     normal out of the face gear, each member's curvatures (the rounding's on the
     edge's member) and their relative curvature."""
-    from fe_impact.gears.corner import corner_contact, face_edge_rounding, pinion_edge_rounding
+    from fe_impact.gears.corner import corner_contact, touching_edge
 
     side = spec.contact.removeprefix("corner-")
-    if side == "approach":
-        radius, key, make = gearset.face_tip_edge_radius, "face_gear", face_edge_rounding
-    else:
-        radius, key, make = gearset.pinion.tip_edge_radius, "pinion", pinion_edge_rounding
+    radius, key, make = touching_edge(gearset, side)
     if radius <= 0.0:
         raise GeometryError(f"contact = {spec.contact!r} needs a rounded tip edge: "
                             f"{key}.tip_edge_radius_mm = 0")

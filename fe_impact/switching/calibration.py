@@ -299,14 +299,11 @@ def corner_radii(gearset: GearSet, stage_index: int, side: str) -> tuple[float, 
     against the flank's. None for a sharp edge (radius 0): no rounding, no
     Hertz contact. About 0.05 s.
     """
-    from fe_impact.gears.corner import corner_contact, face_edge_rounding, pinion_edge_rounding
+    from fe_impact.gears.corner import corner_contact, touching_edge
     from fe_impact.gears.tca import GearPair
     from fe_impact.switching.geometry import mesh_geometry
 
-    if side == "approach":
-        radius, edge = gearset.face_tip_edge_radius, face_edge_rounding
-    else:
-        radius, edge = gearset.pinion.tip_edge_radius, pinion_edge_rounding
+    radius, _, edge = touching_edge(gearset, side)
     if radius <= 0.0:
         return None
     line = mesh_geometry(gearset)

@@ -510,14 +510,11 @@ def _corner_key(gearset: GearSet, stage: int, side: str) -> str:
 def _solid_corner_table(gearset: GearSet, stage: int, side: str) -> CornerGap:
     """:func:`solid_corner_gaps`, computed."""
     from fe_impact.errors import GeometryError
-    from fe_impact.gears.corner import corner_gaps, face_edge_rounding, pinion_edge_rounding
+    from fe_impact.gears.corner import corner_gaps, touching_edge
     from fe_impact.gears.tca import GearPair
 
     flat = mesh_geometry(gearset)
-    if side == "approach":
-        radius, key, make = gearset.face_tip_edge_radius, "face_gear", face_edge_rounding
-    else:
-        radius, key, make = gearset.pinion.tip_edge_radius, "pinion", pinion_edge_rounding
+    radius, key, make = touching_edge(gearset, side)
     if radius <= 0.0:
         raise GeometryError(f"{key}.tip_edge_radius_mm = 0: the three-dimensional corner gaps "
                             "need rounded tip edges; give a radius > 0 or use the planar "

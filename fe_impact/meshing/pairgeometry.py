@@ -259,8 +259,9 @@ def _face_rounding_in_plane(flank: _FaceFlank, c: float, face_angle: float, tip:
     the flank, its centre and the tangency on the tip line (``(x, y)``, mesh
     frame). It is the section of the rounding of
     :func:`~fe_impact.gears.corner.face_edge_rounding` to first order in the
-    angle between the edge and the plane's normal; the mesh's nodes on it are
-    moved onto the exact rounding (:func:`snap_flanks`).
+    angle between the edge and the plane's normal (about 1 um off it); used
+    beyond the face, where the exact rounding is not defined and the ring cuts
+    the sector away.
     """
     from scipy.optimize import brentq
 
@@ -326,7 +327,9 @@ def _face_section(pair: GearPair, flank: _FaceFlank, face_angle: float, c: float
     ``neighbours`` more on each side (``i < 0`` towards ``+x``); the sector is
     cut half a pitch beyond its outer teeth. ``edge_radius`` > 0 rounds the
     placed tooth's plus flank's tip edge (piece ``round_plus_0`` between
-    ``tip_0`` and ``flank_plus_0``, :func:`_face_rounding_in_plane`).
+    ``tip_0`` and ``flank_plus_0``: :func:`_face_rounding_section` over the face,
+    the circle of :func:`_face_rounding_in_plane` beyond it, where the ring cuts
+    the sector).
     """
     f = pair.face
     pitch = 2 * np.pi / f.teeth
@@ -347,10 +350,8 @@ def _face_section(pair: GearPair, flank: _FaceFlank, face_angle: float, c: float
             if f.face_inner + edge_radius < c < f.face_outer - edge_radius:
                 arc = _face_rounding_section(pair, edge_radius, c, face_angle)
             else:   # beyond the face (the ring cuts it off): the circle in the plane
-                _, centre, land = _face_rounding_in_plane(flank, c, face_angle, f.tip_height,
+                h, centre, land = _face_rounding_in_plane(flank, c, face_angle, f.tip_height,
                                                           edge_radius)
-                h = _face_rounding_in_plane(flank, c, face_angle, f.tip_height,
-                                            edge_radius)[0]
                 end = _face_flank_at_plane(flank, c, np.array([h]), 0.0, 1, face_angle)[0]
                 arc = np.concatenate([_arc(centre, land[:2], end[:2]),
                                       np.full((_ARC_POINTS, 1), c)], axis=1)

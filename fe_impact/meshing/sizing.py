@@ -31,6 +31,7 @@ __all__ = [
     "MeshLevel",
     "PairDesign",
     "design_pair",
+    "edge_radii",
     "reference_size_field",
     "size_field",
 ]
@@ -127,12 +128,21 @@ def design_pair(gearset, spec: PairSpec, max_stretch: float | None = None,
     factor = float(np.clip(level.major_fraction * ellipse.a / minor, 1.0, cap))
     sizes = {"minor": minor, "major": factor * minor, "factor": factor,
              "far": level.far_modules * pair.pinion.module}
-    from fe_impact.meshing.toothpair import _edge_radii
-
-    radii = _edge_radii(gearset, spec)
     return PairDesign(pair=pair, analysis=analysis, sizes=sizes,
                       stretch=_stretch(analysis.contact, spec, ellipse, sizes, reach),
-                      edge_radii=radii)
+                      edge_radii=edge_radii(gearset, spec))
+
+
+def edge_radii(gearset, spec: PairSpec) -> tuple[float, float]:
+    """Tip-edge rounding radii [m] of the contacting flanks of the pinion and the face
+    gear: the touching edge's for a corner contact (the face gear's on the approach
+    side, the pinion's on the recess side), the others sharp, as for a flank contact:
+    those edges lie far from the contact, and a rounding there only costs elements."""
+    if spec.contact == "corner-approach":
+        return 0.0, gearset.face_tip_edge_radius
+    if spec.contact == "corner-recess":
+        return gearset.pinion.tip_edge_radius, 0.0
+    return 0.0, 0.0
 
 
 def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllipse,
@@ -203,8 +213,6 @@ def _edge_terms(design: PairDesign, to_space=None) -> list[tuple[float, str]]:
     from fe_impact.gears.corner import face_edge_rounding, pinion_edge_rounding
 
     analysis, pair = design.analysis, design.pair
-    if analysis.spec.contact == "flank":
-        return []
     radii = design.edge_radii
     terms = []
     for radius, centres in (

@@ -601,14 +601,11 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
     if spec.contact != "flank":
         # built in place, with sections refined around the corner contact: the solids
         # of one corner position serve no other
-        return add_sectors(model, design.pair, design.analysis,
-                           edge_radii=_edge_radii(gearset, spec))
+        return add_sectors(model, design.pair, design.analysis, edge_radii=design.edge_radii)
 
     # the version too: solids shared on disk (share_solids) outlive the process
-    fields = {k: getattr(spec, k) for k in _SOLID_FIELDS}
-    if spec.contact != "flank":   # rounded tip edges: other solids
-        fields["rounded"] = True
-    blob = json.dumps({"gearset": asdict(gearset), "version": __version__, **fields},
+    blob = json.dumps({"gearset": asdict(gearset), "version": __version__,
+                       **{k: getattr(spec, k) for k in _SOLID_FIELDS}},
                       sort_keys=True, default=repr)
     key = hashlib.sha256(blob.encode()).hexdigest()[:16]
     pair, analysis, occ = design.pair, design.analysis, model.occ
@@ -625,11 +622,10 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         # a mesh then depends on its own parameters only, not on which case
         # the process happened to build the solids for (measured before: a
         # coarse stage-3 position meshed to 82.5k or 159k DOFs by the order).
-        home = replace(spec, roll_angle_deg=0.0, gap=0.0, contact="flank")
+        home = replace(spec, roll_angle_deg=0.0, gap=0.0)
         pair_home, analysis_home = ((pair, analysis) if home == spec
                                     else analyse_stage_pair(gearset, home))
-        volumes, groups = add_sectors(model, pair_home, analysis_home,
-                                      edge_radii=_edge_radii(gearset, spec))
+        volumes, groups = add_sectors(model, pair_home, analysis_home)
         brep = _solids_dir() / f"{key}.brep"
         model.setVisibility(free_entities(model, [(3, t) for t in volumes.values()]), 0)
         gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 1)
@@ -653,19 +649,7 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         logger.warning("%s; building the sectors again", exc)
         occ.remove(model.getEntities(3), recursive=True)
         occ.synchronize()
-        return add_sectors(model, pair, analysis, edge_radii=_edge_radii(gearset, spec))
-
-
-def _edge_radii(gearset, spec: PairSpec) -> tuple[float, float]:
-    """Tip-edge rounding radii [m] of the contacting flanks of the pinion and the face
-    gear: the touching edge's for a corner contact (the face gear's on the approach
-    side, the pinion's on the recess side), the others sharp, as for a flank contact:
-    those edges lie far from the contact, and a rounding there only costs elements."""
-    if spec.contact == "corner-approach":
-        return 0.0, gearset.face_tip_edge_radius
-    if spec.contact == "corner-recess":
-        return gearset.pinion.tip_edge_radius, 0.0
-    return 0.0, 0.0
+        return add_sectors(model, pair, analysis)
 
 
 def _turned_solids(model, design: PairDesign, solids: _Solids

@@ -496,16 +496,16 @@ def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -
     ``v_y_eq15`` is the seed's eq. 15 (a solid sphere of the gear steel,
     independent of size and mass). ``v_y_tooth`` is the speed at which this
     tooth pair's Hertz impact (TCA ellipse, effective mass) reaches the
-    yield-onset pressure ``p0 = 1.6 Y``: the peak force grows as ``v^1.2``
-    and ``p0`` as ``F^(1/3)``, so ``v_y = v (1.6 Y / p0(v))^2.5``.
+    yield-onset pressure ``p0 = 1.6 Y`` (`fe_impact.physics.hertz.ellipse_yield_speed`).
     """
     from fe_impact.physics import hertz
 
     vy15 = hertz.yield_onset_speed(material.yield_strength, material.density,
                                    tca.effective_modulus)
-    ell, hit = tca.design_ellipse, tca.impact
-    p0 = ell.p0 * (hit.force_max / ell.force) ** (1.0 / 3.0)
-    vyt = tca.impact_speed * (1.6 * material.yield_strength / p0) ** 2.5
+    relative = tca.contact.relative
+    vyt = hertz.ellipse_yield_speed(tca.masses.effective_mass, 1.0 / relative.lambda_max,
+                                    1.0 / relative.lambda_min, tca.effective_modulus,
+                                    material.yield_strength)
     return {"v_y_eq15": vy15, "v_y_tooth": vyt,
             "yield_ratio_eq15": speed / vy15, "yield_ratio_tooth": speed / vyt,
             "seed_eq14": hertz.seed_restitution(speed / vy15),

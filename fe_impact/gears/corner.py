@@ -51,6 +51,7 @@ from fe_impact.gears.tca import (
 
 __all__ = [
     "CORNER_SIDES",
+    "REFERENCE_GAP",
     "CornerContact",
     "EdgeRounding",
     "corner_contact",
@@ -80,6 +81,12 @@ _TURN_STEPS = 20
 _TURN_TOL = 1e-14
 #: Sections of the refinement around each roll's least (:func:`_first_touch`).
 _REFINE = 17
+#: Planar corner gap [m] (the torsional model's, :mod:`fe_impact.switching.geometry`)
+#: at whose roll angle the first touch stands for the corner: a loaded mesh closes
+#: corner gaps of 2-30 um at mesh-in, over which the touch's relative radii change by
+#: a few per cent. ``fe-impact geometry`` reports the touch there, and the closed-form
+#: corner laws take its curvatures.
+REFERENCE_GAP = 10e-6
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from fe_impact.errors import GeometryError
+from fe_impact.gears.corner import REFERENCE_GAP
 from fe_impact.gears.facegear import FaceGearTooth
 from fe_impact.gears.gearset import GearSet
 from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
@@ -69,8 +70,8 @@ __all__ = [
 #: = radius where the top land is 0.2 mm ... rounded down to 0.5 mm").
 TOP_LAND_MIN = 0.2e-3
 #: Planar corner gap [m] at which the report compares the three-dimensional first
-#: touch with the torsional model's tables (approaches under load reach ~30 um).
-CORNER_REPORT_GAP = 10e-6
+#: touch with the torsional model's tables: the corner's reference gap.
+CORNER_REPORT_GAP = REFERENCE_GAP
 #: Width [rad] of the bracket the ends of the path of contact are bisected to
 #: (3e-12 m along the line of action of a 30 mm pinion).
 ROLL_TOLERANCE = 1e-10

@@ -98,12 +98,6 @@ MIN_CONTACT_TIME = 1e-9
 #: corner side (a stage has them only when that edge is rounded).
 FLANK_KINDS = ("mesh", "switch")
 CORNER_KINDS = {"approach": "corner-approach", "recess": "corner-recess"}
-#: Planar corner gap [m] at whose roll angle a closed-form corner law takes the
-#: edge's first touch and its curvatures: a loaded mesh closes corner gaps of
-#: 2-30 um at mesh-in; over that range the touch's relative radii change by a few
-#: per cent, the Hertz stiffness as their square root (`fe-impact geometry`
-#: reports the touch at this gap).
-CORNER_LAW_GAP = 10e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -294,12 +288,13 @@ def corner_radii(gearset: GearSet, stage_index: int, side: str) -> tuple[float, 
     The edge of ``side`` (``"approach"``: the face gear's on the pinion's
     involute; ``"recess"``: the pinion's on the face gear's flank) touches
     first at the roll angle where the torsional model's planar corner gap is
-    `CORNER_LAW_GAP` (`fe_impact.gears.corner.corner_contact`, whole face).
+    `fe_impact.gears.corner.REFERENCE_GAP` (`fe_impact.gears.corner.corner_contact`,
+    whole face).
     ``Rx`` is about the rounding's radius, ``Ry`` the radius along the edge
     against the flank's. None for a sharp edge (radius 0): no rounding, no
     Hertz contact. About 0.05 s.
     """
-    from fe_impact.gears.corner import corner_contact, touching_edge
+    from fe_impact.gears.corner import REFERENCE_GAP, corner_contact, touching_edge
     from fe_impact.gears.tca import GearPair
     from fe_impact.switching.geometry import mesh_geometry
 
@@ -307,7 +302,7 @@ def corner_radii(gearset: GearSet, stage_index: int, side: str) -> tuple[float, 
     if radius <= 0.0:
         return None
     line = mesh_geometry(gearset)
-    roll = float(line.corner_roll(side, getattr(line, side).delta_at(CORNER_LAW_GAP)))
+    roll = float(line.corner_roll(side, getattr(line, side).delta_at(REFERENCE_GAP)))
     pair = GearPair.from_gearset(gearset, stage_index + 1)
     touch = corner_contact(pair, edge(pair, radius), side, roll)
     return 1.0 / touch.relative.lambda_max, 1.0 / touch.relative.lambda_min

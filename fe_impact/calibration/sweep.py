@@ -228,6 +228,8 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
             raise CalibrationError(f"{name} {list(vals)}: need positive numbers")
     pin = gearset.pinion
     alpha = math.radians(pin.pressure_angle_deg)
+    base_radius = mesh_geometry(gearset).base_radius if switch in ("kinematic", "both") \
+        else None
     cases = []
     for s in stages:
         teeth = gearset.stages[s - 1].teeth
@@ -246,7 +248,7 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
                     cases.append(ImpactCase(s, teeth, "switch", vs, float(rpm)))
                 if switch in ("kinematic", "both"):
                     vk = switching_speed(w, pin.teeth, gearset.stages[s - 2].teeth, teeth,
-                                         mesh_geometry(gearset).base_radius)
+                                         base_radius)
                     cases.append(ImpactCase(s, teeth, "switch", vk, float(rpm), "kinematic"))
     _check_impact_speeds(cases, impact_speeds is not None)
     return cases

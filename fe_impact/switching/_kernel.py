@@ -471,7 +471,7 @@ def corner_law(tab, ntab, stage, table, speed):
 
 
 @njit(cache=True)
-def onset_law(tab, ntab, stage, kind, where, speed):
+def onset_law(ntab, stage, kind, where):
     """The law table an onset takes (LAW_*): the switch law for the first contact after a
     switch, a corner law for a touch on a tip edge (if the stage has one), else the
     flank's."""
@@ -557,7 +557,7 @@ def track_contacts(t0, t1, p, tab, ntab, slots, flanks, pairs, npairs, ev, run):
                         kind = KIND_RATTLE
                     where = contact_kind(pair.s, p)
                     speed = max(vc, 1e-12)
-                    used = onset_law(tab, ntab, eng, kind, where, speed)
+                    used = onset_law(ntab, eng, kind, where)
                     law, clamp = law_lookup(tab, ntab, eng, used, speed)
                     if clamp < 0:
                         run.clamp_low += 1

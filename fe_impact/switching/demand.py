@@ -168,9 +168,6 @@ def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
         except (OSError, ValueError, KeyError, TypeError):
             logger.warning("preset demand cache %s unreadable; running the presets again", path)
     if workers > 1 and len(presets) > 1:
-        # each process compiles the kernel into a folder of its own: two processes
-        # compiling one cached function into one folder can leave files that crash a
-        # later load (numba/numba#4807)
         with tempfile.TemporaryDirectory(prefix="fe-impact-numba-") as scratch:
             rows = _run_in_processes(gearset, presets, min(workers, len(presets)),
                                      Path(numba or scratch))

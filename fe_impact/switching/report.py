@@ -209,7 +209,7 @@ def _yield_speed(model: DriveModel, stage: int) -> float:
 
 def _clamp_lines(runs: dict[str, SwitchingRun]) -> list[str]:
     """The impacts whose closing speed left their law's table, and what the clamp did."""
-    from fe_impact.physics.laws import ImpactLaw, simulate_impact
+    from fe_impact.physics.laws import simulate_impact
 
     first = next(iter(runs.values()))
     model = first.model
@@ -249,8 +249,7 @@ def _clamp_lines(runs: dict[str, SwitchingRun]) -> list[str]:
                     cells += ["0", "-"]
                     continue
                 v = float(reduce(speed[mask]))
-                clamped = ImpactLaw(*(float(getattr(table, p)[end])
-                                      for p in ("k", "exponent", "cmax", "d")))
+                clamped = table.law(float(table.impact_speed[end]))   # the end's row
                 e = simulate_impact(clamped, mass, v).restitution
                 (worst_low if end == 0 else worst_high).append((v, e, st))
                 cells += [f"{int(mask.sum())} ({v * 1e3:.3g})", f"{e:.4f}"]

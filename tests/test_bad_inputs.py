@@ -361,6 +361,12 @@ CALIBRATE = [
     ("--positions a", calibrate("--positions", "a"), ["--positions", "comma-separated numbers"]),
     ("--positions and --no-mesh-cycle", calibrate("--positions", "3", "--no-mesh-cycle"),
      ["--positions and --no-mesh-cycle: give one or the other"]),
+    ("--corners and --no-mesh-cycle", calibrate("--corners", "--no-mesh-cycle"),
+     ["--corners and --no-mesh-cycle: the corner positions are part of the mesh cycle"]),
+    ("--corners with sharp tip edges",   # both radii to 0 (the old value left as a comment)
+     lambda d: [*gearset("tip_edge_radius_mm =", "tip_edge_radius_mm = 0.0 #", "calibrate")(d),
+                "--corners"],
+     ["--corners: the gear set's tip edges are sharp"]),
     ("pinion face width 300 mm (calibrate)",
      gearset("face_width_mm = 24.0", "face_width_mm = 300.0", "calibrate"),
      ["pinion.face_width = 300 mm"]),

@@ -150,3 +150,36 @@ def test_positions_off_the_path_are_refused():
 def test_bad_curve_forces_are_refused_before_any_work(forces, pattern):
     with pytest.raises(CalibrationError, match=pattern):
         meshcycle.PositionCase(1, 56, 0.0, forces)
+
+
+def test_corner_positions_stand_at_the_closed_form_corner_laws_touch():
+    # One case per stage and rounded edge, at the roll angle whose first touch the
+    # closed-form corner laws take, beyond the path's end on its side; the flank
+    # positions keep their ids and resume keys (no contact field in the key).
+    import dataclasses
+    import math as m
+
+    from fe_impact.switching.calibration import corner_reference_roll
+
+    gs = default_gearset()
+    cases = meshcycle.plan_corner_positions(gs)
+    assert sorted((c.stage, c.contact) for c in cases) == [
+        (s, f"corner-{side}") for s in (1, 2, 3) for side in ("approach", "recess")]
+    for c in cases:
+        side = c.contact.removeprefix("corner-")
+        assert c.roll_angle_deg == pytest.approx(m.degrees(corner_reference_roll(gs, side)),
+                                                 rel=1e-12)
+        lo, hi = sorted(meshcycle.path_of_contact(gs, c.stage))
+        # roll angles grow towards the face gear's tip (corner.flank_end_roll)
+        assert (c.roll_angle_deg > hi if side == "approach" else c.roll_angle_deg < lo)
+        assert c.contact in c.id and c.forces == meshcycle.plan_positions(gs, [c.stage])[0].forces
+    flank = meshcycle.PositionCase(1, 56, 2.0, (50.0, 100.0))
+    assert flank.id == "stage1_roll+2p000deg"
+    key = meshcycle.case_hash(flank, "coarse", 2, "x")
+    corner = dataclasses.replace(flank, contact="corner-recess")
+    assert corner.id == "stage1_corner-recess_roll+2p000deg"
+    assert meshcycle.case_hash(corner, "coarse", 2, "x") != key
+    with pytest.raises(CalibrationError, match="contact = 'tip'; pick one of"):
+        meshcycle.PositionCase(1, 56, 2.0, (50.0, 100.0), contact="tip")
+    sharp = dataclasses.replace(gs, face_tip_edge_radius=0.0)
+    assert {c.contact for c in meshcycle.plan_corner_positions(sharp)} == {"corner-recess"}

@@ -230,6 +230,10 @@ def test_the_position_law_is_read_and_the_older_schema_still_is(tmp_path):
     path.write_text(json.dumps({**_doc(), "mesh_cycle": {"1": LAW}}))
     cal = read_calibration(path, law_only=True)
     assert cal.schema == SCHEMA and cal.mesh_cycle["1"]["k"] == LAW["k"]
+    corners = {"recess": {"k": 4.0e9, "exponent": 1.37, "roll_angle_deg": -16.0}}
+    path.write_text(json.dumps({**_doc(), "mesh_cycle": {"1": {**LAW, "corners": corners}}}))
+    cal = read_calibration(path, law_only=True)
+    assert cal.mesh_cycle["1"]["corners"] == corners
     path.write_text(json.dumps({**_doc(), "schema": "fe-impact/calibration/1"}))
     old = read_calibration(path, law_only=True)
     assert old.schema == "fe-impact/calibration/1" and old.mesh_cycle is None
@@ -241,6 +245,12 @@ def test_the_position_law_is_read_and_the_older_schema_still_is(tmp_path):
      "[mesh_cycle.1] roll_angle_deg = [2.0, 1.0, 3.0]: must hold two or more rising angles"),
     ({**LAW, "exponent": [1.0, 0.0, 1.0]},
      "[mesh_cycle.1] exponent = [1.0, 0.0, 1.0]: must be positive"),
+    ({**LAW, "corners": {"tip": {"k": 1e9, "exponent": 1.3}}},
+     "[mesh_cycle.1.corners] tip = '...': corner sides are 'approach' and 'recess'"),
+    ({**LAW, "corners": {"recess": {"k": -1e9, "exponent": 1.3}}},
+     "[mesh_cycle.1.corners.recess] k = -1000000000.0: must be a positive number"),
+    ({**LAW, "corners": {"approach": {"k": 1e9}}},
+     "[mesh_cycle.1.corners.approach] exponent = None: must be a positive number"),
 ])
 def test_a_bad_position_law_is_refused_naming_the_key(tmp_path, law, message):
     path = tmp_path / "calibration.json"

@@ -118,3 +118,10 @@ def test_the_sweep_hands_out_impacts_stage_by_stage_then_positions():
     assert [c.speed_rpm for c in impacts] == [100.0] * 3 + [300.0] * 3 + [1000.0] * 3
     assert all(isinstance(c, PositionCase) for c in order[len(impacts):])
     assert order[len(impacts)].stage == 3
+    # corner positions (--corners), the longest cases, before everything
+    from fe_impact.calibration.meshcycle import plan_corner_positions
+
+    corners = plan_corner_positions(gs)
+    order = _sweep_order(plan_positions(gs, positions=3) + plan_cases(gs) + corners)
+    assert [c.contact for c in order[:6]] == ["corner-approach"] * 3 + ["corner-recess"] * 3
+    assert not any(getattr(c, "contact", "flank") != "flank" for c in order[6:])

@@ -684,6 +684,44 @@ def test_closed_form_corner_laws_take_the_rounded_edges_first_touch():
     assert "corner contacts take the flank's law" in none.source
 
 
+def test_fe_corner_positions_replace_the_roundings_hertz_stiffness(tmp_path):
+    # A calibration whose mesh cycle carries FE corner laws: the corner tables take
+    # their K and exponent; the rest of the law stays the closed form's.
+    from fe_impact.switching.calibration import _closed_form_table, closed_form_laws
+
+    masses = [DriveModel().effective_mass(s) for s in (1, 2, 3)]
+    cycle = {str(s): {"roll_angle_deg": [-14.0, 0.0, 18.0], "k": [5e9] * 3,
+                      "exponent": [1.35] * 3,
+                      "corners": {"recess": {"k": 4.0e9 * s, "exponent": 1.37}}}
+             for s in (1, 2, 3)}
+    law = {"k": 6.5e10, "exponent": 1.5, "cmax": 1.5e3, "d": 1e-6}
+    doc = {"schema": "fe-impact/calibration/2", "mesh_cycle": cycle,
+           "cases": [{"stage": s, "kind": "mesh", "impact_speed": 0.05, "impact": law}
+                     for s in (1, 2, 3)]}
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps(doc))
+    read = load_calibration(path, GEARSET, masses)
+    closed = closed_form_laws(GEARSET, masses)
+    for stage in (1, 2, 3):
+        recess = read.table(stage, "corner-recess")
+        assert np.all(recess.k == 4.0e9 * stage) and np.all(recess.exponent == 1.37)
+        assert recess.source.startswith("FE corner position")
+        approach = read.table(stage, "corner-approach")   # none measured: the closed form
+        assert np.array_equal(approach.k, closed.table(stage, "corner-approach").k)
+        assert any(f"stage {stage}: no 'corner-recess' impact case; the FE corner" in n
+                   for n in read.notes)
+    # the measured law's impact follows the energy balance of F = K delta^n; with the
+    # Hertz K and n = 3/2 it is seed eq. 16 (a separate formula), so the damping agrees
+    # to round-off
+    hertz_table = closed.table(1, "corner-recess")
+    from fe_impact.switching.calibration import corner_radii
+
+    again = _closed_form_table(GEARSET, 0, masses[0], "corner-recess",
+                               corner_radii(GEARSET, 0, "recess"),
+                               (float(hertz_table.k[0]), 1.5))
+    assert np.allclose(again.cmax, hertz_table.cmax, rtol=1e-12, atol=0.0)
+
+
 def test_pair_law_follows_where_the_pair_touches():
     # Before the path's start a pair takes the approach edge's stiffness, after its end
     # the recess edge's; without a corner law (NaN) the flank's, through the position law.

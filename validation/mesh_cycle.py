@@ -205,7 +205,7 @@ def first_touch_offset(gearset, text: str, case: PositionCase, level: str,
     key = meshcycle.case_hash(case, level, ORDER, text)
     pair_mesh = build_pair(gearset, case.stage, case.roll_angle_deg, level, ORDER,
                            meshcycle.PAIR_GAP, 0.1, cache / "meshes" / f"static_{key}",
-                           reuse=True, design_force=max(case.forces))
+                           reuse=True, design_force=max(case.forces), contact=case.contact)
     return smallest_weighted_gap(pair_mesh.mesh_path) - meshcycle.PAIR_GAP
 
 

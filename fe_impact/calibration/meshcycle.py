@@ -74,8 +74,16 @@ class PositionCase:
     roll_angle_deg: float
     forces: tuple[float, ...]           # normal forces of the load steps, N, rising
     end: str = ""                       # "first" / "last" for the path's ends
+    #: "flank", or a tip edge's first touch ("corner-approach", "corner-recess":
+    #: :attr:`~fe_impact.gears.pairanalysis.PairSpec.contact`) beyond the path
+    contact: str = "flank"
 
     def __post_init__(self) -> None:
+        from fe_impact.gears.pairanalysis import CONTACTS
+
+        if self.contact not in CONTACTS:
+            raise CalibrationError(f"mesh-cycle contact = {self.contact!r}; pick one of "
+                                   f"{list(CONTACTS)}")
         f = np.asarray(self.forces, dtype=float)
         if f.size == 0 or np.any(~np.isfinite(f)) or np.any(f <= 0) or np.any(np.diff(f) <= 0):
             raise CalibrationError(f"mesh-cycle forces {list(self.forces)}: need positive "
@@ -86,7 +94,8 @@ class PositionCase:
 
     @property
     def id(self) -> str:
-        return f"stage{self.stage}_roll{self.roll_angle_deg:+.3f}deg".replace(".", "p")
+        where = "" if self.contact == "flank" else f"_{self.contact}"
+        return f"stage{self.stage}{where}_roll{self.roll_angle_deg:+.3f}deg".replace(".", "p")
 
     @property
     def impact_speed(self) -> float:   # the sweep orders cases by size, then speed
@@ -121,6 +130,7 @@ class PositionRecord:
     n_dofs: int
     hash: str = ""
     timings_s: dict = field(default_factory=dict)
+    contact: str = "flank"         # PositionCase.contact
 
     def approach_at(self, force: float) -> float:
         """Approach (m) of the fitted law at ``force``."""
@@ -136,7 +146,7 @@ class PositionRecord:
     @classmethod
     def from_dict(cls, data: dict) -> PositionRecord:
         names = {f.name for f in fields(cls)}
-        missing = names - set(data) - {"hash", "timings_s"}
+        missing = names - set(data) - {"hash", "timings_s", "contact"}
         if data.get("schema") != SCHEMA or missing:
             raise CalibrationError(f"not a {SCHEMA} record (missing {sorted(missing)})")
         return cls(**{k: v for k, v in data.items() if k in names})
@@ -232,9 +242,39 @@ def plan_positions(gearset, stages: list[int] | None = None, positions: int | li
     return cases
 
 
+def plan_corner_positions(gearset, stages: list[int] | None = None,
+                          forces: tuple[float, ...] | None = None,
+                          top_force: float | None = None) -> list[PositionCase]:
+    """The corner cases: per stage, each rounded tip edge at its first touch.
+
+    The roll angle is where the closed-form corner laws take the touch
+    (:func:`~fe_impact.switching.calibration.corner_reference_roll`); the
+    forces are those of the flank positions (:func:`plan_positions`). A sharp
+    edge (radius 0) has no corner case.
+    """
+    from fe_impact.gears.corner import CORNER_SIDES, touching_edge
+    from fe_impact.switching.calibration import corner_reference_roll
+
+    stages = list(stages or range(1, len(gearset.stages) + 1))
+    cases = []
+    for side in CORNER_SIDES:
+        if touching_edge(gearset, side)[0] <= 0.0:
+            continue
+        roll = math.degrees(corner_reference_roll(gearset, side))
+        for s in stages:
+            f = forces if forces is not None else tuple(sorted({
+                round(nominal_force(gearset, s), 3), *curve_forces(top_force)}))
+            cases.append(PositionCase(s, gearset.stages[s - 1].teeth, roll, tuple(f),
+                                      contact=f"corner-{side}"))
+    return cases
+
+
 def case_hash(case: PositionCase, level: str, order: int, gearset_text: str) -> str:
     """Resume key of a position (case, mesh level, gear set, schema, version)."""
-    blob = json.dumps([asdict(case), level, order, gearset_text, SCHEMA, __version__],
+    key = asdict(case)
+    if key["contact"] == "flank":   # the key of the positions before corner positions
+        del key["contact"]
+    blob = json.dumps([key, level, order, gearset_text, SCHEMA, __version__],
                       sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
@@ -259,14 +299,15 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
     with limit_threads(1):
         pair_mesh = build_pair(gearset, case.stage, case.roll_angle_deg, level, order, PAIR_GAP,
                                0.1, Path(cache) / "meshes" / f"static_{key}", reuse=True,
-                               design_force=max(case.forces))
+                               design_force=max(case.forces), contact=case.contact)
         timings["mesh"] = time.perf_counter() - t0
         t = time.perf_counter()
         from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
 
         gear_pair, _ = analyse_stage_pair(gearset, PairSpec(
             stage=case.stage, roll_angle_deg=case.roll_angle_deg, level=level, order=order,
-            gap=PAIR_GAP, impact_speed=0.1, design_force=max(case.forces)))
+            gap=PAIR_GAP, impact_speed=0.1, design_force=max(case.forces),
+            contact=case.contact))
         fe_case = static_case(gearset, gear_pair, pair_mesh.analysis,
                               pair_mesh.case_path.with_name("static.toml"),
                               pair_mesh.mesh_path, case.forces)
@@ -308,7 +349,8 @@ def _measure(case: PositionCase, solver, result, analysis, key: str) -> Position
         edge=_edge_contact(solver, top),
         ellipse_outline=_cylindrical(_ellipse_points(analysis.contact.point, hertz[-1])),
         footprint=_footprint(mesh, top.pressure),
-        flank_edges=_flank_edges(mesh), n_dofs=int(result.info["n_dofs"]), hash=key)
+        flank_edges=_flank_edges(mesh), n_dofs=int(result.info["n_dofs"]), hash=key,
+        contact=case.contact)
 
 
 def fit_power_law(force: np.ndarray, approach: np.ndarray) -> tuple[float, float, float]:

@@ -49,9 +49,14 @@ def _by_stage(records: list[PositionRecord]) -> dict[int, list[PositionRecord]]:
     return out
 
 
-def position_law(records: list[PositionRecord]) -> dict:
-    """The position-dependent pair law per stage (``calibration.json``'s ``mesh_cycle``)."""
-    return {str(stage): {
+def position_law(records: list[PositionRecord],
+                 corners: list[PositionRecord] = ()) -> dict:
+    """The position-dependent pair law per stage (``calibration.json``'s ``mesh_cycle``).
+
+    ``corners``: the corner positions (:func:`~fe_impact.calibration.meshcycle.plan_corner_positions`),
+    each stage's under ``"corners"``, keyed by side (``"approach"``, ``"recess"``).
+    """
+    law = {str(stage): {
         "roll_angle_deg": [r.roll_angle_deg for r in recs],
         "k": [r.stiffness for r in recs],
         "exponent": [r.exponent for r in recs],
@@ -59,6 +64,14 @@ def position_law(records: list[PositionRecord]) -> dict:
         "nominal_stiffness": [r.nominal_stiffness for r in recs],
         "edge": [r.edge for r in recs],
     } for stage, recs in _by_stage(records).items()}
+    for r in corners:
+        if str(r.stage) in law:
+            law[str(r.stage)].setdefault("corners", {})[r.contact.removeprefix("corner-")] = {
+                "roll_angle_deg": r.roll_angle_deg, "k": r.stiffness, "exponent": r.exponent,
+                "fit_error": r.fit_error, "nominal_stiffness": r.nominal_stiffness,
+                "edge": r.edge, "n_dofs": r.n_dofs, "forces": r.forces,
+                "approaches": r.approaches, "hertz_approaches": r.hertz_approaches}
+    return law
 
 
 def cycles(records: list[PositionRecord], pitch_deg: float,
@@ -81,11 +94,15 @@ def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str
                      draw: Draw = draw_here) -> tuple[dict, Callable[[], list[str]]]:
     """Write the mesh-cycle files to ``out`` and start its pictures on ``draw``.
 
-    Returns :func:`position_law` and what waits for the pictures (the names of
+    ``records``: the positions along the path and any corner positions (kept
+    apart: ``mesh_cycle.json``'s ``corners``, the law's ``corners``; the cycle
+    and the pictures take the path's). Returns :func:`position_law` and what waits for the pictures (the names of
     those written).
     """
     from fe_impact.gears import gearset_from_dict
 
+    corners = [r for r in records if r.contact != "flank"]
+    records = [r for r in records if r.contact == "flank"]
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
     pitch = 360.0 / gearset.pinion.teeth
     stages = sorted({r.stage for r in records})
@@ -98,6 +115,7 @@ def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str
                   "K": "N/m^exponent", "nominal_stiffness": "N/m", "transmission_error": "m",
                   "mesh_stiffness": "N/m", "roll_deg": "deg"},
         "positions": [r.to_dict() for r in records],
+        "corners": [r.to_dict() for r in corners],
         "cycles": [c.to_dict() for c in results]})
     write_csv(out / "mesh_cycle.csv", list(CSV_COLUMNS), [
         [r.stage, r.roll_angle_deg, r.end, r.stiffness, r.exponent, r.fit_error,
@@ -108,7 +126,7 @@ def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str
                  for name, plot in (("contact_pattern.png", _plot_pattern),
                                     ("stiffness_along_path.png", _plot_stiffness),
                                     ("transmission_error.png", _plot_cycle))])
-    return position_law(records), wait
+    return position_law(records, corners), wait
 
 
 def report_lines(section: dict) -> list[str]:
@@ -129,7 +147,33 @@ def report_lines(section: dict) -> list[str]:
     lines += ["", "![contact pattern](contact_pattern.png)", "",
               "![stiffness along the path](stiffness_along_path.png)", "",
               "![transmission error](transmission_error.png)", ""]
-    return lines
+    return lines + _corner_lines(section)
+
+
+def _corner_lines(section: dict) -> list[str]:
+    """Markdown of the FE corner positions (``--corners``), if the section has them."""
+    rows = [(stage, side, c) for stage, law in section.items()
+            for side, c in sorted((law.get("corners") or {}).items())]
+    if not rows:
+        return []
+    lines = ["### The tip-edge corners", "",
+             "Quasi-static FE of each rounded tip edge's first touch (the roll angle of the "
+             "closed-form corner laws), measured like the positions: approach from first "
+             "touch, bending included. Its K and exponent replace the Hertz stiffness of the "
+             "rounding in the corner laws (restitution and damping stay closed forms). "
+             "Beside it, the Hertz approach of the rounding's ellipse alone (no bending), "
+             "the closed form's premise: a smaller FE approach means the contact does not "
+             "stay on the rounding (it spreads onto the flank beside it).", "",
+             "| stage | edge | roll (deg) | K | exponent | fit error | DOFs | FE / Hertz "
+             "approach at the forces (N) |", "|---|---|---|---|---|---|---|---|"]
+    for stage, side, c in rows:
+        ratios = ", ".join(f"{a / h:.2f} ({f:.0f})" for f, a, h in zip(
+            c.get("forces", []), c.get("approaches", []), c.get("hertz_approaches", []),
+            strict=True) if h > 0)
+        lines.append(f"| {stage} | {side} | {c['roll_angle_deg']:+.3f} | {c['k']:.4g} | "
+                     f"{c['exponent']:.3f} | {c['fit_error']:.1%} | {c.get('n_dofs', '-')} | "
+                     f"{ratios or '-'} |")
+    return lines + [""]
 
 
 # -- pictures -----------------------------------------------------------------------------

@@ -474,6 +474,28 @@ def _mesh_cycle(r: Reader, data: Mapping[str, Any], where: str) -> dict | None:
             if min(values) <= 0:
                 raise r.fail(w, key, list(values), "must be positive")
         out[stage] = {**law, "roll_angle_deg": list(roll), "k": list(k), "exponent": list(e)}
+        if law.get("corners") is not None:
+            out[stage]["corners"] = _corner_laws(r, law, w)
+    return out
+
+
+def _corner_laws(r: Reader, law: Mapping[str, Any], where: str) -> dict:
+    """A stage's FE corner laws: per tip-edge side, a positive ``k`` and ``exponent``."""
+    out = {}
+    for side, corner in r.table(law, where, "corners").items():
+        w = f"{where}.corners"
+        if side not in ("approach", "recess"):
+            raise r.fail(w, side, "...", "corner sides are 'approach' and 'recess'")
+        if not isinstance(corner, Mapping):
+            raise r.fail(w, side, corner, "must be an object with k and exponent")
+        values = {}
+        for key in ("k", "exponent"):
+            v = corner.get(key)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not (
+                    math.isfinite(v) and v > 0):
+                raise r.fail(f"{w}.{side}", key, v, "must be a positive number")
+            values[key] = float(v)
+        out[side] = {**corner, **values}
     return out
 
 

@@ -765,14 +765,22 @@ def _sweep_order(cases: list) -> list:
     speed), so that the workers start on different stages and build different
     sector solids, which they then share (:func:`~fe_impact.meshing.toothpair.share_solids`):
     with the stages one after the other both workers built stage 3's at once.
+    The corner positions (``--corners``) go before everything: a tip edge's
+    contact zone is long and finely meshed (a coarse approach corner: 223k
+    DOFs, 6 minutes), the face gear's edge (approach) before the pinion's.
     """
     rank: dict[int, list] = {}
     for c in sorted((c for c in cases if not isinstance(c, PositionCase)),
                     key=lambda c: c.impact_speed):
         rank.setdefault(c.stage, []).append(c.id)
+
+    def group(c) -> int:
+        if not isinstance(c, PositionCase):
+            return 2
+        return {"corner-approach": 0, "corner-recess": 1}.get(c.contact, 3)
+
     return sorted(cases, key=lambda c: (
-        isinstance(c, PositionCase),
-        0 if isinstance(c, PositionCase) else rank[c.stage].index(c.id),
+        group(c), 0 if isinstance(c, PositionCase) else rank[c.stage].index(c.id),
         -c.face_teeth, c.impact_speed))
 
 

@@ -109,6 +109,10 @@ TABLE: dict[str, tuple[tuple[str, str, float, str], ...]] = {
             (f"{side}.a_m", "  Hertz semi-axis a, nominal load [mm]", 1e3, ".4g"),
             (f"{side}.b_m", "  Hertz semi-axis b [mm]", 1e3, ".4g"),
             (f"{side}.max_pressure_Pa", "  max pressure p0 [MPa]", 1e-6, ".4g"),
+            (f"{side}.arc_margin_rad", "  touch to the rounding's nearer end [deg]", _DEG,
+             ".3f"),
+            (f"{side}.rounding_force_N", "  Hertz ellipse on the rounding up to [N]", 1.0,
+             ".3g"),
         )),
 }
 

@@ -144,6 +144,12 @@ def _parser() -> argparse.ArgumentParser:
                         "at the given pinion roll angles (deg, comma-separated)")
     c.add_argument("--no-mesh-cycle", action="store_true",
                    help="impacts only: no single-pair curves along the path of contact")
+    c.add_argument("--corners", action="store_true",
+                   help="mesh cycle: also the quasi-static load-approach of each rounded tip "
+                        "edge's first touch (the face gear's before the path, the pinion's "
+                        "after it, at the corner gap of the closed-form corner laws); their "
+                        "fitted stiffness and exponent replace the closed form's in the corner "
+                        "laws (about 30 s a recess and 2 min an approach corner at coarse)")
     c.add_argument("--no-switching", action="store_true",
                    help="do not end with the seed's switching studies (Tables 1-4 and the two "
                         "switching runs, about 20 s on two workers) on the calibration")
@@ -287,6 +293,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)
         if args.no_mesh_cycle and args.positions is not None:
             raise CalibrationError("--positions and --no-mesh-cycle: give one or the other")
+        if args.no_mesh_cycle and args.corners:
+            raise CalibrationError("--corners and --no-mesh-cycle: the corner positions are "
+                                   "part of the mesh cycle; give one or the other")
 
         def positions(impacts: list) -> list:
             if args.no_mesh_cycle:
@@ -300,8 +309,18 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             top = max((1.25 * hertz_impact_estimate(gearset, c.stage, settings.roll_angle_deg,
                                                     c.impact_speed).force_max for c in impacts),
                       default=None)
-            return plan_positions(gearset, args.stages, args.positions if args.positions
-                                  is not None else DEFAULT_POSITIONS, top_force=top)
+            flank = plan_positions(gearset, args.stages, args.positions if args.positions
+                                   is not None else DEFAULT_POSITIONS, top_force=top)
+            if not args.corners:
+                return flank
+            from fe_impact.calibration.meshcycle import plan_corner_positions
+
+            corners = plan_corner_positions(gearset, args.stages, top_force=top)
+            if not corners:
+                raise CalibrationError("--corners: the gear set's tip edges are sharp "
+                                       "(tip_edge_radius_mm = 0 on the pinion and the face "
+                                       "gears): there is no rounding to touch")
+            return flank + corners
 
         cycle = positions(cases)    # checks the options before the presets run
         studies = () if args.no_switching else _seed_studies(gearset, args.stages)

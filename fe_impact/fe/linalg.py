@@ -17,6 +17,7 @@ Two tools, both on Intel MKL PARDISO (shipped by the ``pypardiso`` wheel):
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import logging
@@ -200,6 +201,11 @@ class SPDSolver:
             pass
 
 
+#: Rows of a dense Cholesky factorisation above which it runs on one BLAS
+#: thread (:func:`schur_cholesky`).
+THREADED_CHOLESKY_LIMIT = 4096
+
+
 def schur_cholesky(S: np.ndarray) -> np.ndarray:
     """Lower Cholesky factor of a Schur complement returned by :class:`SPDSolver`.
 
@@ -208,17 +214,28 @@ def schur_cholesky(S: np.ndarray) -> np.ndarray:
     view, the same matrix since PARDISO returns ``S`` exactly symmetric, and
     no copy is made.
 
+    OpenBLAS's threaded Cholesky crashes (SIGSEGV in its threaded rank-k
+    update) on large matrices, a known fault of several of its releases
+    (OpenBLAS issues 352, 1413, 2821): a 238k-DOF corner contact's condensed
+    zone crashed ``fe-impact`` on two threads and runs on one. Above
+    :data:`THREADED_CHOLESKY_LIMIT` rows the factorisation therefore runs on one
+    BLAS thread (the calibration's workers run on one anyway).
+
     Raises
     ------
     SolverError
         If ``S`` is not positive definite.
     """
     from scipy.linalg import lapack
+    from threadpoolctl import threadpool_limits
 
     if S.size == 0:
         return np.zeros((0, 0))
-    c, info = lapack.dpotrf(S.T if S.flags.c_contiguous else S, lower=1, clean=1,
-                            overwrite_a=1)
+    single = threadpool_limits(1, user_api="blas") if len(S) > THREADED_CHOLESKY_LIMIT \
+        else contextlib.nullcontext()
+    with single:
+        c, info = lapack.dpotrf(S.T if S.flags.c_contiguous else S, lower=1, clean=1,
+                                overwrite_a=1)
     if info != 0:
         raise SolverError("the condensed contact stiffness is not positive definite: "
                           "a body touching the contact zone is not supported")

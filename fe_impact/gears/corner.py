@@ -314,6 +314,11 @@ class CornerContact:
     foot : tuple of float
         The touch on the mating flank in its own parameters: ``(u, theta)`` on the
         pinion (approach), ``(L, h)`` on the face gear (recess).
+    arc_margin : float
+        Angle [rad] from the touch to the nearer end of the rounding's arc (its
+        tangency with the flank or the tip land), 0 beyond the arc: the Hertz
+        contact stays on the rounding while its half-width across the edge is
+        below ``radius * arc_margin`` (:meth:`rounding_force`).
     """
 
     side: str
@@ -329,10 +334,19 @@ class CornerContact:
     flank: PrincipalCurvatures
     relative: RelativeCurvature
     foot: tuple[float, float] = (math.nan, math.nan)
+    arc_margin: float = math.nan
 
     def ellipse(self, force: float, e_star: float) -> ContactEllipse:
         """Hertz ellipse of the touch under ``force`` [N] (``E*`` [Pa])."""
         return contact_ellipse(self.relative, force, e_star)
+
+    def rounding_force(self, radius: float, e_star: float) -> float:
+        """Largest force [N] whose Hertz ellipse stays on the rounding of ``radius`` [m]:
+        its half-width across the edge (the minor semi-axis, the rounding's curvature
+        being the larger) reaches the arc's nearer end, ``radius * arc_margin``.
+        Hertz widths grow as ``F^(1/3)``."""
+        b1 = self.ellipse(1.0, e_star).b
+        return (radius * self.arc_margin / b1) ** 3
 
     def to_dict(self) -> dict[str, object]:
         """JSON-friendly record (SI units, angles in rad)."""
@@ -340,6 +354,7 @@ class CornerContact:
             "side": self.side, "roll_angle_rad": self.roll_angle, "gap_m": self.gap,
             "turn_rad": self.turn, "section_m": self.section, "point_m": self.point.tolist(),
             "normal": self.normal.tolist(), "on_rounding": self.on_rounding,
+            "arc_margin_rad": self.arc_margin,
             "at_edge_end": self.at_edge_end,
             "edge_curvatures_1_m": self.edge.kappa.tolist(),
             "flank_curvatures_1_m": self.flank.kappa.tolist(),
@@ -553,11 +568,14 @@ def _touch(c: _Corner, i: int, turn: float, gap: float, section: float, at_end: 
     flank = flank.rotated(moved)
     normal = moved @ normals[i]
     # the rounding's outward normal at the touch, in the held member's frame
-    on_arc = _between(held.T @ (-normal), edge.flank_normals[i], edge.land_normals[i])
+    outward = held.T @ (-normal)
+    on_arc = _between(outward, edge.flank_normals[i], edge.land_normals[i])
+    margin = min(math.acos(min(1.0, abs(float(outward @ n)))) for n in
+                 (edge.flank_normals[i], edge.land_normals[i])) if on_arc else 0.0
     rounding = _edge_curvatures(edge, i, held, -normal)
     relative = relative_curvature(flank, rounding)
     return CornerContact(c.side, roll, gap, turn, section, point, normal, on_arc, at_end,
-                         rounding, flank, relative, (float(a[i]), float(b[i])))
+                         rounding, flank, relative, (float(a[i]), float(b[i])), margin)
 
 
 def _edge_curvatures(edge: EdgeRounding, i: int, to_mesh: NDArray, outward: NDArray

@@ -386,6 +386,10 @@ def _corners(gearset: GearSet, pair: GearPair, pitch: dict, line) -> dict:
             "a_m": ellipse.a,
             "b_m": ellipse.b,
             "max_pressure_Pa": ellipse.p0,
+            # beyond this force the Hertz ellipse runs off the rounding's arc (onto the
+            # flank beside it, or the tip land): the closed form no longer describes it
+            "arc_margin_rad": touch.arc_margin,
+            "rounding_force_N": touch.rounding_force(radius, e_star),
         }
     return rows
 

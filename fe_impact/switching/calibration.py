@@ -77,6 +77,7 @@ __all__ = [
     "closed_form_laws",
     "contact_radii",
     "corner_radii",
+    "corner_reference_roll",
     "load_calibration",
     "laws_for",
 ]
@@ -282,6 +283,18 @@ def contact_radii(gearset: GearSet, stage_index: int) -> tuple[float, float]:
 
 
 @lru_cache(maxsize=64)
+def corner_reference_roll(gearset: GearSet, side: str) -> float:
+    """Pinion roll angle [rad] at which a tip edge's first touch stands for the corner
+    of ``side``: where the torsional model's planar corner gap is
+    `fe_impact.gears.corner.REFERENCE_GAP` (the same for every stage: the pinion's
+    line of action)."""
+    from fe_impact.gears.corner import REFERENCE_GAP
+    from fe_impact.switching.geometry import mesh_geometry
+
+    line = mesh_geometry(gearset)
+    return float(line.corner_roll(side, getattr(line, side).delta_at(REFERENCE_GAP)))
+
+
 def corner_radii(gearset: GearSet, stage_index: int, side: str) -> tuple[float, float] | None:
     """Principal relative radii ``(Rx, Ry)`` [m] of a rounded tip edge's first touch.
 
@@ -294,24 +307,30 @@ def corner_radii(gearset: GearSet, stage_index: int, side: str) -> tuple[float, 
     against the flank's. None for a sharp edge (radius 0): no rounding, no
     Hertz contact. About 0.05 s.
     """
-    from fe_impact.gears.corner import REFERENCE_GAP, corner_contact, touching_edge
+    from fe_impact.gears.corner import corner_contact, touching_edge
     from fe_impact.gears.tca import GearPair
-    from fe_impact.switching.geometry import mesh_geometry
 
     radius, _, edge = touching_edge(gearset, side)
     if radius <= 0.0:
         return None
-    line = mesh_geometry(gearset)
-    roll = float(line.corner_roll(side, getattr(line, side).delta_at(REFERENCE_GAP)))
+    roll = corner_reference_roll(gearset, side)
     pair = GearPair.from_gearset(gearset, stage_index + 1)
     touch = corner_contact(pair, edge(pair, radius), side, roll)
     return 1.0 / touch.relative.lambda_max, 1.0 / touch.relative.lambda_min
 
 
 def _closed_form_table(gearset: GearSet, stage_index: int, effective_mass: float,
-                       kind: str, radii: tuple[float, float] | None = None) -> LawTable:
+                       kind: str, radii: tuple[float, float] | None = None,
+                       stiffness: tuple[float, float] | None = None,
+                       source: str = "closed form") -> LawTable:
     """Seed eqs. 12-17 at the speeds `CLOSED_FORM_SPEEDS` for the contact of principal
     relative radii ``radii`` (default: the flanks' design point, `contact_radii`).
+
+    ``stiffness``: ``(K, exponent)`` measured (an FE corner position) instead of the
+    Hertz ellipse's; the impact's approach then follows the energy balance of
+    ``F = K delta^exponent`` (``m v^2 / 2 = K delta^(n+1) / (n+1)``), and the
+    penetration depth ``d`` is that approach at the impact's peak force (for the
+    Hertz law, eq. 17 gives the sphere's).
 
     The flanks' restitution is the seed's: eq. 14 with eq. 15's yield-onset speed
     (a sphere's, 0.087 m/s for the seed's steel). A tip edge's (``radii`` given)
@@ -329,24 +348,42 @@ def _closed_form_table(gearset: GearSet, stage_index: int, effective_mass: float
            if radii is None else
            hertz.ellipse_yield_speed(effective_mass, Rx, Ry, E_star, material.yield_strength))
     speeds = CLOSED_FORM_SPEEDS
-    hits = hertz.impact_from_stiffness(effective_mass, speeds, k)  # eq. 16, per speed
-    cmax = [seed.damping(k, seed.restitution(v / v_y), v, dm)
-            for v, dm in zip(speeds, hits.delta_max, strict=True)]
-    d = [seed.penetration_depth(f, math.sqrt(Rx * Ry), E_star) for f in hits.force_max]
     n = speeds.size
-    return LawTable(stage_index + 1, kind, speeds, np.full(n, k), np.full(n, 1.5),
-                    np.asarray(cmax), np.asarray(d), "closed form")
+    if stiffness is None:
+        hits = hertz.impact_from_stiffness(effective_mass, speeds, k)  # eq. 16, per speed
+        cmax = [seed.damping(k, seed.restitution(v / v_y), v, dm)
+                for v, dm in zip(speeds, hits.delta_max, strict=True)]
+        d = [seed.penetration_depth(f, math.sqrt(Rx * Ry), E_star) for f in hits.force_max]
+        return LawTable(stage_index + 1, kind, speeds, np.full(n, k), np.full(n, 1.5),
+                        np.asarray(cmax), np.asarray(d), source)
+    k, a = stiffness
+    delta = ((a + 1.0) * effective_mass * speeds**2 / (2.0 * k)) ** (1.0 / (a + 1.0))
+    cmax = [seed.damping(k, seed.restitution(v / v_y), v, dm, a)
+            for v, dm in zip(speeds, delta, strict=True)]
+    return LawTable(stage_index + 1, kind, speeds, np.full(n, k), np.full(n, a),
+                    np.asarray(cmax), delta, source)
 
 
-def closed_form_corner_tables(gearset: GearSet, effective_masses: Sequence[float]
-                              ) -> dict[tuple[int, str], LawTable]:
-    """Closed-form tables of the corner kinds, for every stage and rounded edge."""
+def closed_form_corner_tables(gearset: GearSet, effective_masses: Sequence[float],
+                              measured: Mapping[tuple[int, str], tuple[float, float]]
+                              | None = None) -> dict[tuple[int, str], LawTable]:
+    """Closed-form tables of the corner kinds, for every stage and rounded edge.
+
+    ``measured``: ``(stage, kind) -> (K, exponent)`` of FE corner positions
+    (a calibration's ``mesh_cycle`` corners), which replace the Hertz
+    stiffness of the rounding in those tables (`_closed_form_table`).
+    """
     tables = {}
     for i, mass in enumerate(effective_masses):
         for side, kind in CORNER_KINDS.items():
             radii = corner_radii(gearset, i, side)
-            if radii is not None:
-                tables[(i + 1, kind)] = _closed_form_table(gearset, i, mass, kind, radii)
+            if radii is None:
+                continue
+            law = (measured or {}).get((i + 1, kind))
+            tables[(i + 1, kind)] = _closed_form_table(
+                gearset, i, mass, kind, radii, law,
+                "closed form" if law is None else
+                "FE corner position (K, exponent) with the closed-form restitution")
     return tables
 
 
@@ -474,8 +511,9 @@ def load_calibration(path: str | Path, gearset: GearSet,
                 check_integrable(table, float(effective_masses[stage - 1]))
     notes = []
     fallback = None
+    measured = _measured_corners(calibration.mesh_cycle, len(gearset.stages))
     corners = ({} if effective_masses is None
-               else closed_form_corner_tables(gearset, effective_masses))
+               else closed_form_corner_tables(gearset, effective_masses, measured))
     for stage in range(1, len(gearset.stages) + 1):
         present = [k for k in FLANK_KINDS if (stage, k) in tables]
         if not present:
@@ -495,7 +533,13 @@ def load_calibration(path: str | Path, gearset: GearSet,
         for kind in CORNER_KINDS.values():
             if (stage, kind) in tables:
                 continue
-            if (stage, kind) in corners:
+            if (stage, kind) in corners and (stage, kind) in measured:
+                tables[(stage, kind)] = corners[(stage, kind)]
+                k, a = measured[(stage, kind)]
+                notes.append(f"stage {stage}: no {kind!r} impact case; the FE corner "
+                             f"position's K = {k:.4g} N/m^{a:.4g} with the closed-form "
+                             "restitution of the rounded tip edge used")
+            elif (stage, kind) in corners:
                 tables[(stage, kind)] = corners[(stage, kind)]
                 notes.append(f"stage {stage}: no {kind!r} case, the closed-form law of the "
                              "rounded tip edge used")
@@ -523,6 +567,17 @@ def load_calibration(path: str | Path, gearset: GearSet,
         source += (" (pair stiffness and exponent along the path of contact from its mesh "
                    f"cycle, stages {sorted(positions)}; damping from the impacts)")
     return LawSet(tables, source, tuple(notes), positions)
+
+
+def _measured_corners(mesh_cycle, n_stages: int) -> dict[tuple[int, str], tuple[float, float]]:
+    """The mesh cycle's FE corner laws: ``(stage, kind) -> (K, exponent)``."""
+    out = {}
+    for key, law in (mesh_cycle or {}).items():
+        if int(key) <= n_stages:
+            for side, corner in (law.get("corners") or {}).items():
+                out[(int(key), CORNER_KINDS[side])] = (float(corner["k"]),
+                                                       float(corner["exponent"]))
+    return out
 
 
 def _positions(mesh_cycle, n_stages: int) -> dict[int, tuple[np.ndarray, ...]]:

@@ -175,3 +175,27 @@ def test_the_meshed_rounding_section_lies_on_the_exact_rounding():
         assert arc[0, 1] == pytest.approx(pair.face.tip_height, abs=1e-12)
         flank = _face_flank_at_plane(_FaceFlank(pair.face), c, arc[-1:, 1], 0.0, 1, 0.0)[0]
         np.testing.assert_allclose(flank, arc[-1], atol=1e-12)
+
+
+def test_the_arc_margin_is_the_angle_to_the_roundings_nearer_end():
+    # Independent of the module's own angle: sample the rounding's arc in the touching
+    # section (validation.corner_gaps' samples, whose first and last points are the
+    # tangencies with the flank and the tip land) and measure, along the arc, how far
+    # the sample nearest the touch lies from each end. 2000 samples over ~110 deg:
+    # 0.06 deg apart, so agreement to 0.1 deg. And the Hertz ellipse at
+    # rounding_force is exactly as wide across the edge as the arc left: b =
+    # rho * margin (b ~ F^(1/3) is Hertz's own scaling, so to round-off).
+    rho = GEARSET.face_tip_edge_radius
+    edge = face_edge_rounding(PAIR, rho, n=241)
+    touch = corner_contact(PAIR, edge, "approach", _roll("approach", 5e-4))
+    i = int(np.argmin(np.abs(edge.parameter - touch.section)))
+    arc = arc_samples(edge, 2000).reshape(len(edge.parameter), 2000, 3)[i]
+    arc = PAIR.face_to_mesh(arc, PAIR.nominal_face_angle(touch.roll_angle))  # held there
+    k = int(np.argmin(np.linalg.norm(arc - touch.point, axis=-1)))
+    steps = np.linalg.norm(np.diff(arc, axis=0), axis=-1)
+    to_ends = (steps[:k].sum() / rho, steps[k:].sum() / rho)
+    assert touch.arc_margin == pytest.approx(min(to_ends), abs=math.radians(0.1))
+    assert 0.0 < touch.arc_margin < math.radians(10.0)     # near the flank's tangency
+    e_star = 1.1566e11
+    force = touch.rounding_force(rho, e_star)
+    assert touch.ellipse(force, e_star).b == pytest.approx(rho * touch.arc_margin, rel=1e-9)

@@ -281,3 +281,28 @@ def test_ellipse_yield_speed_is_the_spheres_for_a_sphere_and_reaches_yield():
     k = 1.0 / hertz.ellipse_contact(1.0, Rx, Ry, E_star).delta ** 1.5
     force = float(hertz.impact_from_stiffness(m, v_y, k).force_max)
     assert hertz.ellipse_contact(force, Rx, Ry, E_star).p0 == pytest.approx(1.6 * Y, rel=1e-9)
+
+
+def test_layer_compression_of_an_ellipse():
+    # Circle (a = b): the axisymmetric closed form u(0) - u(z) (Johnson 1985, 3.4,
+    # hertz.axial_displacement), to the quadrature's 1e-9. A slender ellipse
+    # (ellipse_contact's, b/a ~ 0.03): for z >> a the layer holds the whole surface
+    # displacement u(0) = delta / 2 (two identical bodies) less Boussinesq's far
+    # field P (1 + nu)(3 - 2 nu) / (2 pi E z), whose next term is O((a/z)^2) of it:
+    # at z = 100 a, 1e-4 of the far field, 1e-6 of the whole.
+    E, nu, p0 = 212e9, 0.289, 1e9
+    for z in (1e-6, 2e-5, 1e-3):
+        circle = hertz.axial_displacement(0.0, 1e-4, p0, E, nu) - \
+            hertz.axial_displacement(z, 1e-4, p0, E, nu)
+        assert hertz.ellipse_layer_compression(z, 1e-4, 1e-4, p0, E, nu) == \
+            pytest.approx(circle, rel=1e-9)
+    e_star = hertz.effective_modulus(E, nu)
+    c = hertz.ellipse_contact(50.0, 1e-4, 0.4, e_star)
+    a, b = max(c.a, c.b), min(c.a, c.b)
+    assert b < 0.05 * a
+    z = 100.0 * a
+    far = 50.0 * (1.0 + nu) * (3.0 - 2.0 * nu) / (2.0 * np.pi * E * z)
+    assert hertz.ellipse_layer_compression(z, a, b, c.p0, E, nu) == \
+        pytest.approx(0.5 * c.delta - far, rel=1e-5)
+    with pytest.raises(ValueError, match="z must be finite and > 0"):
+        hertz.ellipse_layer_compression(0.0, a, b, p0, E, nu)

@@ -28,6 +28,8 @@ STUDIES = [
     pytest.param("bench_dynamic", marks=pytest.mark.slow),
     # its check counts projections, not seconds: a failure is not the machine's
     pytest.param("bench_static_pair", marks=pytest.mark.slow),
+    # three minutes and 6.4 GB: the finest of the corner's refinements
+    pytest.param("corner_contact", marks=pytest.mark.slow),
 ]
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ("hertz_static", "hertz_impact", "plastic_impact", "mesh_cycle", "two_pair",
-           "corner_gaps", "bench_static", "bench_dynamic", "bench_static_pair", "bench_switching",
+           "corner_gaps", "corner_contact", "bench_static", "bench_dynamic", "bench_static_pair", "bench_switching",
            "bench_sweep")
 
 

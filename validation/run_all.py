@@ -17,8 +17,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ("hertz_static", "hertz_impact", "plastic_impact", "mesh_cycle", "two_pair",
-           "corner_gaps", "corner_contact", "bench_static", "bench_dynamic", "bench_static_pair", "bench_switching",
-           "bench_sweep")
+           "corner_gaps", "corner_contact", "bench_static", "bench_dynamic",
+           "bench_static_pair", "bench_switching", "bench_sweep")
 
 
 def run_study(name: str, out: Path, quick: bool) -> tuple[int, str, float]:

@@ -53,8 +53,9 @@ def position_law(records: list[PositionRecord],
                  corners: list[PositionRecord] = ()) -> dict:
     """The position-dependent pair law per stage (``calibration.json``'s ``mesh_cycle``).
 
-    ``corners``: the corner positions (:func:`~fe_impact.calibration.meshcycle.plan_corner_positions`),
-    each stage's under ``"corners"``, keyed by side (``"approach"``, ``"recess"``).
+    ``corners``: the corner positions
+    (:func:`~fe_impact.calibration.meshcycle.plan_corner_positions`), each stage's
+    under ``"corners"``, keyed by side (``"approach"``, ``"recess"``).
     """
     law = {str(stage): {
         "roll_angle_deg": [r.roll_angle_deg for r in recs],
@@ -96,8 +97,8 @@ def write_mesh_cycle(out: Path, records: list[PositionRecord], gearset_text: str
 
     ``records``: the positions along the path and any corner positions (kept
     apart: ``mesh_cycle.json``'s ``corners``, the law's ``corners``; the cycle
-    and the pictures take the path's). Returns :func:`position_law` and what waits for the pictures (the names of
-    those written).
+    and the pictures take the path's). Returns :func:`position_law` and what waits
+    for the pictures (the names of those written).
     """
     from fe_impact.gears import gearset_from_dict
 

@@ -72,3 +72,42 @@ def test_the_demand_is_counted_per_stage_and_law_and_cached(tmp_path, monkeypatc
     assert calls == ["a", "b"] and again == got           # from the cache
     D.preset_demand(gearset, ["a"], workers=1)            # other presets: run again
     assert calls == ["a", "b", "a"]
+
+
+def test_corner_impacts_strike_each_rounded_edge_at_the_presets_speeds():
+    # Per stage and struck edge: the median and the largest closing speed to two
+    # digits, one case when they round alike; an edge the presets never struck and a
+    # sharp edge get none.
+    import dataclasses
+
+    gearset = default_gearset()
+    demand = D.Demand(("x",), {
+        1: {"corner-approach": D.LawDemand(45, 0.003, 0.02375, 0.04775, 447.0),
+            "corner-recess": D.LawDemand(95, 0.0002, 0.0109, 0.0111, 458.0)},
+        2: {"mesh": D.LawDemand(9, 0.001, 0.01, 0.1, 1.0)}})
+    cases, lines = D.corner_impacts(demand, gearset, [1, 2])
+    assert [(c.stage, c.kind, c.impact_speed) for c in cases] == [
+        (1, "corner-approach", 0.024), (1, "corner-approach", 0.048),
+        (1, "corner-recess", 0.011)]
+    assert cases[0].id == "stage1_corner-approach_24mms"
+    assert sum("never struck" in line for line in lines) == 2     # stage 2's two edges
+    sharp = dataclasses.replace(gearset, face_tip_edge_radius=0.0)
+    cases, lines = D.corner_impacts(demand, sharp, [1])
+    assert [c.kind for c in cases] == ["corner-recess"]
+    assert any("sharp edge" in line for line in lines)
+
+
+def test_a_corner_impact_strikes_where_the_corner_laws_take_the_touch():
+    from fe_impact.calibration.sweep import ImpactCase, Settings, case_contact
+    from fe_impact.switching.calibration import corner_reference_roll
+
+    gearset = default_gearset()
+    settings = Settings(roll_angle_deg=0.0)
+    assert case_contact(ImpactCase(1, 56, "mesh", 0.01), settings, gearset) == ("flank", 0.0)
+    assert case_contact(ImpactCase(2, 68, "switch", 0.1), settings, gearset) == ("flank", 0.0)
+    for side in ("approach", "recess"):
+        contact, roll = case_contact(ImpactCase(1, 56, f"corner-{side}", 0.01), settings,
+                                     gearset)
+        assert contact == f"corner-{side}"
+        assert roll == pytest.approx(math.degrees(corner_reference_roll(gearset, side)),
+                                     rel=1e-12)

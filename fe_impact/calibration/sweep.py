@@ -330,15 +330,15 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     mesh_dir = Path(cache) / "meshes" / key
     timings = {}
     # One worker per core: keep the sparse solver on one thread.
+    contact, roll = case_contact(case, settings, gearset)
     with limit_threads(1):
         t = time.perf_counter()
         gap = settings.gap
         if gap is None:
-            hit = hertz_impact_estimate(gearset, case.stage, settings.roll_angle_deg,
-                                        case.impact_speed)
+            hit = hertz_impact_estimate(gearset, case.stage, roll, case.impact_speed, contact)
             gap = min(MAX_GAP, GAP_FRACTION * hit.delta_max)
-        pair = build_pair(gearset, case.stage, settings.roll_angle_deg, settings.level,
-                          settings.order, gap, case.impact_speed, mesh_dir, reuse=True)
+        pair = build_pair(gearset, case.stage, roll, settings.level, settings.order, gap,
+                          case.impact_speed, mesh_dir, reuse=True, contact=contact)
         timings["mesh"] = time.perf_counter() - t
         t = time.perf_counter()
         fe_case = calibration_case(pair, settings)
@@ -376,6 +376,18 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     record = replace(record, timings_s=timings)
     write_record(folder / "result.json", record)
     return record
+
+
+def case_contact(case: ImpactCase, settings: Settings, gearset) -> tuple[str, float]:
+    """Where an impact strikes: ``("flank", settings' roll angle)``, or for a corner
+    kind the rounded tip edge's first touch at the closed-form corner laws' roll
+    angle (:func:`~fe_impact.switching.calibration.corner_reference_roll`, deg)."""
+    if not case.kind.startswith("corner-"):
+        return "flank", settings.roll_angle_deg
+    from fe_impact.switching.calibration import corner_reference_roll
+
+    return case.kind, math.degrees(corner_reference_roll(gearset, case.kind.removeprefix(
+        "corner-")))
 
 
 def _contact_picture(out: str, record: CalibrationRecord) -> None:
@@ -765,9 +777,10 @@ def _sweep_order(cases: list) -> list:
     speed), so that the workers start on different stages and build different
     sector solids, which they then share (:func:`~fe_impact.meshing.toothpair.share_solids`):
     with the stages one after the other both workers built stage 3's at once.
-    The corner positions (``--corners``) go before everything: a tip edge's
-    contact zone is long and finely meshed (a coarse approach corner: 223k
-    DOFs, 6 minutes), the face gear's edge (approach) before the pinion's.
+    The corner cases (``--corners``, ``--corner-impacts``) go before everything:
+    a tip edge's contact zone is long and finely meshed (a coarse approach
+    corner: 223k DOFs, 6 minutes static), the face gear's edge (approach)
+    before the pinion's.
     """
     rank: dict[int, list] = {}
     for c in sorted((c for c in cases if not isinstance(c, PositionCase)),
@@ -775,9 +788,9 @@ def _sweep_order(cases: list) -> list:
         rank.setdefault(c.stage, []).append(c.id)
 
     def group(c) -> int:
-        if not isinstance(c, PositionCase):
-            return 2
-        return {"corner-approach": 0, "corner-recess": 1}.get(c.contact, 3)
+        where = c.contact if isinstance(c, PositionCase) else c.kind
+        return {"corner-approach": 0, "corner-recess": 1}.get(
+            where, 3 if isinstance(c, PositionCase) else 2)
 
     return sorted(cases, key=lambda c: (
         group(c), 0 if isinstance(c, PositionCase) else rank[c.stage].index(c.id),

@@ -150,6 +150,12 @@ def _parser() -> argparse.ArgumentParser:
                         "after it, at the corner gap of the closed-form corner laws); their "
                         "fitted stiffness and exponent replace the closed form's in the corner "
                         "laws (about 30 s a recess and 2 min an approach corner at coarse)")
+    c.add_argument("--corner-impacts", action="store_true",
+                   help="also FE impacts on the rounded tip edges (the elastic-plastic "
+                        "corner laws) at the median and the largest closing speed the seed's "
+                        "presets produce there with the closed-form laws (the first pass, "
+                        "cached once per gear set): up to four a stage; a coarse approach "
+                        "corner takes minutes and 9 GB")
     c.add_argument("--no-switching", action="store_true",
                    help="do not end with the seed's switching studies (Tables 1-4 and the two "
                         "switching runs, about 20 s on two workers) on the calibration")
@@ -323,13 +329,31 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             return flank + corners
 
         cycle = positions(cases)    # checks the options before the presets run
-        studies = () if args.no_switching else _seed_studies(gearset, args.stages)
+        presets = _seed_studies(gearset, args.stages)
+        if args.corner_impacts and not presets:
+            raise CalibrationError("--corner-impacts: none of the seed's switching presets "
+                                   "runs on these stages, so there are no corner closing "
+                                   "speeds to strike at; add stages or drop the option")
+        studies = () if args.no_switching else presets
+        demand = None
         if (studies and not args.no_preset_speeds and args.speeds is None
                 and args.impact_speeds is None):
-            covered = _cover_presets(gearset, cases, studies, args.out, numba)
+            covered, demand = _cover_presets(gearset, cases, studies, args.out, numba)
             if covered != cases:
                 cases = covered
                 cycle = positions(cases)
+        if args.corner_impacts:
+            from fe_impact.switching.demand import corner_impacts, preset_demand
+
+            if demand is None:
+                demand = preset_demand(gearset, presets, numba=numba)
+            extra, lines = corner_impacts(demand, gearset, sorted({c.stage for c in cases}))
+            for line in lines:
+                print(f"  {line}", flush=True)
+            if not extra:
+                raise CalibrationError("--corner-impacts: the presets struck no rounded tip "
+                                       "edge of these stages (or the edges are sharp)")
+            cases += extra
         n_impacts = len(cases)
         cases += cycle
         levels = settings.level if settings.position_level == settings.level or \
@@ -354,10 +378,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         return 0
 
 
-def _cover_presets(gearset, cases: list, studies, out: Path, numba: Path | None) -> list:
+def _cover_presets(gearset, cases: list, studies, out: Path, numba: Path | None
+                   ) -> tuple[list, object]:
     """The loop's first pass: the seed presets on the closed-form laws, their closing
     speeds written to ``out/preset_demand.json``, and the planned impacts adjusted to
-    them (:func:`fe_impact.switching.demand.cover`)."""
+    them (:func:`fe_impact.switching.demand.cover`); returns those and the demand."""
     from fe_impact.output.files import write_json
     from fe_impact.switching.demand import TOP_MARGIN, cover, preset_demand
 
@@ -370,7 +395,7 @@ def _cover_presets(gearset, cases: list, studies, out: Path, numba: Path | None)
     covered, lines = cover(demand, cases, gearset)
     for line in lines:
         print(f"  {line}", flush=True)
-    return covered
+    return covered, demand
 
 
 def _seed_studies(gearset, stages) -> tuple[str, ...]:

@@ -350,12 +350,14 @@ def analyse_pair(gearset, spec: PairSpec) -> PairAnalysis:
     return analyse_stage_pair(gearset, spec)[1]
 
 
-def hertz_impact_estimate(gearset, stage: int, roll_angle_deg: float, impact_speed: float):
+def hertz_impact_estimate(gearset, stage: int, roll_angle_deg: float, impact_speed: float,
+                          contact: str = "flank"):
     """Hertz impact of a stage's tooth pair at the TCA contact, without meshing.
 
     Returns the :func:`fe_impact.physics.hertz.impact` result (``delta_max``,
     ``force_max``, ``contact_time``) for the effective mass and the equivalent
-    radius of the contact at ``roll_angle_deg``.
+    radius of the contact at ``roll_angle_deg`` (``contact``: see :class:`PairSpec`).
     """
-    spec = PairSpec(stage=stage, roll_angle_deg=roll_angle_deg, impact_speed=impact_speed)
+    spec = PairSpec(stage=stage, roll_angle_deg=roll_angle_deg, impact_speed=impact_speed,
+                    contact=contact)
     return analyse_pair(gearset, spec).impact

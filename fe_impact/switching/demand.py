@@ -34,7 +34,7 @@ from fe_impact.gears.gearset import GearSet
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Demand", "LawDemand", "cover", "preset_demand", "top_speed"]
+__all__ = ["Demand", "LawDemand", "corner_impacts", "cover", "preset_demand", "top_speed"]
 
 #: The closing speed of an FE case added at the top of a stage's range is the
 #: largest the closed-form presets produce times this margin, rounded up to two
@@ -229,4 +229,41 @@ def cover(demand: Demand, planned: Sequence, gearset: GearSet) -> tuple[list, li
         else:
             cases.append(case)
         lines.append(what)
+    return cases, lines
+
+
+def _two_digits(speed: float) -> float:
+    """``speed`` rounded to two significant digits [m/s]."""
+    return float(f"{speed:.2g}")
+
+
+def corner_impacts(demand: Demand, gearset: GearSet, stages: Sequence[int]
+                   ) -> tuple[list, list[str]]:
+    """FE impacts on the rounded tip edges at the closing speeds the presets produce
+    there: per stage and edge, the median and the largest closing speed of the
+    impacts whose onset took that edge's corner law, to two significant digits
+    (one case when they round alike). An edge the presets never struck, or a
+    sharp one, gets none. Returns the cases and one line per stage and edge."""
+    from fe_impact.calibration.sweep import ImpactCase
+    from fe_impact.gears.corner import CORNER_SIDES, touching_edge
+
+    cases, lines = [], []
+    for stage in stages:
+        teeth = gearset.stages[stage - 1].teeth
+        for side in CORNER_SIDES:
+            kind = f"corner-{side}"
+            if touching_edge(gearset, side)[0] <= 0.0:
+                lines.append(f"stage {stage}, {kind}: sharp edge, no corner impact")
+                continue
+            row = demand.stages.get(stage, {}).get(kind)
+            if row is None or row.count == 0:
+                lines.append(f"stage {stage}, {kind}: the presets never struck it, no FE "
+                             "impact")
+                continue
+            speeds = sorted({_two_digits(row.speed_median), _two_digits(row.speed_max)})
+            cases += [ImpactCase(stage, teeth, kind, v) for v in speeds]
+            lines.append(f"stage {stage}, {kind}: {row.count} impacts in the presets, "
+                         f"median {row.speed_median * 1e3:.3g} and largest "
+                         f"{row.speed_max * 1e3:.3g} mm/s: FE impacts at "
+                         f"{', '.join(f'{v * 1e3:.2g}' for v in speeds)} mm/s")
     return cases, lines

@@ -55,8 +55,9 @@ def test_the_demand_is_counted_per_stage_and_law_and_cached(tmp_path, monkeypatc
 
     def fake(gearset, name):
         calls.append(name)
-        # (stage, law code, closing speed, peak force): two mesh, one corner-approach
-        return [(1, 0, 0.01, 10.0), (1, 0, 0.03, 30.0), (1, 2, 0.02, 5.0)]
+        # (stage, law code, closing speed, peak force, place on the line of action):
+        # two mesh, one corner-approach
+        return [(1, 0, 0.01, 10.0, 0.011), (1, 0, 0.03, 30.0, 0.013), (1, 2, 0.02, 5.0, 0.001)]
 
     monkeypatch.setattr(D, "_run_preset", fake)
     gearset = default_gearset()
@@ -65,7 +66,7 @@ def test_the_demand_is_counted_per_stage_and_law_and_cached(tmp_path, monkeypatc
     mesh = got.stages[1]["mesh"]
     assert (mesh.count, mesh.speed_min, mesh.speed_max, mesh.force_max) == (4, 0.01, 0.03,
                                                                             30.0)
-    assert math.isclose(mesh.speed_median, 0.02)
+    assert math.isclose(mesh.speed_median, 0.02) and math.isclose(mesh.position_median, 0.012)
     assert got.stages[1]["corner-approach"].count == 2
     assert got.top_speed(1) == 0.03 and got.top_speed(2) is None
     again = D.preset_demand(gearset, ["a", "b"], workers=1)
@@ -111,3 +112,27 @@ def test_a_corner_impact_strikes_where_the_corner_laws_take_the_touch():
         assert contact == f"corner-{side}"
         assert roll == pytest.approx(math.degrees(corner_reference_roll(gearset, side)),
                                      rel=1e-12)
+
+
+def test_switch_cases_strike_where_the_presets_first_contacts_touched():
+    # The median place s of a stage's switch impacts becomes the pinion roll angle
+    # (s_pitch - s) / r_bp of its switch cases; a place beyond the path is held at
+    # the FE path's end; a stage without switch impacts keeps the pitch point.
+    from fe_impact.calibration.meshcycle import path_positions
+    from fe_impact.switching.geometry import mesh_geometry
+
+    gearset = default_gearset()
+    line = mesh_geometry(gearset)
+    planned = plan_cases(gearset, switch="eq5")
+    s2 = line.s_pitch - line.base_radius * math.radians(4.0)      # 4 deg of roll
+    demand = D.Demand(("x",), {2: {"switch": D.LawDemand(2, 0.1, 0.12, 0.15, 9.0, s2)},
+                               3: {"switch": D.LawDemand(2, 0.1, 0.12, 0.15, 9.0, 0.0)}})
+    cases, lines = D.place_switches(demand, planned, gearset)
+    switch = {c.stage: c.roll_angle_deg for c in cases if c.kind == "switch"}
+    assert switch[2] == pytest.approx(4.0, rel=1e-12)
+    assert switch[3] == pytest.approx(max(path_positions(gearset, 3, 2)), rel=1e-12)
+    assert "beyond the FE path" in lines[1]
+    assert all(c.roll_angle_deg is None for c in cases if c.kind == "mesh")
+    assert [c.id for c in cases] == [c.id for c in planned]
+    none, lines = D.place_switches(D.Demand(("x",), {}), planned, gearset)
+    assert none == planned and "pitch point" in lines[0]

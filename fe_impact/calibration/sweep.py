@@ -139,6 +139,8 @@ class ImpactCase:
     impact_speed: float        # m/s
     speed_rpm: float | None = None
     basis: str = ""            # of a switch's speed: "" eq. 5, "kinematic" rigid kinematics
+    #: pinion roll angle [deg] of the contact; None: the run's (Settings.roll_angle_deg)
+    roll_angle_deg: float | None = None
 
     @property
     def id(self) -> str:
@@ -292,6 +294,8 @@ def case_hash(case: ImpactCase | PositionCase, settings: Settings, gearset_text:
     key = asdict(case)
     if not key["basis"]:  # eq. 4/5 speeds: the key of the cases before switches had bases
         del key["basis"]
+    if key["roll_angle_deg"] is None:   # the run's roll angle: the keys before it was a field
+        del key["roll_angle_deg"]
     blob = json.dumps([key, settings.impact_key(), gearset_text, SCHEMA, __version__],
                       sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
@@ -379,11 +383,12 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
 
 
 def case_contact(case: ImpactCase, settings: Settings, gearset) -> tuple[str, float]:
-    """Where an impact strikes: ``("flank", settings' roll angle)``, or for a corner
+    """Where an impact strikes: ``("flank", the case's or settings' roll angle)``, or for a corner
     kind the rounded tip edge's first touch at the closed-form corner laws' roll
     angle (:func:`~fe_impact.switching.calibration.corner_reference_roll`, deg)."""
     if not case.kind.startswith("corner-"):
-        return "flank", settings.roll_angle_deg
+        return "flank", (settings.roll_angle_deg if case.roll_angle_deg is None
+                         else case.roll_angle_deg)
     from fe_impact.switching.calibration import corner_reference_roll
 
     return case.kind, math.degrees(corner_reference_roll(gearset, case.kind.removeprefix(

@@ -342,6 +342,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             if covered != cases:
                 cases = covered
                 cycle = positions(cases)
+            if any(c.kind == "switch" for c in cases):
+                from fe_impact.switching.demand import place_switches
+
+                cases, lines = place_switches(demand, cases, gearset)
+                for line in lines:
+                    print(f"  {line}", flush=True)
         if args.corner_impacts:
             from fe_impact.switching.demand import corner_impacts, preset_demand
 

@@ -102,13 +102,13 @@ MAXPAIR = 6  # pairs looked at per flank
 
 #: An impact: onset time, stage (from 1), kind, flank (+1 drive, -1 coast), closing speed,
 #: peak approach, force and energy, end time and opening speed (NaN while open), law-table
-#: clamp (-1/0/+1), the tooth pair, where it touched (CONTACT_*) and the law table its
-#: onset took (LAW_*).
+#: clamp (-1/0/+1), the tooth pair, where it touched (CONTACT_*), the law table its
+#: onset took (LAW_*) and the pair's place on the line of action then (s, m).
 EVENT = np.dtype([("time", np.float64), ("stage", np.int64), ("kind", np.int64),
                   ("flank", np.int64), ("speed", np.float64), ("approach", np.float64),
                   ("force", np.float64), ("energy", np.float64), ("end", np.float64),
                   ("speed_out", np.float64), ("clamp", np.int64), ("pair", np.int64),
-                  ("contact", np.int64), ("law", np.int64)], align=True)
+                  ("contact", np.int64), ("law", np.int64), ("s", np.float64)], align=True)
 KIND_RATTLE, KIND_MESH_IN, KIND_SWITCH = 0, 1, 2
 #: Where a tooth pair touches at an impact's onset: on the flanks (the active path),
 #: on the face gear's tip edge before it (approach), on the pinion's after it (recess).
@@ -485,7 +485,7 @@ def onset_law(ntab, stage, kind, where):
 
 
 @njit(cache=True)
-def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair, contact, law):
+def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair, contact, law, s):
     i = run.n_events
     if i >= ev.shape[0]:
         run.dropped += 1
@@ -506,6 +506,7 @@ def new_event(ev, run, t, stage, kind, flank, speed, clamp, pair, contact, law):
     event.pair = pair
     event.contact = contact
     event.law = law
+    event.s = s
     return i
 
 
@@ -574,10 +575,10 @@ def track_contacts(t0, t1, p, tab, ntab, slots, flanks, pairs, npairs, ev, run):
                     changed = True
                     if kind == KIND_MESH_IN:
                         slot.event = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k,
-                                               where, used)
+                                               where, used, pair.s)
                     elif created < 0:
                         created = new_event(ev, run, tc, eng, kind, fl, vc, clamp, k, where,
-                                            used)
+                                            used, pair.s)
                         flank_event = created
                     elif tc < ev[created].time:  # the earliest touch of the flank defines it
                         ev[created].time = tc
@@ -585,6 +586,7 @@ def track_contacts(t0, t1, p, tab, ntab, slots, flanks, pairs, npairs, ev, run):
                         ev[created].pair = k
                         ev[created].contact = where
                         ev[created].law = used
+                        ev[created].s = pair.s
             elif slot.on == 1:
                 tc, vc = crossing(t0, t1, h0, hd0, h1, hd1)
                 slot.on = 0

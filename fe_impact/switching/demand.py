@@ -34,7 +34,8 @@ from fe_impact.gears.gearset import GearSet
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Demand", "LawDemand", "corner_impacts", "cover", "preset_demand", "top_speed"]
+__all__ = ["Demand", "LawDemand", "corner_impacts", "cover", "place_switches",
+           "preset_demand", "top_speed"]
 
 #: The closing speed of an FE case added at the top of a stage's range is the
 #: largest the closed-form presets produce times this margin, rounded up to two
@@ -47,13 +48,16 @@ TOP_MARGIN = 1.2
 @dataclass(frozen=True)
 class LawDemand:
     """The impacts of one stage that took one law: count, closing speeds [m/s]
-    (least, median, largest) and the largest peak force [N]."""
+    (least, median, largest), the largest peak force [N] and where they touched."""
 
     count: int
     speed_min: float
     speed_median: float
     speed_max: float
     force_max: float
+    #: Median place of the touching pair on the line of action at the onsets,
+    #: ``s`` [m] (`fe_impact.switching.simulation.ImpactEvents.position`).
+    position_median: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -82,8 +86,8 @@ class Demand:
 
 
 def _run_preset(gearset: GearSet, name: str) -> list[tuple[int, int, float, float]]:
-    """(stage, law code, closing speed, peak force) of every impact of preset ``name``
-    on the closed-form laws."""
+    """(stage, law code, closing speed, peak force, position) of every impact of preset
+    ``name`` on the closed-form laws."""
     from fe_impact.switching.model import DriveModel
     from fe_impact.switching.presets import get_preset
     from fe_impact.switching.simulation import simulate
@@ -93,12 +97,12 @@ def _run_preset(gearset: GearSet, name: str) -> list[tuple[int, int, float, floa
     for case in get_preset(name).cases:
         ev = simulate(model, case.schedule).events
         out += list(zip(ev.stage.tolist(), ev.law.tolist(), ev.speed.tolist(),
-                        ev.force.tolist(), strict=True))
+                        ev.force.tolist(), ev.position.tolist(), strict=True))
     return out
 
 
 def _run_in_processes(gearset: GearSet, presets: Sequence[str], n: int, numba: Path
-                      ) -> list[tuple[int, int, float, float]]:
+                      ) -> list[tuple[int, int, float, float, float]]:
     """`_run_preset` of every preset on ``n`` fresh processes, process ``i`` compiling
     its kernels into ``numba/w<i>`` (the folders of a local Dask cluster's workers).
 
@@ -182,7 +186,8 @@ def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
                 if len(pick):
                     stages.setdefault(int(stage), {})[law] = LawDemand(
                         len(pick), float(pick[:, 2].min()), float(np.median(pick[:, 2])),
-                        float(pick[:, 2].max()), float(pick[:, 3].max()))
+                        float(pick[:, 2].max()), float(pick[:, 3].max()),
+                        float(np.median(pick[:, 4])))
     demand = Demand(presets, stages)
     if path is not None:
         from fe_impact.atomic import atomic_path
@@ -266,4 +271,43 @@ def corner_impacts(demand: Demand, gearset: GearSet, stages: Sequence[int]
                          f"median {row.speed_median * 1e3:.3g} and largest "
                          f"{row.speed_max * 1e3:.3g} mm/s: FE impacts at "
                          f"{', '.join(f'{v * 1e3:.2g}' for v in speeds)} mm/s")
+    return cases, lines
+
+
+def place_switches(demand: Demand, planned: Sequence, gearset: GearSet
+                   ) -> tuple[list, list[str]]:
+    """The planned switch impacts moved to where the presets' first contacts after a
+    ratio switch touched: the median place of a stage's switch impacts on the line of
+    action, as a pinion roll angle (`fe_impact.switching.geometry.MeshGeometry.corner_roll`'s
+    sense, ``phi = (s_pitch - s) / r_bp``; the coast flank's place is the mirror of
+    the drive flank's, which the FE pair models). A place beyond the path's ends
+    (a first touch on a tip edge) is taken at the nearest FE position of the path
+    (`fe_impact.calibration.meshcycle.path_positions`' ends), and said so. Returns
+    the cases and one line per stage moved."""
+    from dataclasses import replace
+
+    from fe_impact.calibration.meshcycle import path_positions
+    from fe_impact.switching.geometry import mesh_geometry
+
+    line = mesh_geometry(gearset)
+    cases, lines = list(planned), []
+    for stage in sorted({c.stage for c in planned if c.kind == "switch"}):
+        row = demand.stages.get(stage, {}).get("switch")
+        if row is None or not math.isfinite(row.position_median):
+            lines.append(f"stage {stage}: the presets made no switch impact, the switch "
+                         "cases strike at the pitch point")
+            continue
+        roll = math.degrees((line.s_pitch - row.position_median) / line.base_radius)
+        ends = path_positions(gearset, stage, 2)
+        lo, hi = min(ends), max(ends)
+        where = f"{roll:+.3f} deg of pinion roll"
+        if not lo <= roll <= hi:
+            roll = min(max(roll, lo), hi)
+            where += f" (beyond the FE path: taken at {roll:+.3f} deg)"
+        for i, c in enumerate(cases):
+            if c.stage == stage and c.kind == "switch":
+                cases[i] = replace(c, roll_angle_deg=roll)
+        lines.append(f"stage {stage}: the presets' {row.count} switch impacts touched at "
+                     f"s = {row.position_median * 1e3:.3f} mm on the line of action, "
+                     f"{where}: the switch cases strike there")
     return cases, lines

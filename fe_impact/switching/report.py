@@ -55,7 +55,7 @@ _SERIES_OF = {
 }
 _IMPACT_COLUMNS = ("time_s", "stage", "kind", "flank", "closing_speed_m_s", "peak_approach_m",
                    "peak_force_N", "peak_energy_J", "end_time_s", "separation_speed_m_s",
-                   "restitution", "law_clamped", "contact", "law")
+                   "restitution", "law_clamped", "contact", "law", "position_m")
 
 
 def model_parameters(model: DriveModel) -> dict:
@@ -124,12 +124,14 @@ def _clean(obj):
 
 def _impact_rows(run: SwitchingRun) -> list[list]:
     ev = run.events
-    return [[t, s, KIND_NAMES[k], f, v, a, fo, e, te, vo, r, c, CONTACT_NAMES[w], LAW_NAMES[g]]
-            for t, s, k, f, v, a, fo, e, te, vo, r, c, w, g in zip(
+    return [[t, s, KIND_NAMES[k], f, v, a, fo, e, te, vo, r, c, CONTACT_NAMES[w], LAW_NAMES[g],
+             x]
+            for t, s, k, f, v, a, fo, e, te, vo, r, c, w, g, x in zip(
                 ev.time.tolist(), ev.stage.tolist(), ev.kind.tolist(), ev.flank.tolist(),
                 ev.speed.tolist(), ev.approach.tolist(), ev.force.tolist(), ev.energy.tolist(),
                 ev.end_time.tolist(), ev.separation_speed.tolist(), ev.restitution.tolist(),
-                ev.clamped.tolist(), ev.contact.tolist(), ev.law.tolist(), strict=True)]
+                ev.clamped.tolist(), ev.contact.tolist(), ev.law.tolist(),
+                ev.position.tolist(), strict=True)]
 
 
 def _contact_lines(runs: dict[str, SwitchingRun]) -> list[str]:

@@ -105,6 +105,10 @@ class ImpactEvents:
         The law table the onset took (`LAW_NAMES`): the switch law for a
         switch impact, a corner law for a touch on a rounded tip edge (where
         the stage has one), else the mesh law.
+    position : ndarray
+        Where the (first) touching pair was on the line of action at the onset,
+        ``s`` [m] from the pinion's base-circle tangency (the path of contact runs
+        from `MeshGeometry.s_start` to ``s_end``).
     """
 
     time: np.ndarray
@@ -120,12 +124,13 @@ class ImpactEvents:
     clamped: np.ndarray
     contact: np.ndarray
     law: np.ndarray
+    position: np.ndarray
 
     @classmethod
     def from_kernel(cls, ev: np.ndarray) -> ImpactEvents:
         """From the kernel's `_kernel.EVENT` records."""
         fields = ("time", "stage", "kind", "flank", "speed", "approach", "force", "energy",
-                  "end", "speed_out", "clamp", "contact", "law")
+                  "end", "speed_out", "clamp", "contact", "law", "s")
         return cls(*(ev[name].copy() for name in fields))
 
     def __len__(self) -> int:

@@ -163,8 +163,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="do not fit the FE impacts to the closing speeds the seed's "
                         "switching presets produce with the closed-form laws (by default, a "
                         "stage whose presets close faster than its fastest planned impact "
-                        "has that one struck at 1.2 times their fastest instead; about 50 s "
-                        "the first time for a gear set, then cached)")
+                        "has that one struck at 1.2 times their fastest instead, and the "
+                        "--switch cases strike where the presets' first contacts after a "
+                        "switch touched; about 50 s the first time for a gear set, then "
+                        "cached). Without it the switch cases strike at the pitch point")
     c.add_argument("--level", default="default", help="mesh level: coarse, default or fine")
     c.add_argument("--mesh-cycle-level", default=None, metavar="LEVEL",
                    help="mesh level of the mesh-cycle positions (default: one level below "
@@ -336,23 +338,30 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                                    "speeds to strike at; add stages or drop the option")
         studies = () if args.no_switching else presets
         demand = None
-        if (studies and not args.no_preset_speeds and args.speeds is None
+        switches = any(c.kind == "switch" for c in cases)
+        if presets and not args.no_preset_speeds and (
+                switches or args.corner_impacts
+                or (studies and args.speeds is None and args.impact_speeds is None)):
+            demand = _first_pass(gearset, presets, args.out, numba)
+        if (demand is not None and studies and args.speeds is None
                 and args.impact_speeds is None):
-            covered, demand = _cover_presets(gearset, cases, studies, args.out, numba)
+            covered = _cover(demand, cases, gearset)
             if covered != cases:
                 cases = covered
                 cycle = positions(cases)
-            if any(c.kind == "switch" for c in cases):
-                from fe_impact.switching.demand import place_switches
+        if demand is not None and switches:
+            from fe_impact.switching.demand import place_switches
 
-                cases, lines = place_switches(demand, cases, gearset)
-                for line in lines:
-                    print(f"  {line}", flush=True)
+            cases, lines = place_switches(demand, cases, gearset)
+            for line in lines:
+                print(f"  {line}", flush=True)
         if args.corner_impacts:
-            from fe_impact.switching.demand import corner_impacts, preset_demand
+            from fe_impact.switching.demand import corner_impacts
 
             if demand is None:
-                demand = preset_demand(gearset, presets, numba=numba)
+                raise CalibrationError("--corner-impacts and --no-preset-speeds: the corner "
+                                       "impacts' closing speeds come from the presets' first "
+                                       "pass; give one or the other")
             extra, lines = corner_impacts(demand, gearset, sorted({c.stage for c in cases}))
             for line in lines:
                 print(f"  {line}", flush=True)
@@ -384,24 +393,32 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         return 0
 
 
-def _cover_presets(gearset, cases: list, studies, out: Path, numba: Path | None
-                   ) -> tuple[list, object]:
+def _first_pass(gearset, presets, out: Path, numba: Path | None):
     """The loop's first pass: the seed presets on the closed-form laws, their closing
-    speeds written to ``out/preset_demand.json``, and the planned impacts adjusted to
-    them (:func:`fe_impact.switching.demand.cover`); returns those and the demand."""
+    speeds and places written to ``out/preset_demand.json``
+    (:func:`fe_impact.switching.demand.preset_demand`)."""
     from fe_impact.output.files import write_json
-    from fe_impact.switching.demand import TOP_MARGIN, cover, preset_demand
+    from fe_impact.switching.demand import TOP_MARGIN, preset_demand
 
-    print(f"switching presets {', '.join(studies)} on the closed-form laws: their closing "
+    print(f"switching presets {', '.join(presets)} on the closed-form laws: their closing "
           "speeds ...", flush=True)
-    demand = preset_demand(gearset, studies, numba=numba)
+    demand = preset_demand(gearset, presets, numba=numba)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "preset_demand.json", {**demand.to_dict(), "top_margin": TOP_MARGIN,
-                                            "units": {"speed": "m/s", "force": "N"}})
+                                            "units": {"speed": "m/s", "force": "N",
+                                                      "position": "m"}})
+    return demand
+
+
+def _cover(demand, cases: list, gearset) -> list:
+    """The planned impacts adjusted to the presets' closing speeds
+    (:func:`fe_impact.switching.demand.cover`), each change printed."""
+    from fe_impact.switching.demand import cover
+
     covered, lines = cover(demand, cases, gearset)
     for line in lines:
         print(f"  {line}", flush=True)
-    return covered, demand
+    return covered
 
 
 def _seed_studies(gearset, stages) -> tuple[str, ...]:

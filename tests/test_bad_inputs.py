@@ -363,6 +363,9 @@ CALIBRATE = [
      ["--positions and --no-mesh-cycle: give one or the other"]),
     ("--corners and --no-mesh-cycle", calibrate("--corners", "--no-mesh-cycle"),
      ["--corners and --no-mesh-cycle: the corner positions are part of the mesh cycle"]),
+    ("--corner-impacts and --no-preset-speeds",
+     calibrate("--corner-impacts", "--no-preset-speeds"),
+     ["--corner-impacts and --no-preset-speeds: the corner impacts' closing speeds come from"]),
     ("--corners with sharp tip edges",   # both radii to 0 (the old value left as a comment)
      lambda d: [*gearset("tip_edge_radius_mm =", "tip_edge_radius_mm = 0.0 #", "calibrate")(d),
                 "--corners"],

@@ -149,13 +149,15 @@ def _parser() -> argparse.ArgumentParser:
                         "edge's first touch (the face gear's before the path, the pinion's "
                         "after it, at the corner gap of the closed-form corner laws); their "
                         "fitted stiffness and exponent replace the closed form's in the corner "
-                        "laws (about 30 s a recess and 2 min an approach corner at coarse)")
+                        "laws (at coarse, stage 1: 30 s for the recess corner, 6 min and "
+                        "9 GB for the approach corner)")
     c.add_argument("--corner-impacts", action="store_true",
                    help="also FE impacts on the rounded tip edges (the elastic-plastic "
                         "corner laws) at the median and the largest closing speed the seed's "
                         "presets produce there with the closed-form laws (the first pass, "
-                        "cached once per gear set): up to four a stage; a coarse approach "
-                        "corner takes minutes and 9 GB")
+                        "cached once per gear set): up to four a stage; at coarse, stage 1, "
+                        "a recess impact takes a minute, an approach impact about half an "
+                        "hour and 8 GB")
     c.add_argument("--no-switching", action="store_true",
                    help="do not end with the seed's switching studies (Tables 1-4 and the two "
                         "switching runs, about 20 s on two workers) on the calibration")

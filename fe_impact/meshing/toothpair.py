@@ -215,8 +215,11 @@ def pair_key(gearset, spec: PairSpec) -> str:
     fields = asdict(spec)
     if fields["contact"] == "flank":   # the key of the meshes before corner contacts
         del fields["contact"]
+    # format 2: corner meshes whose loft stations keep half a fine step from the fine
+    # window (pairgeometry._stations_through); flank meshes are unchanged
     payload = json.dumps(
-        {"gearset": asdict(gearset), "spec": fields, "format": 1},
+        {"gearset": asdict(gearset), "spec": fields,
+         "format": 1 if spec.contact == "flank" else 2},
         sort_keys=True, default=repr,
     )
     return hashlib.sha256(payload.encode()).hexdigest()[:16]

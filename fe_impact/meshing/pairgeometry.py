@@ -396,6 +396,7 @@ def _loft(model, sections: list[list[Piece]], probe: int) -> _Solid:
     """
     occ = model.occ
     wires, solid = [], _Solid(volume=-1)
+    before = set(occ.getEntities())
     for i, sec in enumerate(sections):
         first = occ.addPoint(*(sec[0][1][0] * MM))
         prev, curves = first, []
@@ -411,6 +412,8 @@ def _loft(model, sections: list[list[Piece]], probe: int) -> _Solid:
     try:
         out = occ.addThruSections(wires, makeSolid=True, makeRuled=False)
     except Exception as exc:   # gmsh raises a bare Exception with OCC's message
+        # leave the model as it was: no stray points, curves and wires to mesh
+        occ.remove([e for e in occ.getEntities() if e not in before], recursive=True)
         raise MeshError(f"the loft through {len(sections)} sections failed in OCC ({exc}); "
                         "the sections are too close or cross each other") from None
     solid.volume = out[0][1]
@@ -539,7 +542,17 @@ def _add_face_gear(model, pair: GearPair, analysis: PairAnalysis,
     angle = contact.face_angle
     sections = [_face_section(pair, flank, angle, c, spec.n_face_teeth, bottom,
                               spec.neighbour_teeth, edge_radius) for c in cs]
-    solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
+    try:
+        solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
+    except MeshError:
+        # OCC's smooth loft failed through the first section, beyond the ring's inner
+        # cut, at stage 3's recess corner (any four sections from it failed, evenly
+        # spaced too; the rest lofted). Without it, when the next section still lies
+        # beyond the cut, the loft still spans the ring.
+        if not (len(cs) > 3 and cs[1] < f.face_inner * np.cos(widest)):
+            raise
+        cs, sections = cs[1:], sections[1:]
+        solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
     ring = _annulus(model, f.face_inner * MM, f.face_outer * MM, (bottom - margin) * MM,
                     (f.tip_height + margin) * MM)
     out, _ = model.occ.intersect([(3, solid.volume)], ring)

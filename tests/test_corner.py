@@ -214,3 +214,28 @@ def test_loft_stations_keep_half_a_fine_step_from_the_fine_window():
     assert np.min(np.abs(cs - at)) == 0.0 and cs[0] == lo and cs[-1] == hi
     window = cs[np.abs(cs - at) <= FINE_HALF]
     assert np.max(np.diff(window)) <= FINE_STEP * (1 + 1e-9)
+
+
+@pytest.mark.slow
+def test_the_stage_3_recess_face_gear_sector_lofts():
+    # OCC's smooth loft fails through the first section of this sector (beyond the
+    # ring's inner cut); the builder drops it and lofts the rest, leaving no stray
+    # entities of the failed attempt. One volume, with its flank and hub faces found.
+    import gmsh
+
+    from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
+    from fe_impact.meshing.pairgeometry import _add_face_gear
+    from fe_impact.switching.calibration import corner_reference_roll
+
+    roll = math.degrees(corner_reference_roll(GEARSET, "recess"))
+    pair, analysis = analyse_stage_pair(GEARSET, PairSpec(
+        stage=3, roll_angle_deg=roll, level="coarse", contact="corner-recess"))
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("sector")
+        volume, groups = _add_face_gear(gmsh.model, pair, analysis)
+        assert len(gmsh.model.getEntities(3)) == 1 and volume > 0
+        assert len(groups["face_flank"]) == 1 and len(groups["face_hub"]) >= 1
+    finally:
+        gmsh.finalize()

@@ -295,6 +295,7 @@ def corner_reference_roll(gearset: GearSet, side: str) -> float:
     return float(line.corner_roll(side, getattr(line, side).delta_at(REFERENCE_GAP)))
 
 
+@lru_cache(maxsize=64)
 def corner_radii(gearset: GearSet, stage_index: int, side: str) -> tuple[float, float] | None:
     """Principal relative radii ``(Rx, Ry)`` [m] of a rounded tip edge's first touch.
 
@@ -533,16 +534,16 @@ def load_calibration(path: str | Path, gearset: GearSet,
         for kind in CORNER_KINDS.values():
             if (stage, kind) in tables:
                 continue
-            if (stage, kind) in corners and (stage, kind) in measured:
+            if (stage, kind) in corners:
                 tables[(stage, kind)] = corners[(stage, kind)]
-                k, a = measured[(stage, kind)]
-                notes.append(f"stage {stage}: no {kind!r} impact case; the FE corner "
-                             f"position's K = {k:.4g} N/m^{a:.4g} with the closed-form "
-                             "restitution of the rounded tip edge used")
-            elif (stage, kind) in corners:
-                tables[(stage, kind)] = corners[(stage, kind)]
-                notes.append(f"stage {stage}: no {kind!r} case, the closed-form law of the "
-                             "rounded tip edge used")
+                if (stage, kind) in measured:
+                    k, a = measured[(stage, kind)]
+                    notes.append(f"stage {stage}: no {kind!r} impact case; the FE corner "
+                                 f"position's K = {k:.4g} N/m^{a:.4g} with the closed-form "
+                                 "restitution of the rounded tip edge used")
+                else:
+                    notes.append(f"stage {stage}: no {kind!r} case, the closed-form law of "
+                                 "the rounded tip edge used")
             else:
                 notes.append(f"stage {stage}: no {kind!r} law (no case, and a sharp tip edge "
                              "or no effective masses for the closed form): corner contacts "

@@ -203,9 +203,9 @@ def test_the_arc_margin_is_the_angle_to_the_roundings_nearer_end():
 
 def test_loft_stations_keep_half_a_fine_step_from_the_fine_window():
     # Stage 3's recess corner: the coarse stations (4.5 mm apart) put one 45 um from
-    # the fine window (0.5 mm steps within 2.5 mm of the touch), a slab OCC's loft
-    # could not make. Every gap must be at least half a fine step, the touch must be
-    # a station, and the window's steps stay fine.
+    # the fine window (0.5 mm steps within 2.5 mm of the touch). Every gap must be at
+    # least half a fine step, the touch must be a station, and the window's steps
+    # stay fine.
     from fe_impact.meshing.pairgeometry import FINE_HALF, FINE_STEP, _stations_through
 
     lo, hi, at = 113.5655e-3, 138.5e-3, 118.6555e-3

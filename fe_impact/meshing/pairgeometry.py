@@ -414,8 +414,8 @@ def _loft(model, sections: list[list[Piece]], probe: int) -> _Solid:
     except Exception as exc:   # gmsh raises a bare Exception with OCC's message
         # leave the model as it was: no stray points, curves and wires to mesh
         occ.remove([e for e in occ.getEntities() if e not in before], recursive=True)
-        raise MeshError(f"the loft through {len(sections)} sections failed in OCC ({exc}); "
-                        "the sections are too close or cross each other") from None
+        raise MeshError(f"the smooth loft through {len(sections)} sections failed in OCC "
+                        f"({exc})") from None
     solid.volume = out[0][1]
     return solid
 
@@ -472,8 +472,8 @@ def _stations_through(lo: float, hi: float, at: float, step: float,
     ``fine = (half_width, fine_step)``, ``fine_step``-spaced within ``half_width`` of
     ``at`` (a corner contact: the lofts are exact at the sections only, and its
     elements are microns small). A coarse position closer than half a fine step to
-    the fine window is left out: OCC's loft failed on the 45 um slab one made at
-    stage 3's recess corner."""
+    the fine window is left out: a slab thinner than the window's own steps adds a
+    section without adding accuracy (stage 3's recess corner had one 45 um wide)."""
     if fine is not None:
         half, small = fine
         a, b = max(lo, at - half), min(hi, at + half)

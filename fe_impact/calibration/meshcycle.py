@@ -194,6 +194,12 @@ def curve_forces(top: float | None = None) -> tuple[float, ...]:
     return tuple(float(f) for f in np.geomspace(CURVE_FORCES[0], top, len(CURVE_FORCES)))
 
 
+def stage_forces(gearset, stage: int, top_force: float | None = None) -> tuple[float, ...]:
+    """A position's default forces (N): the stage's nominal force and
+    :func:`curve_forces` up to ``top_force``."""
+    return tuple(sorted({round(nominal_force(gearset, stage), 3), *curve_forces(top_force)}))
+
+
 def plan_positions(gearset, stages: list[int] | None = None, positions: int | list[float]
                    = DEFAULT_POSITIONS, forces: tuple[float, ...] | None = None,
                    top_force: float | None = None) -> list[PositionCase]:
@@ -233,8 +239,7 @@ def plan_positions(gearset, stages: list[int] | None = None, positions: int | li
                     f"{max(rolls) - min(rolls):.3f} deg, less than one angular pitch "
                     f"({pitch:.3f} deg): the mesh cycle needs positions over the path of "
                     f"contact ({first:.3f} to {last:.3f} deg)")
-        f = forces if forces is not None else tuple(sorted({round(nominal_force(gearset, s), 3),
-                                                             *curve_forces(top_force)}))
+        f = forces if forces is not None else stage_forces(gearset, s, top_force)
         ends = {0: "first", len(rolls) - 1: "last"} if isinstance(positions, int) else {}
         teeth = gearset.stages[s - 1].teeth
         cases += [PositionCase(s, teeth, r, tuple(f), ends.get(i, ""))
@@ -262,8 +267,7 @@ def plan_corner_positions(gearset, stages: list[int] | None = None,
             continue
         roll = math.degrees(corner_reference_roll(gearset, side))
         for s in stages:
-            f = forces if forces is not None else tuple(sorted({
-                round(nominal_force(gearset, s), 3), *curve_forces(top_force)}))
+            f = forces if forces is not None else stage_forces(gearset, s, top_force)
             cases.append(PositionCase(s, gearset.stages[s - 1].teeth, roll, tuple(f),
                                       contact=f"corner-{side}"))
     return cases

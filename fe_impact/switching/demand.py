@@ -278,8 +278,8 @@ def place_switches(demand: Demand, planned: Sequence, gearset: GearSet
                    ) -> tuple[list, list[str]]:
     """The planned switch impacts moved to where the presets' first contacts after a
     ratio switch touched: the median place of a stage's switch impacts on the line of
-    action, as a pinion roll angle (`fe_impact.switching.geometry.MeshGeometry.corner_roll`'s
-    sense, ``phi = (s_pitch - s) / r_bp``; the coast flank's place is the mirror of
+    action, as a pinion roll angle (`fe_impact.switching.geometry.MeshGeometry.roll_at`;
+    the coast flank's place is the mirror of
     the drive flank's, which the FE pair models). A place beyond the path's ends
     (a first touch on a tip edge) is taken at the nearest FE position of the path
     (`fe_impact.calibration.meshcycle.path_positions`' ends), and said so. Returns
@@ -297,7 +297,7 @@ def place_switches(demand: Demand, planned: Sequence, gearset: GearSet
             lines.append(f"stage {stage}: the presets made no switch impact, the switch "
                          "cases strike at the pitch point")
             continue
-        roll = math.degrees((line.s_pitch - row.position_median) / line.base_radius)
+        roll = math.degrees(float(line.roll_at(row.position_median)))
         ends = path_positions(gearset, stage, 2)
         lo, hi = min(ends), max(ends)
         where = f"{roll:+.3f} deg of pinion roll"

@@ -368,8 +368,12 @@ class MeshGeometry:
         :class:`~fe_impact.gears.tca.GearPair`'s sense: from the pitch-point position,
         growing towards the face-gear tip end, ``phi = (s_pitch - s) / r_bp``."""
         delta = np.asarray(delta, dtype=float)
-        s = self.s_start - delta if side == "approach" else self.s_end + delta
-        return (self.s_pitch - s) / self.base_radius
+        return self.roll_at(self.s_start - delta if side == "approach" else self.s_end + delta)
+
+    def roll_at(self, s: ArrayLike) -> NDArray:
+        """Pinion roll angle [rad] of the place ``s`` [m] on the line of action, in
+        :class:`~fe_impact.gears.tca.GearPair`'s sense (`corner_roll`)."""
+        return (self.s_pitch - np.asarray(s, dtype=float)) / self.base_radius
 
     def pair_count(self, roll: float) -> int:
         """Tooth pairs on the active path when the pinion has rolled ``roll`` [m]."""

@@ -89,6 +89,24 @@ def test_local_workers_compile_into_caches_of_their_own(tmp_path):
                                      str(tmp_path / "numba" / "w1")]
 
 
+def test_a_single_local_worker_may_use_all_the_memory():
+    """``--workers 1`` gets the machine's memory, two workers half each: Dask's default
+    gave every worker memory / cores, so one worker on two cores was restarted at
+    half the machine (a stage-3 approach corner needs more)."""
+    from distributed.system import MEMORY_LIMIT
+
+    from fe_impact.calibration.sweep import _local_cluster
+
+    for n in (1, 2):
+        cluster, client = _local_cluster(n)
+        try:
+            limits = client.run(lambda dask_worker: dask_worker.memory_manager.memory_limit)
+        finally:
+            client.close()
+            cluster.close()
+        assert sorted(limits.values()) == [MEMORY_LIMIT // n] * n
+
+
 def test_runs_at_the_same_time_take_numba_slots_of_their_own(tmp_path, monkeypatch):
     # The kernels live in the user's cache, one slot per running calibration: a
     # second run while the first holds slot0 gets slot1, a later run slot0 again.

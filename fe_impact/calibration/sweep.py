@@ -897,8 +897,14 @@ def _local_cluster(n: int, numba_cache: Path | None = None):
     an index and a data file that do not belong together, and a process
     that loads them crashes (numba/numba#4807, #10128). The folders are
     stable per worker name, so a later run loads its compiled kernels.
+
+    Each worker may use the machine's memory divided by ``n``: Dask's
+    default divides it by the number of cores whatever ``n`` is, so a single
+    worker on two cores was restarted at half the memory (a stage-3
+    approach corner, ``--corners --workers 1``, at 11.7 GB of 23).
     """
     from dask.distributed import Client, LocalCluster
+    from distributed.system import MEMORY_LIMIT
 
     class _Cluster(LocalCluster):
         def new_worker_spec(self):
@@ -914,6 +920,7 @@ def _local_cluster(n: int, numba_cache: Path | None = None):
             return out
 
     cluster = _Cluster(n_workers=0, threads_per_worker=1, processes=True,
+                           memory_limit=int(MEMORY_LIMIT // max(n, 1)),
                            dashboard_address=None, silence_logs=logging.ERROR,
                            scheduler_kwargs={"dashboard_address": ":0"})
     try:

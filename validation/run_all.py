@@ -4,7 +4,8 @@
 ``main`` in its own process (the static Hertz study needs 9 GB at its
 finest level), writes their output under ``out/<study>`` and exits 1 if any
 study fails a check or stops with an error. ``--quick`` passes ``--quick``
-to every study (about twelve minutes in all); ``--only a,b`` runs a subset.
+to every study (about twelve minutes in all, and five more where CalculiX
+runs the peer check); ``--only a,b`` runs a subset.
 A study that needs a program the machine lacks (the CalculiX peer check
 without ``ccx``) exits with :data:`SKIPPED` and a ``<study>: SKIPPED``
 line; it is listed as skipped, neither passed nor failed.

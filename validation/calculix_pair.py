@@ -1,9 +1,10 @@
 """The static tooth pair against CalculiX on the same mesh.
 
 Run ``python validation/calculix_pair.py --out out/calculix_pair`` (needs
-CalculiX's ``ccx`` on the path, Debian package ``calculix-ccx``; about ten
-minutes on two cores, nearly all of it CalculiX). ``--quick``: 200 and
-1000 N on the first mesh alone (about five minutes).
+CalculiX's ``ccx`` on the path, Debian package ``calculix-ccx``; 16 minutes
+on two cores, nearly all of it CalculiX: 423 and 552 s for the two
+meshes). ``--quick``: 200 and 1000 N on the first mesh alone (about five
+minutes).
 
 The case is a mesh-cycle position: stage 1 of the built-in gear set at the
 pitch point, coarse P2 mesh (``fe_impact.meshing.toothpair.build_pair``,

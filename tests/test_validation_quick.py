@@ -67,3 +67,18 @@ def test_a_failed_check_fails_the_study(tmp_path, capsys):
     assert ck.finish("demo", [], tmp_path) == 1          # asserting nothing is no pass
     assert capsys.readouterr().out.rstrip().endswith("demo: FAIL (0/0 checks)")
     assert (tmp_path / "checks.json").exists()
+
+
+def test_a_study_that_cannot_run_here_is_skipped_not_passed(monkeypatch, capsys):
+    # run_all counts a study that exits 2 with a SKIPPED line (a peer program
+    # missing) apart: the run then fails only on the studies that failed
+    from validation import run_all
+
+    outcomes = {"calculix_pair": (2, "calculix_pair: SKIPPED (ccx not found)", 0.1),
+                "corner_gaps": (0, "corner_gaps: PASS (3/3 checks)", 0.1),
+                "two_pair": (2, "two_pair: FAIL (exit status 2; see log)", 0.1)}
+    monkeypatch.setattr(run_all, "run_study", lambda name, out, quick: outcomes[name])
+    assert run_all.main(["--only", "calculix_pair,corner_gaps"]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("1 passed, 0 failed, 1 skipped")
+    assert run_all.main(["--only", "calculix_pair,two_pair"]) == 1   # a crash is no skip
+    assert capsys.readouterr().out.rstrip().endswith("0 passed, 1 failed, 1 skipped")

@@ -285,7 +285,11 @@ def main(argv: list[str] | None = None) -> int:
         print("calculix_pair: SKIPPED (ccx not found: install Debian's calculix-ccx, or set "
               "CCX to the CalculiX executable)")
         return 2
-    r = run(args.quick, args.out)
+    try:
+        r = run(args.quick, args.out)
+    except RuntimeError as exc:     # CalculiX stopped: its log says why
+        print(f"calculix_pair: FAIL ({exc})")
+        return 1
     write_json(args.out / "calculix_pair.json", r)
     for s in r["series"].values():
         print(f"stage 1 pitch point, coarse mesh for {s['design_force_N']:.0f} N, "

@@ -75,6 +75,7 @@ if __package__ in (None, ""):
 
 from fe_impact.output.files import write_json
 from validation import checks as ck
+from validation.run_all import SKIPPED
 
 FORCES = (50.0, 200.0, 500.0, 1000.0)   # N, contact normal forces of the fe-impact solve
 QUICK_FORCES = (200.0, 1000.0)
@@ -94,11 +95,12 @@ def find_ccx() -> str | None:
     return os.environ.get("CCX") or shutil.which("ccx")
 
 
-def element_faces(cells: np.ndarray, triangles: np.ndarray) -> list[tuple[int, int]]:
-    """(element, face number 1-4) of each surface triangle of a C3D10 mesh.
+def element_faces(cells: np.ndarray, *surfaces: np.ndarray) -> list[list[tuple[int, int]]]:
+    """(element, face number 1-4) of each triangle of each surface of a C3D10 mesh.
 
-    ``cells``: tetrahedra, VTK/C3D10 node order; ``triangles``: the surface's
-    6-node triangles. Raises ValueError for a triangle no element owns.
+    ``cells``: tetrahedra, VTK/C3D10 node order; ``surfaces``: 6-node triangle
+    arrays, looked up in one map of the elements' faces. Raises ValueError
+    for a triangle no element owns.
     """
     owner: dict[tuple[int, ...], tuple[int, int]] = {}
     corners = cells[:, :4]
@@ -107,12 +109,30 @@ def element_faces(cells: np.ndarray, triangles: np.ndarray) -> list[tuple[int, i
         for e, key in enumerate(map(tuple, keys)):
             owner[key] = (e, face)
     out = []
-    for tri in np.sort(triangles[:, :3], axis=1):
-        hit = owner.get(tuple(tri))
-        if hit is None:
-            raise ValueError(f"surface triangle {tri.tolist()} is the face of no element")
-        out.append(hit)
+    for triangles in surfaces:
+        faces = []
+        for tri in np.sort(triangles[:, :3], axis=1):
+            hit = owner.get(tuple(tri))
+            if hit is None:
+                raise ValueError(f"surface triangle {tri.tolist()} is the face of no element")
+            faces.append(hit)
+        out.append(faces)
     return out
+
+
+def write_mesh(path: Path, mesh) -> None:
+    """Nodes [mm] and C3D10 elements of ``mesh`` as a CalculiX/Abaqus input file, through
+    meshio's Abaqus writer (C3D10 is VTK's node order), every element in set EALL.
+
+    CalculiX reads at most 20 characters a field: 13 significant digits.
+    """
+    import meshio
+
+    meshio.write(path, meshio.Mesh(mesh.points * 1e3, [("tetra10", mesh.cells)]),
+                 file_format="abaqus", float_fmt=".12e")
+    # meshio names the element set after the cell type; the section needs EALL
+    path.write_text(re.sub(r"(?im)^\*ELEMENT, *TYPE=C3D10.*$",
+                           "*ELEMENT, TYPE=C3D10, ELSET=EALL", path.read_text()))
 
 
 def write_deck(path: Path, mesh, case, rotations: list[float], penalty: float) -> None:
@@ -121,8 +141,6 @@ def write_deck(path: Path, mesh, case, rotations: list[float], penalty: float) -
     Units: mm, N, MPa. ``penalty``: fe-impact's contact penalty [Pa/m], the
     slope of CalculiX's linear pressure-overclosure.
     """
-    import meshio
-
     x_mm = mesh.points * 1e3
     body = case.rigid_bodies[0]
     axis = np.asarray(body.direction, dtype=float)
@@ -130,16 +148,15 @@ def write_deck(path: Path, mesh, case, rotations: list[float], penalty: float) -
     point_mm = np.asarray(body.point, dtype=float) * 1e3
     hub = mesh.surface_points(body.surface)
     held = mesh.surface_points(case.supports[0].surface)
-    # nodes and elements through meshio's Abaqus writer (C3D10 in VTK order);
-    # CalculiX reads at most 20 characters a field: 13 significant digits
-    meshio.write(path, meshio.Mesh(x_mm, [("tetra10", mesh.cells)]), file_format="abaqus",
-                 float_fmt=".12e")
+    write_mesh(path, mesh)
     mat = case.materials[0]
     lines = ["*NSET, NSET=PHUB", *_rows(hub + 1), "*NSET, NSET=FHUB", *_rows(held + 1)]
     contact = case.contacts[0]
-    for name, group in (("SLAVE", contact.slave), ("MASTER", contact.master)):
+    faces = element_faces(mesh.cells, mesh.surface(contact.slave),
+                          mesh.surface(contact.master))
+    for name, listed in zip(("SLAVE", "MASTER"), faces, strict=True):
         lines.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT")
-        lines += [f"{e + 1}, S{f}" for e, f in element_faces(mesh.cells, mesh.surface(group))]
+        lines += [f"{e + 1}, S{f}" for e, f in listed]
     lines += [
         "*MATERIAL, NAME=STEEL", "*ELASTIC",
         f"{mat.youngs_modulus * 1e-6:.10g}, {mat.poisson_ratio:.10g}",
@@ -158,10 +175,7 @@ def write_deck(path: Path, mesh, case, rotations: list[float], penalty: float) -
         lines += [f"{n + 1}, {d + 1}, {d + 1}, {u[i, d]:.12e}"
                   for i, n in enumerate(hub) for d in range(3)]
         lines += ["*NODE PRINT, NSET=PHUB", "RF", "*END STEP"]
-    text = path.read_text()
-    # meshio names the element set after the cell type; the section needs EALL
-    text = re.sub(r"(?im)^\*ELEMENT, *TYPE=C3D10.*$", "*ELEMENT, TYPE=C3D10, ELSET=EALL", text)
-    path.write_text(text.rstrip("\n") + "\n" + "\n".join(lines) + "\n")
+    path.write_text(path.read_text().rstrip("\n") + "\n" + "\n".join(lines) + "\n")
 
 
 def _rows(ids: np.ndarray, per_line: int = 16) -> list[str]:
@@ -284,7 +298,7 @@ def main(argv: list[str] | None = None) -> int:
     if find_ccx() is None:
         print("calculix_pair: SKIPPED (ccx not found: install Debian's calculix-ccx, or set "
               "CCX to the CalculiX executable)")
-        return 2
+        return SKIPPED
     try:
         r = run(args.quick, args.out)
     except RuntimeError as exc:     # CalculiX stopped: its log says why

@@ -168,9 +168,8 @@ def test_tooth_pair_converges_at_three_times_the_largest_impact(tmp_path):
     # to the tilt of the normal over the patch (5e-3); and the approach holds
     # the teeth's bending besides the contact, so it exceeds Hertz's.
     from fe_impact.gears import default_gearset
-    from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
     from fe_impact.gears.tca import contact_ellipse
-    from fe_impact.meshing.paircase import static_case
+    from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.meshing.toothpair import build_pair
 
     gs = default_gearset()
@@ -178,8 +177,7 @@ def test_tooth_pair_converges_at_three_times_the_largest_impact(tmp_path):
     spec = dict(stage=1, roll_angle_deg=0.0, level="coarse", gap=1e-6, impact_speed=0.1,
                 design_force=max(forces))
     pm = build_pair(gs, out_dir=tmp_path, **spec)
-    pair, _ = analyse_stage_pair(gs, PairSpec(**spec))
-    case = static_case(gs, pair, pm.analysis, tmp_path / "static.toml", pm.mesh_path, forces)
+    case = static_pair_case(gs, pm, forces)
     result = StaticSolver(case, load_mesh(pm.mesh_path, "mm")).run()
     lever = pm.analysis.masses.pinion_lever
     for step, f in zip(result.steps, forces, strict=True):

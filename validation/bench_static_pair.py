@@ -85,8 +85,7 @@ def _iterations(case, level: str, text: str, cache: str) -> list[int]:
     from fe_impact.calibration import meshcycle as mc
     from fe_impact.fe.mesh import load_mesh
     from fe_impact.gears import gearset_from_dict
-    from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
-    from fe_impact.meshing.paircase import static_case
+    from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.meshing.toothpair import build_pair
     from fe_impact.solvers.static import StaticSolver
 
@@ -95,11 +94,7 @@ def _iterations(case, level: str, text: str, cache: str) -> list[int]:
     pm = build_pair(gs, case.stage, case.roll_angle_deg, level, 2, mc.PAIR_GAP, 0.1,
                     Path(cache) / "meshes" / f"static_{key}", reuse=True,
                     design_force=max(case.forces))
-    pair, _ = analyse_stage_pair(gs, PairSpec(
-        stage=case.stage, roll_angle_deg=case.roll_angle_deg, level=level, gap=mc.PAIR_GAP,
-        impact_speed=0.1, design_force=max(case.forces)))
-    fe_case = static_case(gs, pair, pm.analysis, pm.case_path.with_name("static.toml"),
-                          pm.mesh_path, case.forces)
+    fe_case = static_pair_case(gs, pm, case.forces)
     result = StaticSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit),
                           stress=False).run()
     return [s.iterations for s in result.steps]

@@ -220,8 +220,7 @@ def compare(folder: Path, forces: tuple[float, ...], design_force: float) -> dic
     from fe_impact.fe.linalg import limit_threads
     from fe_impact.fe.mesh import load_mesh
     from fe_impact.gears import default_gearset
-    from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
-    from fe_impact.meshing.paircase import static_case
+    from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.meshing.toothpair import build_pair
     from fe_impact.solvers.static import StaticSolver
 
@@ -231,9 +230,7 @@ def compare(folder: Path, forces: tuple[float, ...], design_force: float) -> dic
                 impact_speed=0.1, design_force=design_force)
     t0 = time.perf_counter()
     pm = build_pair(gs, out_dir=folder / "mesh", reuse=True, **spec)
-    pair, _ = analyse_stage_pair(gs, PairSpec(**spec))
-    case = static_case(gs, pair, pm.analysis, pm.case_path.with_name("static.toml"),
-                       pm.mesh_path, forces)
+    case = static_pair_case(gs, pm, forces)
     mesh = load_mesh(case.mesh_file, case.unit)
     t1 = time.perf_counter()
     with limit_threads(2):

@@ -127,9 +127,8 @@ def solve(gearset, roll_deg: float, forces: tuple[float, ...], design_force: flo
     """The static load-approach of the corner pair meshed for ``design_force``."""
     from fe_impact.fe.linalg import limit_threads
     from fe_impact.fe.mesh import load_mesh
-    from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
     from fe_impact.gears.tca import contact_ellipse
-    from fe_impact.meshing.paircase import static_case
+    from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.meshing.toothpair import build_pair
     from fe_impact.solvers.static import StaticSolver
 
@@ -139,11 +138,7 @@ def solve(gearset, roll_deg: float, forces: tuple[float, ...], design_force: flo
         pm = build_pair(gearset, STAGE, roll_deg, LEVEL, ORDER, GAP, 0.1,
                         cache / f"design_{design_force:.4g}N", reuse=True,
                         design_force=design_force, contact=contact)
-        pair, _ = analyse_stage_pair(gearset, PairSpec(
-            stage=STAGE, roll_angle_deg=roll_deg, level=LEVEL, order=ORDER, gap=GAP,
-            impact_speed=0.1, design_force=design_force, contact=contact))
-        case = static_case(gearset, pair, pm.analysis, pm.case_path.with_name("static.toml"),
-                           pm.mesh_path, forces)
+        case = static_pair_case(gearset, pm, forces)
         result = StaticSolver(case, load_mesh(case.mesh_file, case.unit), stress=False).run()
     a = pm.analysis
     mat = gearset.material

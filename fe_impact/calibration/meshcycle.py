@@ -292,7 +292,7 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
     from fe_impact.fe.linalg import limit_threads
     from fe_impact.fe.mesh import load_mesh
     from fe_impact.gears import gearset_from_dict
-    from fe_impact.meshing.paircase import static_case
+    from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.meshing.toothpair import build_pair
     from fe_impact.solvers.static import StaticSolver
 
@@ -306,15 +306,7 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
                                design_force=max(case.forces), contact=case.contact)
         timings["mesh"] = time.perf_counter() - t0
         t = time.perf_counter()
-        from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
-
-        gear_pair, _ = analyse_stage_pair(gearset, PairSpec(
-            stage=case.stage, roll_angle_deg=case.roll_angle_deg, level=level, order=order,
-            gap=PAIR_GAP, impact_speed=0.1, design_force=max(case.forces),
-            contact=case.contact))
-        fe_case = static_case(gearset, gear_pair, pair_mesh.analysis,
-                              pair_mesh.case_path.with_name("static.toml"),
-                              pair_mesh.mesh_path, case.forces)
+        fe_case = static_pair_case(gearset, pair_mesh, case.forces)
         solver = StaticSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit),
                               stress=False)
         result = solver.run()

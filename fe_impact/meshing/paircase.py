@@ -104,6 +104,17 @@ def static_case(gearset, pair: GearPair, analysis: PairAnalysis, case_path: Path
     )
 
 
+def static_pair_case(gearset, pair_mesh, forces: tuple[float, ...]) -> Case:
+    """:func:`static_case` on a meshed pair (a
+    :class:`~fe_impact.meshing.toothpair.PairMesh`): the gear pair taken from the
+    pair analysis' own spec, the case's path ``static.toml`` beside ``case.toml``."""
+    from fe_impact.gears.pairanalysis import analyse_stage_pair
+
+    pair, _ = analyse_stage_pair(gearset, pair_mesh.analysis.spec)
+    return static_case(gearset, pair, pair_mesh.analysis,
+                       pair_mesh.case_path.with_name("static.toml"), pair_mesh.mesh_path, forces)
+
+
 def _floats(v: NDArray) -> tuple[float, ...]:
     return tuple(float(c) for c in v)
 

@@ -198,3 +198,28 @@ def test_a_stalled_iteration_says_what_helps():
     msg = _diagnosis([1e-6, 1e-7, 2e-8, 1.9e-8, 2e-8, 1.8e-8], 2e-5, 1e-4)
     assert "loosen [analysis] tolerance to about 2e-03" in msg
     assert "max_iterations" in _diagnosis([1e-5, 5e-6, 2e-6, 1e-6], 2e-5, 1e-4)
+
+
+def test_two_alternating_states_are_recognised():
+    # The iteration of a tip edge's corner contact at 850 N: the state two
+    # projections back returns (its displacement within the bound, the same
+    # rows in contact) while the last one lies 1.4e-8 m away, with one row in
+    # contact in one state only. Recognised as alternating, whether the rows in
+    # contact differ between the two states or not; not while it still converges,
+    # nor when the row sets of the returning state differ.
+    import numpy as np
+    import scipy.sparse as sp
+
+    from fe_impact.solvers.static import _alternates
+
+    zone = sp.identity(3, format="csr")
+    za, zb = np.array([1e-6, 2e-6, 0.0]), np.array([1e-6, 2e-6 + 1.4e-8, 0.0])
+    la, lb = np.array([1.0, 2.0, 0.0]), np.array([1.0, 2.0, 0.5])
+    bound = 1e-12
+    cycle = [(za, la, 0.0), (zb, lb, 0.0)]
+    assert _alternates(cycle, za + 1e-13, la, zone, bound)           # rows alternate
+    assert _alternates([(za, la, 0.0), (zb, la, 0.0)], za, la, zone, bound)   # same rows
+    assert not _alternates(cycle, za + 1e-11, la, zone, bound)       # not back yet
+    assert not _alternates(cycle, za, lb, zone, bound)               # other rows in contact
+    assert not _alternates(cycle[1:], za, la, zone, bound)           # one state only
+    assert not _alternates([(za, la, 0.0), (za, la, 0.0)], za, la, zone, bound)  # converged

@@ -828,6 +828,28 @@ def test_report_tables_the_clamped_look_ups_and_the_yield_onset():
     assert f"| 1 | mesh (test) | 50-50 | {below} (" in text
 
 
+def test_a_corner_laws_yield_onset_is_its_roundings():
+    # A corner law's clamped impacts are judged against the yield onset of its own
+    # contact, the rounded tip edge's first touch: the Hertz impact of the stage's
+    # effective mass on the rounding at that speed reaches 1.6 Y (to round-off),
+    # far below the flanks' onset (seed set: about 1 mm/s against 0.26 m/s).
+    from fe_impact.physics import hertz
+    from fe_impact.switching.calibration import corner_radii
+    from fe_impact.switching.report import YIELD_PRESSURE, _yield_speed
+
+    model = DriveModel(corners="planar")
+    material = GEARSET.material
+    e_star = hertz.effective_modulus(material.youngs_modulus, material.poisson_ratio)
+    for side in ("approach", "recess"):
+        rx, ry = corner_radii(GEARSET, 0, side)
+        v_y = _yield_speed(model, 1, f"corner-{side}")
+        k = 100.0 / hertz.ellipse_contact(100.0, rx, ry, e_star).delta ** 1.5
+        force = float(hertz.impact_from_stiffness(model.effective_mass(1), v_y, k).force_max)
+        assert hertz.ellipse_contact(force, rx, ry, e_star).p0 == pytest.approx(
+            YIELD_PRESSURE * material.yield_strength, rel=1e-9)
+        assert v_y < 0.1 * _yield_speed(model, 1)
+
+
 def test_a_study_gives_the_pitch_point_only_laws_beside(tmp_path):
     # The baseline is the same laws without the mesh cycle and the corner laws; its
     # columns are the statistics of the cases simulated on exactly those laws.

@@ -828,6 +828,35 @@ def test_report_tables_the_clamped_look_ups_and_the_yield_onset():
     assert f"| 1 | mesh (test) | 50-50 | {below} (" in text
 
 
+def test_an_events_clamp_flag_is_that_of_its_recorded_speed():
+    # A rattle event's closing speed is its flank's earliest touch: when another
+    # tooth pair touches earlier within the same step, the event takes that
+    # pair's speed, and its clamp flag must follow it (below the law's table
+    # exactly when slower than its first row, above exactly when faster than
+    # its last). Stage 1 of the seed set at 1000 r/min, no load, one second, its
+    # mesh law narrowed to 12.5-125 mm/s: one of the 57 mesh-law events kept
+    # the other pair's flag before the flag followed the speed.
+    from fe_impact.switching.calibration import closed_form_laws
+    from fe_impact.switching.simulation import LAW_NAMES
+
+    model = DriveModel(gearset=GEARSET)
+    laws = closed_form_laws(GEARSET, [model.effective_mass(s) for s in (1, 2, 3)])
+    lo, hi = 0.0125, 0.125
+
+    def narrowed(t):
+        return dataclasses.replace(t, impact_speed=np.array([lo, hi]), k=t.k[:1].repeat(2),
+                                   exponent=t.exponent[:1].repeat(2),
+                                   cmax=t.cmax[:1].repeat(2), d=t.d[:1].repeat(2))
+
+    tables = {key: narrowed(t) if key[1] == "mesh" else t for key, t in laws.tables.items()}
+    ev = simulate(model.with_laws(LawSet(tables, "test")),
+                  StageSchedule((Segment(1.0, 1, 1000.0),))).events
+    mesh = np.array([LAW_NAMES[c] == "mesh" for c in ev.law])
+    assert np.any(ev.clamped[mesh] < 0)
+    np.testing.assert_array_equal((ev.clamped < 0)[mesh], (ev.speed < lo)[mesh])
+    np.testing.assert_array_equal((ev.clamped > 0)[mesh], (ev.speed > hi)[mesh])
+
+
 def test_a_corner_laws_yield_onset_is_its_roundings():
     # A corner law's clamped impacts are judged against the yield onset of its own
     # contact, the rounded tip edge's first touch: the Hertz impact of the stage's

@@ -583,6 +583,7 @@ def track_contacts(t0, t1, p, tab, ntab, slots, flanks, pairs, npairs, ev, run):
                     elif tc < ev[created].time:  # the earliest touch of the flank defines it
                         ev[created].time = tc
                         ev[created].speed = vc
+                        ev[created].clamp = clamp
                         ev[created].pair = k
                         ev[created].contact = where
                         ev[created].law = used

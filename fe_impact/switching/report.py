@@ -250,6 +250,7 @@ def _clamp_lines(runs: dict[str, SwitchingRun]) -> list[str]:
                 continue
             table = model.law_set.table(st, kind)
             mass = model.effective_mass(st)
+            onset = _yield_speed(model, st, kind)
             cells = []
             for mask, end, reduce in ((low, 0, np.min), (high, -1, np.max)):
                 if not mask.any():
@@ -258,20 +259,17 @@ def _clamp_lines(runs: dict[str, SwitchingRun]) -> list[str]:
                 v = float(reduce(speed[mask]))
                 clamped = table.law(float(table.impact_speed[end]))   # the end's row
                 e = simulate_impact(clamped, mass, v).restitution
-                (worst_low if end == 0 else worst_high).append((v, e, st))
+                # the restitution at the slowest / fastest, and the fastest's yield ratio
+                (worst_low if end == 0 else worst_high).append(
+                    (e, float(np.max(speed[mask])) / onset))
                 cells += [f"{int(mask.sum())} ({v * 1e3:.3g})", f"{e:.4f}"]
             lo, hi = table.speed_range
-            onset = _yield_speed(model, st, kind)
-            if low.any():
-                worst_low[-1] += (float(np.max(speed[low])) / onset,)
-            if high.any():
-                worst_high[-1] += (float(np.max(speed[high])) / onset,)
             lines.append(f"| {st} | {kind} ({table.source}) | {lo * 1e3:.3g}-{hi * 1e3:.3g} | "
                          f"{' | '.join(cells)} | {onset * 1e3:.4g} |")
     lines.append("")
     if worst_low:
-        e_low = min(row[1] for row in worst_low)
-        ratio = max(row[3] for row in worst_low)
+        e_low = min(e for e, _ in worst_low)
+        ratio = max(r for _, r in worst_low)
         lines.append(
             "Below the tables the impacts are slower than any calibrated one "
             + (f"and quasi-static: their contacts are elastic (at most {ratio:.2g} times "
@@ -285,7 +283,7 @@ def _clamp_lines(runs: dict[str, SwitchingRun]) -> list[str]:
             "stiffness and exponent are the mesh cycle's quasi-static ones where the "
             "calibration has a mesh cycle.")
     if worst_high:
-        ratio = max(row[3] for row in worst_high)
+        ratio = max(r for _, r in worst_high)
         lines.append(
             "Above the tables the impacts are faster than the fastest calibrated one, at up "
             f"to {ratio:.3g} times their contact's yield-onset speed: "

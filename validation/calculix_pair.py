@@ -175,7 +175,8 @@ def write_deck(path: Path, mesh, case, rotations: list[float], penalty: float) -
         lines += [f"{n + 1}, {d + 1}, {d + 1}, {u[i, d]:.12e}"
                   for i, n in enumerate(hub) for d in range(3)]
         lines += ["*NODE PRINT, NSET=PHUB", "RF", "*END STEP"]
-    path.write_text(path.read_text().rstrip("\n") + "\n" + "\n".join(lines) + "\n")
+    with open(path, "a") as fh:    # after the nodes and elements write_mesh wrote
+        fh.write("\n".join(lines) + "\n")
 
 
 def _rows(ids: np.ndarray, per_line: int = 16) -> list[str]:

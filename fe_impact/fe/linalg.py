@@ -21,6 +21,7 @@ import contextlib
 import ctypes
 import functools
 import logging
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -36,13 +37,46 @@ _PARDISO_ERRORS = {
 }
 
 
+def _mkl_rt_file() -> str | None:
+    """The ``mkl_rt`` library of the installed ``mkl`` wheel, from its file list.
+
+    pypardiso, which brings that wheel, searches for the library by walking
+    every folder of the environment, once when it is imported and once per
+    solver object: 2.4 s in each sweep worker on a cold disk cache (6,000
+    folders in ``.venv``), where the wheel's own record names it in 0.02 s.
+    None if the wheel or the file is not there (then pypardiso searches).
+    """
+    from importlib import metadata
+
+    try:
+        files = metadata.files("mkl") or []
+    except metadata.PackageNotFoundError:
+        return None
+    for f in files:
+        name = f.name
+        if "mkl_rt" in name and (".so" in name or name.endswith((".dylib", ".dll"))):
+            path = Path(f.locate()).resolve()
+            if path.is_file():
+                return str(path)
+    return None
+
+
 @functools.cache
 def _mkl_pardiso():
-    """The MKL ``pardiso`` entry point, found the way pypardiso finds it (once: the
-    search takes 0.1-0.3 s, and every factorisation asked for it)."""
-    from pypardiso.pardiso_wrapper import PyPardisoSolver
+    """The MKL ``pardiso`` entry point (looked up once: every factorisation asks
+    for it): from the ``mkl`` wheel's file list, else the way pypardiso finds it."""
+    lib = None
+    path = _mkl_rt_file()
+    if path is not None:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError as exc:
+            logger.debug("could not load %s (%s): searching as pypardiso does", path, exc)
+    if lib is None:
+        from pypardiso.pardiso_wrapper import PyPardisoSolver
 
-    fn = PyPardisoSolver().libmkl.pardiso
+        lib = PyPardisoSolver().libmkl
+    fn = lib.pardiso
     i32 = ctypes.POINTER(ctypes.c_int32)
     fn.argtypes = ([ctypes.POINTER(ctypes.c_int64)] + [i32] * 5
                    + [ctypes.c_void_p, i32, i32, i32, i32, i32, i32,

@@ -97,3 +97,20 @@ def write_csv(path: str | Path, header: Sequence[str], rows: Sequence[Sequence])
         w.writerow(header)
         w.writerows(rows)
     return Path(path)
+
+
+#: Significant digits of :func:`write_array_csv`: ten are beyond every figure the
+#: models compute (a time of 10 s is resolved to 1 ns), and a float written in
+#: them costs a third of its shortest exact form (time series of 30k rows).
+ARRAY_DIGITS = 10
+
+
+def write_array_csv(path: str | Path, header: Sequence[str], data: np.ndarray) -> Path:
+    """Write a numeric table (rows of ``data``, one column per ``header`` name) as CSV
+    with :data:`ARRAY_DIGITS` significant digits, atomically. Non-finite values are
+    written ``nan``, ``inf``, ``-inf``."""
+    data = np.asarray(data, dtype=float).reshape(-1, len(header))
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+        csv.writer(fh).writerow(header)
+        np.savetxt(fh, data, fmt=f"%.{ARRAY_DIGITS}g", delimiter=",")
+    return Path(path)

@@ -27,6 +27,7 @@ from fe_impact.atomic import (  # noqa: F401 - re-exported: the result writers' 
     atomic_folder,
     atomic_path,
     standard_json,
+    write_array_csv,
     write_csv,
     write_json,
 )

@@ -8,7 +8,7 @@ import numpy as np
 
 from fe_impact import __version__
 from fe_impact.fe.case import Case
-from fe_impact.output.files import write_csv, write_json, write_pvd, write_vtu
+from fe_impact.output.files import write_array_csv, write_json, write_pvd, write_vtu
 from fe_impact.solvers.static import StaticResult, StepResult
 
 SUMMARY_SCHEMA = "fe-impact/static-summary/1"
@@ -115,9 +115,9 @@ class DynamicWriter:
         """Write history, summary and plots; ``status`` says how the run ended."""
         hist = result.output_history
         keys = list(HISTORY_UNITS)
-        write_csv(self.out / "history.csv", [f"{k} [{HISTORY_UNITS[k]}]" for k in keys],
-                  np.column_stack([hist[k] for k in keys]).tolist() if len(hist["time"])
-                  else [])
+        write_array_csv(self.out / "history.csv", [f"{k} [{HISTORY_UNITS[k]}]" for k in keys],
+                        np.column_stack([hist[k] for k in keys]) if len(hist["time"])
+                        else np.zeros((0, len(keys))))
         plots = plot_impact(self.out, result.history) if len(result.history["time"]) > 1 else []
         summary = {
             "schema": DYNAMIC_SCHEMA,

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fe_impact.output.files import atomic_path, write_csv, write_json
+from fe_impact.output.files import atomic_path, write_array_csv, write_csv, write_json
 from fe_impact.switching.geometry import seed_switching_speed, switching_speed
 from fe_impact.switching.model import DriveModel
 from fe_impact.switching.presets import Preset
@@ -597,6 +597,20 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def _margins(fig, rows: int, *, left: float = 0.85, right: float = 0.2, top: float = 0.55,
+             bottom: float = 0.5, gap: float = 0.45) -> None:
+    """Fixed margins in inches around a column of ``rows`` axes (room for the
+    y label, the suptitle, each axes' title above it and the time axis below).
+    ``tight_layout`` measured every tick label for the same result: 0.19 s a
+    figure, a sixth of a study's output."""
+    width, height = fig.get_size_inches()
+    inner = height - top - bottom
+    axes_height = (inner - (rows - 1) * gap) / rows
+    fig.subplots_adjust(left=left / width, right=1.0 - right / width,
+                        bottom=bottom / height, top=1.0 - top / height,
+                        hspace=gap / axes_height if rows > 1 else 0.0)
+
+
 def _plot_quantity(preset: Preset, runs: dict[str, SwitchingRun], quantity: str, path: Path
                    ) -> Path:
     import matplotlib
@@ -625,7 +639,7 @@ def _plot_quantity(preset: Preset, runs: dict[str, SwitchingRun], quantity: str,
             ax.legend(fontsize=8, loc="upper left")
     axes[-1, 0].set_xlabel("time [s]")
     fig.suptitle(f"{LABELS[quantity]} per mesh (cf. seed {preset.figures})", fontsize=10)
-    fig.tight_layout()
+    _margins(fig, len(names))
     _save(fig, path)
     plt.close(fig)
     return path
@@ -659,7 +673,7 @@ def _plot_impacts(runs: dict[str, SwitchingRun], path: Path) -> Path:
     if ax_v.get_legend_handles_labels()[0]:
         ax_v.legend(fontsize=7, ncol=2)
     fig.suptitle("Impacts (contact onsets with a closing speed)", fontsize=10)
-    fig.tight_layout()
+    _margins(fig, 2, gap=0.2)   # shared time axis: no title between the two
     _save(fig, path)
     plt.close(fig)
     return path
@@ -692,7 +706,7 @@ def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun]
     for name, run in runs.items():
         columns = list(run.series)
         data = np.column_stack([run.series[c] for c in columns])
-        written.append(write_csv(out / f"{name}_series.csv", columns, data.tolist()))
+        written.append(write_array_csv(out / f"{name}_series.csv", columns, data))
         written.append(write_csv(out / f"{name}_impacts.csv", _IMPACT_COLUMNS,
                                  _impact_rows(run)))
     rows = comparison_rows(preset, runs)

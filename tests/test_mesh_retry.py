@@ -254,3 +254,52 @@ def test_a_retry_from_the_kept_surface_mesh_is_the_mesh_built_afresh(tmp_path, m
     afresh = toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "afresh")
     assert kept.stats.element_sizes["factor"] == afresh.stats.element_sizes["factor"] == 5.0
     assert kept.mesh_path.read_bytes() == afresh.mesh_path.read_bytes()
+
+
+def test_shared_solids_are_pruned_least_recently_used_first(tmp_path):
+    """Over its byte budget a shared folder drops the entries used longest ago: an
+    entry taken by a process (``_shared_solids``) counts as used now."""
+    import json
+    import os
+
+    folder = tmp_path / "solids"
+    folder.mkdir()
+    meta = {"pinion_roll": 0.0, "face_angle": 0.0, "volumes": {}, "faces": {}}
+    for age, key in enumerate(("c", "b", "a")):          # a oldest, c newest
+        (folder / f"{key}.brep").write_bytes(b"x" * 10)
+        (folder / f"{key}.json").write_text(json.dumps(meta))
+        os.utime(folder / f"{key}.json", (1e9 - age * 100, 1e9 - age * 100))
+    toothpair.share_solids(folder)
+    try:
+        assert toothpair._shared_solids("a") is not None   # a is used: now the newest
+    finally:
+        toothpair.share_solids(None)
+    toothpair._prune_shared(folder, budget=25)             # 30 bytes: one entry goes
+    assert sorted(p.name for p in folder.iterdir()) == ["a.brep", "a.json", "c.brep",
+                                                        "c.json"]
+    toothpair._prune_shared(folder, budget=25)             # within the budget: kept
+    assert len(list(folder.iterdir())) == 4
+
+
+def test_solids_key_changes_with_the_builders_source(monkeypatch):
+    """Solids kept in the user's cache outlive the code that built them: their key
+    holds that code's source, so other code never takes them."""
+    from fe_impact.gears.pairanalysis import PairSpec
+
+    gs = default_gearset()
+    spec = PairSpec(stage=1, level="coarse")
+    key = toothpair._solids_key(gs, spec)
+    assert toothpair._solids_key(gs, PairSpec(stage=1, level="default",
+                                              roll_angle_deg=3.0)) == key   # mesh only
+    assert toothpair._solids_key(gs, PairSpec(stage=2, level="coarse")) != key
+    monkeypatch.setattr(toothpair, "_builder_digest", lambda: "other source")
+    assert toothpair._solids_key(gs, spec) != key
+
+
+def test_a_calibrations_solids_go_to_the_users_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert toothpair.solids_folder(tmp_path / "cache") == tmp_path / "xdg/fe-impact/solids"
+    # a cache that cannot be written: the run's own cache folder
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "file"))
+    assert toothpair.solids_folder(tmp_path / "cache") == tmp_path / "cache/solids"

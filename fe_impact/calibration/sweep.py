@@ -310,9 +310,9 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     ``cases/<id>/result.json``; returns it."""
     import tomllib
 
-    from fe_impact.meshing.toothpair import share_solids
+    from fe_impact.meshing.toothpair import share_solids, solids_folder
 
-    share_solids(Path(cache) / "solids")   # the sweep's workers build each stage's once
+    share_solids(solids_folder(cache))   # built once a stage, kept for later runs
     if isinstance(case, PositionCase):
         return _run_position(case, settings, gearset_text, out, cache)
 

@@ -87,9 +87,12 @@ the pinion's rim arc, a hub face).
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import hashlib
 import json
 import logging
+import os
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
@@ -489,6 +492,11 @@ _SOLIDS_DIR: list[Path] = []
 _SHARED: list[Path] = []
 
 
+#: Most bytes of solids a shared folder keeps: about ten gear sets of three stages
+#: (18-20 MB a stage); the entries used longest ago go first.
+SOLIDS_BUDGET = 500 * 1024 * 1024
+
+
 def share_solids(folder: str | Path | None) -> None:
     """Share the solids through ``folder`` (None: stop sharing).
 
@@ -503,6 +511,50 @@ def share_solids(folder: str | Path | None) -> None:
         _SHARED.append(Path(folder))
 
 
+def solids_folder(cache: str | Path) -> Path:
+    """Where a calibration shares its solids: ``fe-impact/solids`` in the user's cache,
+    so that later runs on the same gear set take them (the key holds the gear set,
+    the sector fields and the source of the code that builds them: :func:`_solids_key`),
+    else ``<cache>/solids``."""
+    from fe_impact.runtime import user_cache
+
+    return user_cache("solids") or Path(cache) / "solids"
+
+
+@functools.cache
+def _builder_digest() -> str:
+    """Digest of the source that shapes the solids (the sectors' builder and the gear
+    surfaces), so that solids kept across runs are never those of other code."""
+    from fe_impact import gears
+    from fe_impact.meshing import pairgeometry
+
+    digest = hashlib.sha256()
+    for path in [Path(pairgeometry.__file__), Path(__file__),
+                 *sorted(Path(gears.__file__).parent.glob("*.py"))]:
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _prune_shared(folder: Path, budget: int = SOLIDS_BUDGET) -> None:
+    """Remove the entries of ``folder`` used longest ago (``<key>.json`` times, set
+    again on every use) while the folder holds more than ``budget`` bytes."""
+    entries = []
+    for meta in folder.glob("*.json"):
+        brep = meta.with_suffix(".brep")
+        try:
+            entries.append((meta.stat().st_mtime, meta, brep,
+                            brep.stat().st_size if brep.is_file() else 0))
+        except OSError:
+            continue
+    total = sum(size for *_, size in entries)
+    for _, meta, brep, size in sorted(entries, key=lambda e: e[0]):
+        if total <= budget:
+            break
+        meta.unlink(missing_ok=True)   # the entry is invalid without it: first
+        brep.unlink(missing_ok=True)
+        total -= size
+
+
 def _shared_solids(key: str) -> _Solids | None:
     """The solids of ``key`` in the shared folder, if complete there."""
     if not _SHARED:
@@ -514,6 +566,8 @@ def _shared_solids(key: str) -> _Solids | None:
         return None
     if not brep.is_file():
         return None
+    with contextlib.suppress(OSError):
+        os.utime(meta)   # used now: the last to be pruned
     return _Solids(brep, float(data["pinion_roll"]), float(data["face_angle"]),
                    {k: np.array(v) for k, v in data["volumes"].items()},
                    {k: [np.array(c) for c in cs] for k, cs in data["faces"].items()})
@@ -530,6 +584,7 @@ def _leave_shared(key: str, solids: _Solids) -> None:
         "pinion_roll": solids.pinion_roll, "face_angle": solids.face_angle,
         "volumes": {k: v.tolist() for k, v in solids.volumes.items()},
         "faces": {k: [c.tolist() for c in cs] for k, cs in solids.faces.items()}})
+    _prune_shared(_SHARED[0])
 
 
 def _solids_dir() -> Path:
@@ -598,7 +653,6 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
     """
     import gmsh
 
-    from fe_impact import __version__
     from fe_impact.atomic import atomic_path
 
     if spec.contact != "flank":
@@ -606,11 +660,7 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         # of one corner position serve no other
         return add_sectors(model, design.pair, design.analysis, edge_radii=design.edge_radii)
 
-    # the version too: solids shared on disk (share_solids) outlive the process
-    blob = json.dumps({"gearset": asdict(gearset), "version": __version__,
-                       **{k: getattr(spec, k) for k in _SOLID_FIELDS}},
-                      sort_keys=True, default=repr)
-    key = hashlib.sha256(blob.encode()).hexdigest()[:16]
+    key = _solids_key(gearset, spec)
     pair, analysis, occ = design.pair, design.analysis, model.occ
     solids = _SOLIDS.get(key)
     if solids is None or not solids.brep.is_file():
@@ -653,6 +703,18 @@ def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
         occ.remove(model.getEntities(3), recursive=True)
         occ.synchronize()
         return add_sectors(model, pair, analysis)
+
+
+def _solids_key(gearset, spec: PairSpec) -> str:
+    """Key of a stage's solids: the gear set, the sector fields, the version and the
+    builder's source (solids shared on disk outlive the process and the run)."""
+    from fe_impact import __version__
+
+    blob = json.dumps({"gearset": asdict(gearset), "version": __version__,
+                       "source": _builder_digest(),
+                       **{k: getattr(spec, k) for k in _SOLID_FIELDS}},
+                      sort_keys=True, default=repr)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
 def _turned_solids(model, design: PairDesign, solids: _Solids

@@ -6,7 +6,8 @@ backend.
 
 Files written to the output folder for a preset with cases ``C``:
 
-- ``C_series.csv``: the sampled time series (SI units in the column names);
+- ``C_series.csv``: the sampled time series (SI units in the column names,
+  10 significant digits);
 - ``C_impacts.csv``: one row per impact;
 - ``statistics.csv``: the seed's table layout, model beside seed, in the
   seed's units;

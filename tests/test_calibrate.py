@@ -165,3 +165,44 @@ def test_an_interrupted_study_leaves_the_calibration_complete(tmp_path, monkeypa
                        "switching": "stopped"}
     assert ran == ["table1", "table2"]
     assert "Switching runs" not in (tmp_path / "report.md").read_text()
+
+
+def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeypatch):
+    # On the workers the studies start as soon as calibration.json is written, before
+    # report.md and summary.json: starting must not read them, and the wait tables
+    # the studies into the summary written meanwhile; a Ctrl-C in the wait marks
+    # them stopped and leaves the calibration complete.
+    import json
+
+    from fe_impact.calibration import sweep
+    from fe_impact.switching import study
+
+    monkeypatch.setattr(study, "seed_study_job", lambda *args: {})
+    queued = []
+
+    def later(jobs):        # an asynchronous Draw: the jobs run when waited for
+        queued.extend(jobs)
+        return lambda: [name for name, fn, args in jobs if fn(*args) is not None]
+
+    finish = sweep._start_studies(tmp_path, tmp_path / "calibration.json", "",
+                                  ("table1", "table2"), later)
+    assert [name for name, *_ in queued] == ["switching study table1",
+                                             "switching study table2"]
+    assert not (tmp_path / "summary.json").exists()
+    (tmp_path / "summary.json").write_text(json.dumps({"status": "completed"}))
+    (tmp_path / "report.md").write_text("# report\n")
+    finish()
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary == {"status": "completed",
+                       "switching": ["switching/table1", "switching/table2"]}
+
+    def interrupted(jobs):
+        def wait():
+            raise KeyboardInterrupt
+        return wait
+
+    finish = sweep._start_studies(tmp_path, tmp_path / "calibration.json", "", ("table3",),
+                                  interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        finish()
+    assert json.loads((tmp_path / "summary.json").read_text())["switching"] == "stopped"

@@ -611,12 +611,23 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     written = []      # the calibration's files are complete once this holds their path
 
     def finish(draw: Draw) -> Path:
-        """The files of a completed sweep, the pictures drawn by ``draw``, then the
-        switching studies run by ``draw``."""
+        """The files of a completed sweep, the pictures drawn by ``draw``, and the
+        switching studies run by ``draw``: on the workers (``draw_on``) the studies
+        start as soon as calibration.json is written and run beside the report's
+        pictures (no idle worker between the two); drawn here they run after."""
+        started: list[Callable[[], None]] = []
+
+        def start(calibration: Path) -> None:
+            started.append(_start_studies(out, calibration, gearset_text, studies, draw))
+
         path = _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
-                              "completed", gearset_text, draw)
+                              "completed", gearset_text, draw,
+                              None if draw is draw_here else start)
         written.append(path)
-        _run_studies(out, path, gearset_text, studies, draw)
+        if started:
+            started[0]()
+        else:
+            _run_studies(out, path, gearset_text, studies, draw)
         return path
 
     try:
@@ -643,9 +654,11 @@ def _held_elsewhere(folder: Path) -> bool:
 
 def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Sweep,
                    settings: Settings, wall: float, status: str, gearset_text: str,
-                   draw: Draw = draw_here) -> Path:
+                   draw: Draw = draw_here,
+                   written: Callable[[Path], None] | None = None) -> Path:
     """summary.json and, for a completed run, calibration.json/.csv and report.md (its
-    pictures drawn by ``draw`` while the tables are written)."""
+    pictures drawn by ``draw`` while the tables are written); ``written(path)`` is
+    called once calibration.json is complete (it must not block)."""
     from fe_impact.calibration.report import write_calibration_report
     from fe_impact.output.files import write_json
 
@@ -668,6 +681,8 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
                                       wall_time_s=wall, fe_impact_version=__version__,
                                       notes=NOTES, mesh_cycle=cycle)
             path = write_calibration(out / "calibration.json", calibration)
+            if written is not None:
+                written(path)
             write_calibration_csv(out / "calibration.csv", records)
             write_calibration_report(out, calibration, draw)
             if drawing is not None:
@@ -683,27 +698,52 @@ def _run_studies(out: Path, calibration: Path, gearset_text: str, studies: Seque
     is logged and left out. Interrupted, the studies finished are kept (each study
     writes what it ran), summary.json says ``"switching": "stopped"``, and the
     interrupt is raised again: the calibration itself is complete."""
+    try:
+        finish = _start_studies(out, calibration, gearset_text, studies, draw)
+    except KeyboardInterrupt:   # a draw that runs its jobs at once
+        _studies_stopped(out)
+        raise
+    finish()
+
+
+def _start_studies(out: Path, calibration: Path, gearset_text: str, studies: Sequence[str],
+                   draw: Draw) -> Callable[[], None]:
+    """Hand the ``studies`` to ``draw``; returns what waits for them and then tables
+    them (:func:`_run_studies`: summary.json must exist by then)."""
     if not studies:
-        return
+        return lambda: None
     from fe_impact.calibration.report import add_switching_section
     from fe_impact.output.files import write_json
     from fe_impact.switching.study import seed_study_job
 
+    wait = draw([(f"switching study {name}", seed_study_job,
+                  (gearset_text, name, str(calibration), str(out / "switching" / name)))
+                 for name in studies])
+
+    def finish() -> None:
+        try:
+            done = wait()
+        except KeyboardInterrupt:
+            _studies_stopped(out)
+            raise
+        with ignore_signals():   # the report's table and the summary belong together
+            summary_path = out / "summary.json"
+            summary = json.loads(summary_path.read_text())
+            add_switching_section(out, done)
+            write_json(summary_path, {**summary, "switching": [
+                f"switching/{job.removeprefix('switching study ')}" for job in done]})
+
+    return finish
+
+
+def _studies_stopped(out: Path) -> None:
+    """Mark the studies stopped in summary.json (the calibration stays complete)."""
+    from fe_impact.output.files import write_json
+
     summary_path = out / "summary.json"
-    summary = json.loads(summary_path.read_text())
-    try:
-        wait = draw([(f"switching study {name}", seed_study_job,
-                      (gearset_text, name, str(calibration), str(out / "switching" / name)))
-                     for name in studies])
-        done = wait()
-    except KeyboardInterrupt:
-        with ignore_signals():
-            write_json(summary_path, {**summary, "switching": "stopped"})
-        raise
-    with ignore_signals():   # the report's table and the summary belong together
-        add_switching_section(out, done)
-        write_json(summary_path, {**summary, "switching": [
-            f"switching/{job.removeprefix('switching study ')}" for job in done]})
+    with ignore_signals():
+        write_json(summary_path, {**json.loads(summary_path.read_text()),
+                                  "switching": "stopped"})
 
 
 class CaseStopped(CalibrationError):

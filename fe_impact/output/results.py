@@ -115,9 +115,9 @@ class DynamicWriter:
         """Write history, summary and plots; ``status`` says how the run ended."""
         hist = result.output_history
         keys = list(HISTORY_UNITS)
+        # no output yet (a run stopped at once): a (0, k) table, the header alone
         write_array_csv(self.out / "history.csv", [f"{k} [{HISTORY_UNITS[k]}]" for k in keys],
-                        np.column_stack([hist[k] for k in keys]) if len(hist["time"])
-                        else np.zeros((0, len(keys))))
+                        np.column_stack([hist[k] for k in keys]))
         plots = plot_impact(self.out, result.history) if len(result.history["time"]) > 1 else []
         summary = {
             "schema": DYNAMIC_SCHEMA,

@@ -183,3 +183,39 @@ def test_corner_positions_stand_at_the_closed_form_corner_laws_touch():
         meshcycle.PositionCase(1, 56, 2.0, (50.0, 100.0), contact="tip")
     sharp = dataclasses.replace(gs, face_tip_edge_radius=0.0)
     assert {c.contact for c in meshcycle.plan_corner_positions(sharp)} == {"corner-recess"}
+
+
+# -- the nominal load's patch narrower than an element -----------------------------------
+def test_patch_resolved_is_one_element_across():
+    assert meshcycle.patch_resolved(b=50e-6, across=100e-6)
+    assert not meshcycle.patch_resolved(b=49e-6, across=100e-6)
+
+
+def test_complete_curve_models_only_the_unresolved_points():
+    # FE points that are exactly Hertz plus a linear compliance c where resolved and
+    # wrong (an offset of 0.05 um) where not: the modelled points are Hertz + c F
+    # exactly, the resolved ones untouched, and c comes back to round-off.
+    c = 1.4e-9
+    hertz = 2.1e-8 * FORCES ** (2.0 / 3.0)
+    fe = hertz + c * FORCES
+    resolved = FORCES >= 50.0
+    fe_bad = np.where(resolved, fe, fe + 5e-8)
+    approach, compliance = meshcycle.complete_curve(FORCES, fe_bad, hertz, resolved)
+    assert compliance == pytest.approx(c, rel=1e-12)
+    assert approach == pytest.approx(fe, rel=1e-12)
+    assert np.array_equal(approach[resolved], fe_bad[resolved])
+
+
+def test_complete_curve_takes_no_negative_compliance():
+    # An FE stiffer than the Hertz approach alone at its smallest resolved force
+    # (a discretisation error): the modelled point is the Hertz approach alone.
+    hertz = 2.1e-8 * FORCES ** (2.0 / 3.0)
+    resolved = FORCES >= 50.0
+    approach, compliance = meshcycle.complete_curve(FORCES, 0.9 * hertz, hertz, resolved)
+    assert compliance == 0.0 and approach[0] == hertz[0]
+
+
+def test_complete_curve_needs_a_resolved_point():
+    with pytest.raises(CalibrationError, match="as wide as an element"):
+        meshcycle.complete_curve(FORCES, FORCES * 1e-9, FORCES * 1e-9,
+                                 np.zeros(len(FORCES), bool))

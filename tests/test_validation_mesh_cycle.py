@@ -92,10 +92,11 @@ def test_shift_refuses_an_offset_beyond_the_curve():
 
 
 def test_quick_study_passes_its_checks(tmp_path):
-    """Coarse impact and static curves, coarse/default stiffness, three coarse positions."""
+    """Coarse impact and static curves, coarse/default stiffness, three coarse positions,
+    the nominal point against a mesh made for its load."""
     result = study.run(quick=True, out=tmp_path)
     checks = study.check(result)
-    assert len(checks) == 3          # the convergence is reported only on the quick setting
+    assert len(checks) == 4          # the convergence is reported only on the quick setting
     failed = [c.line() for c in checks if not c.passed]
     assert not failed, failed
     assert (tmp_path / "mesh_cycle.json").is_file()

@@ -251,8 +251,8 @@ def _plot_stiffness(records, _results, path: Path) -> None:
         a.set(xlabel="pinion roll angle (deg)")
         a.grid(alpha=0.3)
         a.legend(fontsize=8)
-    ax[0].set_title("x: pressure reaches a flank edge; hollow: nominal patch narrower than "
-                    "an element\n(Hertz + the FE's bending compliance)", fontsize=9)
+    ax[0].set_title("x: pressure reaches a flank edge\nhollow: the nominal patch narrower than "
+                    "an element,\nHertz + the FE's bending compliance", fontsize=8)
     _save(fig, path)
 
 

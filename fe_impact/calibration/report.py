@@ -21,6 +21,13 @@ def _fmt(v, spec=".4g", scale=1.0) -> str:
     return "-" if v is None else format(v * scale, spec)
 
 
+def _impact_load(cases) -> str:
+    """The load of the impacts' tangent stiffness column (``Settings.nominal_load``;
+    not the mesh cycle's nominal load, that of the seed presets)."""
+    loads = sorted({c.fe.nominal_load for c in cases})
+    return " / ".join(f"{v:g} N" for v in loads) or "the nominal load"
+
+
 def _gap(gap: float | None) -> str:
     if gap is None:
         from fe_impact.calibration.sweep import GAP_FRACTION, MAX_GAP
@@ -51,7 +58,8 @@ def write_calibration_report(out: Path, calibration: Calibration,
              "",
              "## FE measurements", "",
              "| case | v (m/s) | m_eff (kg) | F_max (N) | delta_max (um) | t_c (us) | e "
-             "| dent (um) | K (N/m^xi) | xi | fit R^2 | k_mesh at nominal load (N/m) |",
+             f"| dent (um) | K (N/m^xi) | xi | fit R^2 | dF/d delta at {_impact_load(cases)} "
+             "(N/m) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cases:
         fe = c.fe

@@ -219,3 +219,17 @@ def test_complete_curve_needs_a_resolved_point():
     with pytest.raises(CalibrationError, match="as wide as an element"):
         meshcycle.complete_curve(FORCES, FORCES * 1e-9, FORCES * 1e-9,
                                  np.zeros(len(FORCES), bool))
+
+
+def test_contact_pattern_scale_leaves_the_edge_peaks_above_it():
+    # 995 nodes at Hertz-like pressures up to 1.5 GPa and 5 edge nodes at 9 GPa: the
+    # colour scale ends at the 99% quantile, inside the pattern (within 1% of its
+    # 1.5 GPa), and the largest pressure is reported beside it; zero pressures (no
+    # contact) do not count.
+    from fe_impact.calibration.meshcycle_report import _pressure_scale
+
+    p = np.concatenate([np.linspace(1e8, 1.5e9, 995), np.full(5, 9e9), np.zeros(500)])
+    top, scale = _pressure_scale(p)
+    assert top == 9e9
+    assert scale == pytest.approx(1.5e9, rel=1e-2)
+    assert _pressure_scale(np.zeros(3)) == (1.0, 1.0)

@@ -9,7 +9,8 @@
 - ``mesh_cycle.csv``: one row per position;
 - ``contact_pattern.png``: the pressure footprint at the largest force of
   every position on one drawing of the face-gear flank (radius against
-  height), with the Hertz ellipse outlines and the flank's edges;
+  height), with the Hertz ellipse outlines and the flank's edges (the
+  colours end at :data:`PRESSURE_QUANTILE` of the nodal pressures);
 - ``stiffness_along_path.png``: the fitted ``K`` and exponent and the
   secant stiffness at the nominal load along the path of contact;
 - ``transmission_error.png``: loaded TE and mesh stiffness over one cycle.
@@ -212,19 +213,39 @@ def _plot_pattern(records, _results, path: Path) -> None:
     for ax, (stage, recs) in zip(axes[:, 0], stages.items(), strict=True):
         for seg in np.asarray(recs[0].flank_edges).reshape(-1, 4) * 1e3:
             ax.plot(seg[[0, 2]], seg[[1, 3]], color="0.3", lw=0.8)
-        pmax = max(max((p[2] for p in r.footprint), default=1.0) for r in recs)
+        p_all = np.concatenate([np.asarray(r.footprint).reshape(-1, 3)[:, 2] for r in recs])
+        top, scale = _pressure_scale(p_all)
         for r in recs:
             fp = np.asarray(r.footprint).reshape(-1, 3)
             sc = ax.scatter(fp[:, 0] * 1e3, fp[:, 1] * 1e3, c=fp[:, 2] / 1e6, s=4,
-                            cmap="inferno", vmin=0, vmax=pmax / 1e6)
+                            cmap="inferno", vmin=0, vmax=scale / 1e6)
             el = np.asarray(r.ellipse_outline) * 1e3
             ax.plot(el[:, 0], el[:, 1], color="tab:cyan", lw=0.9)
-        fig.colorbar(sc, ax=ax, label="pressure at the largest force (MPa)")
+        label = "pressure at the largest force (MPa)"
+        if top > scale:
+            label = (f"pressure at the largest force (MPa;\nthe top "
+                     f"{1.0 - PRESSURE_QUANTILE:.0%} up to {top / 1e6:.0f})")
+        fig.colorbar(sc, ax=ax, label=label, extend="max" if top > scale else "neither")
         ax.set(xlabel="radius on the face gear (mm)", ylabel="height (mm)",
                title=f"stage {stage}: contact pattern over the path (FE pressure; Hertz "
                      "ellipses in cyan; flank edges in grey)")
         ax.set_aspect("equal", adjustable="datalim")
     _save(fig, path)
+
+
+#: The contact pattern's colour scale ends at this quantile of the nodal pressures
+#: (the rest is drawn in the top colour): where the patch is cut by a flank edge
+#: (the ring's inner end at stage 1) the edge nodes carry several times the Hertz
+#: pressure, which would leave the whole pattern in the scale's bottom tenth.
+PRESSURE_QUANTILE = 0.99
+
+
+def _pressure_scale(pressures: np.ndarray) -> tuple[float, float]:
+    """The largest pressure and the colour scale's top (Pa) of a contact pattern."""
+    p = pressures[pressures > 0]
+    if len(p) == 0:
+        return 1.0, 1.0
+    return float(p.max()), float(np.quantile(p, PRESSURE_QUANTILE))
 
 
 def _plot_stiffness(records, _results, path: Path) -> None:

@@ -3,6 +3,7 @@ interpolation, load sharing between pairs, and the plan of positions."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -233,3 +234,21 @@ def test_contact_pattern_scale_leaves_the_edge_peaks_above_it():
     assert top == 9e9
     assert scale == pytest.approx(1.5e9, rel=1e-2)
     assert _pressure_scale(np.zeros(3)) == (1.0, 1.0)
+
+
+def test_report_names_the_nominal_loads_and_marks_modelled_points():
+    # The section's table marks a modelled nominal stiffness with *, and names each
+    # stage's nominal load; an older calibration's law (neither key) still renders.
+    from fe_impact.calibration.meshcycle_report import position_law, report_lines
+
+    recs = [_record(r, 3e9, 1.3) for r in (-10.0, 0.0, 10.0)]
+    recs[1] = dataclasses.replace(recs[1], resolved=[False, True, True, True, True, True])
+    law = position_law(recs)
+    text = "\n".join(report_lines(law))
+    assert "stage 1 3 N" in text
+    rows = [line for line in text.splitlines() if line.startswith("| 1 |")]
+    assert [row.count(" * |") for row in rows] == [0, 1, 0]
+    for key in ("nominal_force", "nominal_modelled"):
+        del law["1"][key]
+    older = "\n".join(report_lines(law))
+    assert "Nominal load per mesh" not in older and " * |" not in older

@@ -64,6 +64,7 @@ def position_law(records: list[PositionRecord],
         "k": [r.stiffness for r in recs],
         "exponent": [r.exponent for r in recs],
         "fit_error": [r.fit_error for r in recs],
+        "nominal_force": [r.nominal_force for r in recs],
         "nominal_stiffness": [r.nominal_stiffness for r in recs],
         "nominal_modelled": [r.nominal_modelled for r in recs],
         "edge": [r.edge for r in recs],
@@ -149,6 +150,11 @@ def report_lines(section: dict) -> list[str]:
              "`mesh_cycle.csv`.", "",
              "| stage | roll (deg) | K | exponent | fit error | k at nominal load (N/m) "
              "| edge |", "|---|---|---|---|---|---|---|"]
+    loads = [f"stage {stage} {law['nominal_force'][0]:.3g} N"
+             for stage, law in section.items() if law.get("nominal_force")]
+    if loads:   # older calibrations do not carry them
+        lines[4:4] = ["Nominal load per mesh (the seed presets' largest load torque): "
+                      + ", ".join(loads) + ".", ""]
     for stage, law in section.items():
         modelled = law.get("nominal_modelled") or [False] * len(law["roll_angle_deg"])
         for i, roll in enumerate(law["roll_angle_deg"]):

@@ -100,3 +100,13 @@ def test_quick_study_passes_its_checks(tmp_path):
     failed = [c.line() for c in checks if not c.passed]
     assert not failed, failed
     assert (tmp_path / "mesh_cycle.json").is_file()
+
+
+def test_nominal_path_table_reports_rows_and_meshes_that_cannot_be_made():
+    rows = [{"roll_deg": -12.955, "reference": {"force": 2.61, "approach": 1.033e-7},
+             "fe_approach": 1.468e-7, "fe_error": 1.468 / 1.033 - 1.0,
+             "model_approach": 1.06e-7, "model_error": 1.06 / 1.033 - 1.0},
+            {"roll_deg": 17.095, "error": "stage 1 at +17.095 deg roll: inverted"}]
+    lines = study.nominal_path_lines(2, rows)
+    assert lines[4] == "| -12.955 | 2.61 | 0.1033 | 0.1468 (+42.1%) | 0.1060 (+2.6%) |"
+    assert lines[5].startswith("| +17.095 | - | stage 1 at +17.095 deg roll: inverted |")

@@ -26,13 +26,16 @@ closes, which lies tens to hundreds of nanometres beyond the exact surfaces'
 first touch on a coarse mesh, and a patch inside one element is carried by
 the elements' own point-load compliance. On the seed set's stage 2 at the
 coarse level (nominal load 2.6 N, three positions from the path's start to
-its end) the FE gave 0.147-0.184 um where a mesh made for that load gave
-0.103-0.134 um (+37% to +45%). Such a point takes :func:`complete_curve`'s
+its end) the FE gave 0.147-0.215 um where a mesh made for that load gave
+0.103-0.134 um (+32% to +94%; the point moves with the mesh: the middle
+position's gave 0.160 um on a mesh made for 2177.8 instead of 2178 N).
+Such a point takes :func:`complete_curve`'s
 approach instead: the Hertz approach of the contact analysis' ellipse at
 that force plus the FE's own compliance beyond Hertz (bending and bodies)
 at the smallest resolved force, in proportion to the force; on those three
-positions it is within -0.7% to +2.6% of the resolved FE
-(``validation/mesh_cycle.py`` checks it at the pitch point). The FE value
+positions it is within -1.5% to +2.4% of the resolved FE
+(``validation/mesh_cycle.py`` checks it at the pitch point; ``--nominal-path 2
+--top-force 2178`` repeats these three positions). The FE value
 is kept beside it (:attr:`PositionRecord.fe_approaches`).
 
 :func:`mesh_cycle` then shares a pinion torque between the pairs in contact

@@ -83,20 +83,15 @@ def _iterations(case, level: str, text: str, cache: str) -> list[int]:
     import tomllib
 
     from fe_impact.calibration import meshcycle as mc
-    from fe_impact.fe.mesh import load_mesh
     from fe_impact.gears import gearset_from_dict
-    from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.meshing.toothpair import build_pair
-    from fe_impact.solvers.static import StaticSolver
 
     gs = gearset_from_dict(tomllib.loads(text))
     key = mc.case_hash(case, level, 2, text)
     pm = build_pair(gs, case.stage, case.roll_angle_deg, level, 2, mc.PAIR_GAP, 0.1,
                     Path(cache) / "meshes" / f"static_{key}", reuse=True,
                     design_force=max(case.forces))
-    fe_case = static_pair_case(gs, pm, case.forces)
-    result = StaticSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit),
-                          stress=False).run()
+    _, result = mc.solve_static_pair(gs, pm, case.forces)
     return [s.iterations for s in result.steps]
 
 

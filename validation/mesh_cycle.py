@@ -602,10 +602,7 @@ def resolved_approach(gearset, force: float, level: str, cache: Path, stage: int
                       roll_deg: float = 0.0) -> dict:
     """The approach at ``force`` alone, on a mesh made for that force."""
     from fe_impact.fe.linalg import limit_threads
-    from fe_impact.fe.mesh import load_mesh
-    from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.meshing.toothpair import build_pair
-    from fe_impact.solvers.static import StaticSolver
 
     t = time.perf_counter()
     with limit_threads(1):
@@ -613,13 +610,9 @@ def resolved_approach(gearset, force: float, level: str, cache: Path, stage: int
                                0.1, cache / "meshes" /
                                f"nominal_{stage}_{roll_deg:+.4f}_{level}_{force:.6g}N",
                                reuse=True, design_force=force)
-        case = static_pair_case(gearset, pair_mesh, (force,))
-        solver = StaticSolver(case, load_mesh(case.mesh_file, case.unit), stress=False)
-        step = solver.run().steps[0]
-    analysis = pair_mesh.analysis
-    return {"force": float(step.contact_force[0]),
-            "approach": float(-step.rigid_values[0] * analysis.masses.pinion_lever
-                              - analysis.gap),
+    solver, result = meshcycle.solve_static_pair(gearset, pair_mesh, (force,))
+    return {"force": float(result.steps[0].contact_force[0]),
+            "approach": float(meshcycle.hub_approaches(result, pair_mesh.analysis)[0]),
             "n_dofs": int(solver.model.n_dofs), "seconds": time.perf_counter() - t}
 
 

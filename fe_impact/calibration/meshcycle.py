@@ -324,11 +324,8 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
     import tomllib
 
     from fe_impact.fe.linalg import limit_threads
-    from fe_impact.fe.mesh import load_mesh
     from fe_impact.gears import gearset_from_dict
-    from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.meshing.toothpair import build_pair
-    from fe_impact.solvers.static import StaticSolver
 
     t0 = time.perf_counter()
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
@@ -338,18 +335,39 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
         pair_mesh = build_pair(gearset, case.stage, case.roll_angle_deg, level, order, PAIR_GAP,
                                0.1, Path(cache) / "meshes" / f"static_{key}", reuse=True,
                                design_force=max(case.forces), contact=case.contact)
-        timings["mesh"] = time.perf_counter() - t0
-        t = time.perf_counter()
-        fe_case = static_pair_case(gearset, pair_mesh, case.forces)
-        solver = StaticSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit),
-                              stress=False)
-        result = solver.run()
-        timings["fe"] = time.perf_counter() - t
-        timings.update({f"fe_{k}": v for k, v in result.timings.items()})
+    timings["mesh"] = time.perf_counter() - t0
+    t = time.perf_counter()
+    solver, result = solve_static_pair(gearset, pair_mesh, case.forces)
+    timings["fe"] = time.perf_counter() - t
+    timings.update({f"fe_{k}": v for k, v in result.timings.items()})
     record = _measure(case, solver, result, pair_mesh.analysis, key,
                       pair_mesh.stats.element_sizes["minor"])
     timings["total"] = time.perf_counter() - t0
     return PositionRecord(**{**asdict(record), "timings_s": timings})
+
+
+def solve_static_pair(gearset, pair_mesh, forces: tuple[float, ...]):
+    """The quasi-static case of a meshed pair, solved on one thread without stresses:
+    the solver and its result (:func:`~fe_impact.meshing.paircase.static_pair_case`:
+    the pinion pressed by the torque of each normal force in ``forces``)."""
+    from fe_impact.fe.linalg import limit_threads
+    from fe_impact.fe.mesh import load_mesh
+    from fe_impact.meshing.paircase import static_pair_case
+    from fe_impact.solvers.static import StaticSolver
+
+    with limit_threads(1):
+        fe_case = static_pair_case(gearset, pair_mesh, tuple(forces))
+        solver = StaticSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit),
+                              stress=False)
+        return solver, solver.run()
+
+
+def hub_approaches(result, analysis) -> np.ndarray:
+    """The approach at each load step (m): the pinion hub's closing rotation times its
+    lever arm at the contact point, minus the gap the pair was built with,
+    ``-q l_1 - g`` (zero at the contact analysis' first touch)."""
+    q = np.array([s.rigid_values[0] for s in result.steps])
+    return -q * analysis.masses.pinion_lever - analysis.gap
 
 
 def _measure(case: PositionCase, solver, result, analysis, key: str,
@@ -359,9 +377,8 @@ def _measure(case: PositionCase, solver, result, analysis, key: str,
     from fe_impact.gears.tca import contact_ellipse
 
     steps = result.steps
-    lever = analysis.masses.pinion_lever
     q = np.array([s.rigid_values[0] for s in steps])
-    fe_approach = -q * lever - analysis.gap
+    fe_approach = hub_approaches(result, analysis)
     force = np.array([s.contact_force[0] for s in steps])
     hertz = [contact_ellipse(analysis.contact.relative, float(f), analysis.effective_modulus)
              for f in force]
@@ -381,7 +398,8 @@ def _measure(case: PositionCase, solver, result, analysis, key: str,
         max_pressures=[s.max_pressure for s in steps],
         hertz_approaches=[h.approach for h in hertz],
         stiffness=K, exponent=e, fit_error=err, nominal_force=float(force[i_nom]),
-        nominal_stiffness=float(force[i_nom] / approach[i_nom]), lever=abs(lever),
+        nominal_stiffness=float(force[i_nom] / approach[i_nom]),
+        lever=abs(analysis.masses.pinion_lever),
         edge=_edge_contact(solver, top),
         ellipse_outline=_cylindrical(_ellipse_points(analysis.contact.point, hertz[-1])),
         footprint=_footprint(mesh, top.pressure),

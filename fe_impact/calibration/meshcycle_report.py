@@ -219,10 +219,10 @@ def _plot_pattern(records, _results, path: Path) -> None:
     for ax, (stage, recs) in zip(axes[:, 0], stages.items(), strict=True):
         for seg in np.asarray(recs[0].flank_edges).reshape(-1, 4) * 1e3:
             ax.plot(seg[[0, 2]], seg[[1, 3]], color="0.3", lw=0.8)
-        p_all = np.concatenate([np.asarray(r.footprint).reshape(-1, 3)[:, 2] for r in recs])
+        footprints = [np.asarray(r.footprint).reshape(-1, 3) for r in recs]
+        p_all = np.concatenate([fp[:, 2] for fp in footprints])
         top, scale = _pressure_scale(p_all)
-        for r in recs:
-            fp = np.asarray(r.footprint).reshape(-1, 3)
+        for r, fp in zip(recs, footprints, strict=True):
             sc = ax.scatter(fp[:, 0] * 1e3, fp[:, 1] * 1e3, c=fp[:, 2] / 1e6, s=4,
                             cmap="inferno", vmin=0, vmax=scale / 1e6)
             el = np.asarray(r.ellipse_outline) * 1e3

@@ -17,7 +17,7 @@ import importlib
 
 import pytest
 
-BENCHMARKS = {"bench_static", "bench_dynamic", "bench_switching"}
+BENCHMARKS = {"bench_static", "bench_dynamic", "bench_switching", "bench_tooth_impact"}
 STUDIES = [
     "hertz_impact",
     "bench_switching",
@@ -28,6 +28,10 @@ STUDIES = [
     pytest.param("bench_dynamic", marks=pytest.mark.slow),
     # its check counts projections, not seconds: a failure is not the machine's
     pytest.param("bench_static_pair", marks=pytest.mark.slow),
+    # one coarse calibration impact from mesh to fit, about 15 s: it runs the
+    # solver's step path with its counting wrappers, which must keep up with
+    # the zone solver's interface
+    pytest.param("bench_tooth_impact", marks=pytest.mark.slow),
 ]
 # Not here: validation/corner_contact.py, whose quick setting (the finest refinement
 # alone, 258k DOFs) takes three minutes and 6.4 GB; `make validate

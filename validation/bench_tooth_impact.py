@@ -79,10 +79,10 @@ class _CountingSolve:
     def __init__(self, solve) -> None:
         self.solve, self.calls, self.cpu, self.wall = solve, 0, 0.0, 0.0
 
-    def __call__(self, b):
+    def __call__(self, b, *args):
         w, c = time.perf_counter(), time.process_time()
         try:
-            return self.solve(b)
+            return self.solve(b, *args)
         finally:
             self.calls += 1
             self.cpu += time.process_time() - c

@@ -115,21 +115,44 @@ def folder_lock(folder: str | Path, wait: bool = True) -> Iterator[bool]:
         os.close(fd)   # releases the lock
 
 
+#: zlib level of the VTU files: level 1 writes a 52k-point P2 frame of a tooth pair
+#: in 0.09 s (3.6 MB), level 6 in 0.21 s (3.5 MB); meshio, which takes zlib's
+#: default level and base64-encodes, 0.20 s (4.7 MB).
+VTU_COMPRESSION_LEVEL = 1
+
+
 def write_vtu(path: str | Path, mesh: FEMesh, point_data: dict | None = None,
               cell_data: dict | None = None) -> Path:
     """Write the mesh and fields as a VTU file (ParaView reads P2 tetrahedra natively).
 
     ``point_data`` arrays have shape (n_points, ...) and ``cell_data`` arrays
-    (n_elements, ...).
+    (n_elements, ...); None values are left out. VTK's own XML writer writes
+    it (raw appended data, zlib at :data:`VTU_COMPRESSION_LEVEL`); meshio and
+    ParaView read it.
     """
-    import meshio
+    import pyvista as pv
+    from vtkmodules.vtkCommonDataModel import VTK_QUADRATIC_TETRA, VTK_TETRA
+    from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridWriter
 
-    kind = "tetra10" if mesh.order == 2 else "tetra"
-    m = meshio.Mesh(mesh.points, [(kind, mesh.cells)],
-                    point_data=dict(point_data or {}),
-                    cell_data={k: [np.asarray(v)] for k, v in (cell_data or {}).items()})
+    cells = np.asarray(mesh.cells, dtype=np.int64)
+    kind = VTK_QUADRATIC_TETRA if mesh.order == 2 else VTK_TETRA
+    connectivity = np.hstack([np.full((len(cells), 1), cells.shape[1]), cells]).ravel()
+    grid = pv.UnstructuredGrid(connectivity, np.full(len(cells), kind, dtype=np.uint8),
+                               np.asarray(mesh.points, dtype=float))
+    for target, data in ((grid.point_data, point_data), (grid.cell_data, cell_data)):
+        for name, values in (data or {}).items():
+            if values is not None:
+                target[name] = np.asarray(values)
+    writer = vtkXMLUnstructuredGridWriter()
+    writer.SetInputData(grid)
+    writer.SetDataModeToAppended()
+    writer.EncodeAppendedDataOff()
+    writer.SetCompressorTypeToZLib()
+    writer.SetCompressionLevel(VTU_COMPRESSION_LEVEL)
     with atomic_path(path) as tmp:
-        meshio.write(tmp, m, file_format="vtu")
+        writer.SetFileName(str(tmp))
+        if writer.Write() != 1:
+            raise FeImpactError(f"{path}: VTK could not write the file")
     return Path(path)
 
 

@@ -231,6 +231,22 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
     assert np.linalg.norm(pinion) == pytest.approx(step.contact_force[0], rel=1e-3)
 
 
+def test_terminal_summary_repeats_the_calibration(calibrated):
+    # the lines the command ends with carry calibration.json's own figures
+    from fe_impact.calibration.report import terminal_summary
+
+    out, _ = calibrated
+    doc = json.loads((out / "run" / "calibration.json").read_text())
+    lines = terminal_summary(doc)
+    case, path = doc["cases"][0], doc["mesh_cycle"]["1"]
+    assert len(lines) == 2 and lines[0].startswith("stage 1: 1 FE impact at 50 mm/s")
+    assert f"K {case['impact']['k']:.3g} N/m^e" in lines[0]
+    assert f"closed form {case['closed_form']['k']:.3g}" in lines[0]
+    assert f"mesh cycle at {len(path['k'])} positions" in lines[1]
+    stiff = sorted(path["nominal_stiffness"])
+    assert f"{stiff[0]:.3g}-{stiff[-1]:.3g} N/m" in lines[1]
+
+
 def test_rerun_resumes_without_recomputing(calibrated):
     out, argv = calibrated
     result = out / "run" / "cases" / "stage1_mesh_50mms" / "result.json"

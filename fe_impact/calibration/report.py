@@ -37,6 +37,43 @@ def _gap(gap: float | None) -> str:
     return f"{gap * 1e6:g} um"
 
 
+def _span(values, spec: str = ".3g") -> str:
+    """``lo-hi`` of ``values`` (one value if they agree to the format)."""
+    lo, hi = format(min(values), spec), format(max(values), spec)
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
+def terminal_summary(doc: dict) -> list[str]:
+    """A few lines per stage of a calibration.json document, for the terminal: what
+    the FE impacts fitted against the closed form, and the mesh cycle's single-pair
+    stiffness along the path (report.md has the tables)."""
+    lines = []
+    cases = doc.get("cases", [])
+    cycle = doc.get("mesh_cycle") or {}
+    for stage in sorted({int(c["stage"]) for c in cases} | {int(s) for s in cycle}):
+        mine = [c for c in cases if int(c["stage"]) == stage]
+        head = f"stage {stage}:"
+        if mine:
+            law = [c["impact"] for c in mine]
+            closed = mine[0]["closed_form"]
+            speeds = [1e3 * c["impact_speed"] for c in mine]
+            lines.append(
+                f"{head} {len(mine)} FE impact{'s' * (len(mine) > 1)} at "
+                f"{_span(speeds)} mm/s: K {_span([v['k'] for v in law])} N/m^e, exponent "
+                f"{_span([v['exponent'] for v in law])} (closed form {closed['k']:.3g}, "
+                f"{closed['exponent']:.3g}), cmax {_span([v['cmax'] for v in law])} N s/m")
+            head = " " * len(head)
+        path = cycle.get(str(stage))
+        if path:
+            rolls = path["roll_angle_deg"]
+            lines.append(
+                f"{head} mesh cycle at {len(rolls)} positions ({min(rolls):+.1f} to "
+                f"{max(rolls):+.1f} deg of roll): K {_span(path['k'])} N/m^e, exponent "
+                f"{_span(path['exponent'])}; single-pair stiffness at "
+                f"{_span(path['nominal_force'])} N {_span(path['nominal_stiffness'])} N/m")
+    return lines
+
+
 def write_calibration_report(out: Path, calibration: Calibration,
                              draw: Draw = draw_here) -> Path:
     """Write ``report.md`` and its plots for a calibration (records with every section).

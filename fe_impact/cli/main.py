@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import json
 import logging
 import os
 import sys
@@ -390,6 +391,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         finally:
             bar.close()
         print(f"wrote {path}, {args.out / 'calibration.csv'} and {args.out / 'report.md'}")
+        from fe_impact.calibration.report import terminal_summary
+
+        for line in terminal_summary(json.loads(Path(path).read_text(encoding="utf-8"))):
+            print(f"  {line}")
         if studies:
             print(f"switching studies {', '.join(studies)} on it: {args.out / 'switching'}")
         return 0

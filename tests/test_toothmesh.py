@@ -403,3 +403,26 @@ def test_a_sector_is_turned_exactly_as_the_affine_map_says():
     np.testing.assert_allclose(after, np.array([_apply(matrix, x) for x in before]),
                                rtol=0.0, atol=1e-9)
     np.testing.assert_array_equal(again, after)
+
+
+def test_root_lands_are_one_piece_each(gearset):
+    # A root land was two strips of 0.17 mm between the fillets (each tooth's half),
+    # whose flat tetrahedra turned over when mapped back from the stretched space.
+    # Joined, the section keeps every point and stays closed, in the same order.
+    from fe_impact.meshing.pairgeometry import _joined_roots, _pinion_section
+
+    pair = GearPair.from_gearset(gearset, 2)
+    joined = _pinion_section(pair, 0.0, 0.0, 0.02, n_teeth=2, neighbours=1)
+    names = [name for name, _ in joined]
+    assert not [n for n in names if n.startswith(("fillet_", "root_left", "root_right"))]
+    # four teeth: three lands between them, a half land and fillet at each cut
+    assert sum(n.startswith("root_land") for n in names) == 3
+    assert sum(n.startswith("root_end") for n in names) == 2
+    for (_, a), (_, b) in zip(joined, joined[1:] + joined[:1]):
+        assert np.allclose(a[-1], b[0], rtol=0, atol=1e-12)
+    pieces = [("fillet_right", np.zeros((3, 2))), ("root_right", np.ones((2, 2))),
+              ("root_left_1", 2 * np.ones((2, 2))), ("fillet_left_1", 3 * np.ones((3, 2))),
+              ("flank_left_1", 4 * np.ones((2, 2)))]
+    out = _joined_roots(pieces)
+    assert [n for n, _ in out] == ["root_land", "flank_left_1"]
+    assert len(out[0][1]) == 3 + 1 + 1 + 2       # the shared end points once

@@ -418,7 +418,7 @@ def test_root_lands_are_one_piece_each(gearset):
     # four teeth: three lands between them, a half land and fillet at each cut
     assert sum(n.startswith("root_land") for n in names) == 3
     assert sum(n.startswith("root_end") for n in names) == 2
-    for (_, a), (_, b) in zip(joined, joined[1:] + joined[:1]):
+    for (_, a), (_, b) in zip(joined, joined[1:] + joined[:1], strict=True):
         assert np.allclose(a[-1], b[0], rtol=0, atol=1e-12)
     pieces = [("fillet_right", np.zeros((3, 2))), ("root_right", np.ones((2, 2))),
               ("root_left_1", 2 * np.ones((2, 2))), ("fillet_left_1", 3 * np.ones((3, 2))),

@@ -426,3 +426,27 @@ def test_root_lands_are_one_piece_each(gearset):
     out = _joined_roots(pieces)
     assert [n for n, _ in out] == ["root_land", "flank_left_1"]
     assert len(out[0][1]) == 3 + 1 + 1 + 2       # the shared end points once
+
+
+def test_a_flat_cap_on_the_face_gear_tip_land_is_flipped_not_remeshed(gearset, tmp_path,
+                                                                        caplog):
+    # Stage 1 at -9.2 deg of roll (the eighth of the nine coarse positions, made for
+    # 2177 N): the mesher lays a thin element on the face gear's tip land, curved in
+    # the stretched space; mapped back the land is flat again and the element turns
+    # over. Before the flip this mesh was made again at a stretch factor of 5 (35k
+    # DOFs instead of 32k). If a change of the geometry or the mesher no longer
+    # makes that element, pick another case from the nine positions' meshes.
+    import logging
+
+    from fe_impact.calibration.meshcycle import PAIR_GAP, path_positions
+
+    roll = min(path_positions(gearset, 1), key=lambda r: abs(r + 9.2))
+    with caplog.at_level(logging.INFO, logger="fe_impact.meshing"):
+        pair = build_pair(gearset, 1, roll, "coarse", 2, PAIR_GAP, 0.1, tmp_path,
+                          design_force=2177.0)
+    assert "flat tetrahedra capping a boundary surface removed" in caplog.text
+    assert "meshing again" not in caplog.text
+    assert pair.stats.min_sicn > MIN_SICN
+    assert pair.stats.element_sizes["factor"] == 8.0
+    mesh = load_mesh(pair.mesh_path, "mm")
+    assert {"face_flank", "pinion_flank", "face_hub", "pinion_hub"} <= set(mesh.surfaces)

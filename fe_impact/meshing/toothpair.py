@@ -311,6 +311,8 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
         # gmsh's vertex relocation mends some (on the seed set's 27 coarse
         # positions: 2 of the 17 meshes that were made again before)
         model.mesh.optimize("Relocate3D")
+        if _min_quality(model, volumes) <= MIN_SICN:
+            _flip_flat_caps(model, volumes)
     if spec.order == 2:  # mid-edge nodes straight in physical space, then snapped
         model.mesh.setOrder(2)
     moves = snap_flanks(model, design.pair, design.analysis, groups, design.edge_radii)
@@ -328,6 +330,63 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
         )
     write_msh(path)
     return stats
+
+
+def _flip_flat_caps(model, volumes: dict[str, int]) -> int:
+    """Remove the turned-over tetrahedra that cap a boundary surface; returns how many.
+
+    Such a cap has two faces on one boundary surface and all four nodes on
+    it or its edges (seen on the face gear's flat tip land: curved in the
+    stretched space, where the mesher laid a thin element on it, and flat
+    again once mapped back, where the element turns over). Its nodes are
+    all on the boundary, so no relocation mends it; without it the surface
+    is the same quadrilateral triangulated across the other diagonal (the
+    element's two other faces, oriented as the two it had on the surface).
+    Other turned-over elements are left for the retry with less stretch.
+    """
+    threshold = MIN_SICN
+    tags = {name: np.concatenate(model.mesh.getElements(3, tag)[1])
+            for name, tag in volumes.items()}
+    bad = [(name, int(t)) for name, elems in tags.items()
+           for t, q in zip(elems, model.mesh.getElementQualities(elems, "minSICN"),
+                           strict=True) if q <= threshold]
+    if not bad:
+        return 0
+    triangles: dict[frozenset, tuple[int, int, list[int]]] = {}
+    for _, surface in model.getEntities(2):
+        types, elem_tags, nodes = model.mesh.getElements(2, surface)
+        for etype, et, nd in zip(types, elem_tags, nodes, strict=True):
+            if etype != 2:   # 3-node triangles: the mesh is still linear here
+                continue
+            for t, tri in zip(et, np.asarray(nd).reshape(-1, 3), strict=True):
+                corners = [int(n) for n in tri]
+                triangles[frozenset(corners)] = (surface, int(t), corners)
+    flipped = 0
+    for name, tet in bad:
+        nodes = [int(n) for n in model.mesh.getElement(tet)[1][:4]]
+        on = [(triangles.get(frozenset(nodes[:i] + nodes[i + 1:])), nodes[i])
+              for i in range(4)]
+        caps = [(face, missing) for face, missing in on if face is not None]
+        if len(caps) != 2 or caps[0][0][0] != caps[1][0][0]:
+            continue
+        (old1, p), (old2, q) = caps
+        surface = old1[0]
+        u, v = [n for n in nodes if n not in (p, q)]
+        x = {n: np.asarray(model.mesh.getNode(n)[0]) for n in nodes}
+        normal = np.cross(x[old1[2][1]] - x[old1[2][0]], x[old1[2][2]] - x[old1[2][0]])
+        new = []
+        for a, b, c in ((p, q, v), (p, q, u)):
+            if np.dot(np.cross(x[b] - x[a], x[c] - x[a]), normal) < 0.0:
+                b, c = c, b
+            new += [a, b, c]
+        model.mesh.removeElements(3, volumes[name], [tet])
+        model.mesh.removeElements(2, surface, [old1[1], old2[1]])
+        first = int(model.mesh.getMaxElementTag()) + 1
+        model.mesh.addElementsByType(surface, 2, [first, first + 1], new)
+        flipped += 1
+    if flipped:
+        logger.info("%d flat tetrahedra capping a boundary surface removed", flipped)
+    return flipped
 
 
 def _keep_reference(path: Path) -> Path:

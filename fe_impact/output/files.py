@@ -128,21 +128,41 @@ def write_vtu(path: str | Path, mesh: FEMesh, point_data: dict | None = None,
     ``point_data`` arrays have shape (n_points, ...) and ``cell_data`` arrays
     (n_elements, ...); None values are left out. VTK's own XML writer writes
     it (raw appended data, zlib at :data:`VTU_COMPRESSION_LEVEL`); meshio and
-    ParaView read it.
+    ParaView read it. The grid is built from VTK's classes directly, not
+    pyvista's: those finalise in Python (``__del__``), and a SIGTERM that
+    arrives while one runs is swallowed as an "exception ignored", so a run
+    meant to stop went on (seen once in the interrupt tests).
     """
-    import pyvista as pv
-    from vtkmodules.vtkCommonDataModel import VTK_QUADRATIC_TETRA, VTK_TETRA
+    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+    from vtkmodules.vtkCommonCore import vtkPoints
+    from vtkmodules.vtkCommonDataModel import (
+        VTK_QUADRATIC_TETRA,
+        VTK_TETRA,
+        vtkCellArray,
+        vtkUnstructuredGrid,
+    )
     from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridWriter
 
-    cells = np.asarray(mesh.cells, dtype=np.int64)
-    kind = VTK_QUADRATIC_TETRA if mesh.order == 2 else VTK_TETRA
-    connectivity = np.hstack([np.full((len(cells), 1), cells.shape[1]), cells]).ravel()
-    grid = pv.UnstructuredGrid(connectivity, np.full(len(cells), kind, dtype=np.uint8),
-                               np.asarray(mesh.points, dtype=float))
-    for target, data in ((grid.point_data, point_data), (grid.cell_data, cell_data)):
+    def vtk_array(values, name: str | None = None):
+        array = numpy_to_vtk(np.ascontiguousarray(values), deep=True)
+        if name is not None:
+            array.SetName(name)
+        return array
+
+    cells = np.ascontiguousarray(mesh.cells, dtype=np.int64)
+    points = vtkPoints()
+    points.SetData(vtk_array(np.asarray(mesh.points, dtype=float)))
+    offsets = np.arange(len(cells) + 1, dtype=np.int64) * cells.shape[1]
+    connectivity = vtkCellArray()
+    connectivity.SetData(numpy_to_vtkIdTypeArray(offsets, deep=True),
+                         numpy_to_vtkIdTypeArray(cells.ravel(), deep=True))
+    grid = vtkUnstructuredGrid()
+    grid.SetPoints(points)
+    grid.SetCells(VTK_QUADRATIC_TETRA if mesh.order == 2 else VTK_TETRA, connectivity)
+    for target, data in ((grid.GetPointData(), point_data), (grid.GetCellData(), cell_data)):
         for name, values in (data or {}).items():
             if values is not None:
-                target[name] = np.asarray(values)
+                target.AddArray(vtk_array(values, name))
     writer = vtkXMLUnstructuredGridWriter()
     writer.SetInputData(grid)
     writer.SetDataModeToAppended()

@@ -16,6 +16,7 @@ this module does not import gmsh.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -212,27 +213,18 @@ def _joined_roots(pieces: list[tuple[str, NDArray]]) -> list[tuple[str, NDArray]
     fillet are one piece ``root_end`` (with the tooth's).
     """
     out: list[tuple[str, NDArray]] = []
-    run: list[tuple[str, NDArray]] = []
-
-    def close() -> None:
-        if len(run) == 1:
-            out.append(run[0])
-        elif run:
-            name = run[0][0]
-            between = name.startswith("fillet_right") and run[-1][0].startswith("fillet_left")
-            suffix = name[len("fillet_right" if name.startswith("fillet_right") else
-                              "root_left"):]
-            out.append((("root_land" if between else "root_end") + suffix,
-                        np.concatenate([run[0][1]] + [xy[1:] for _, xy in run[1:]])))
-        run.clear()
-
-    for name, xy in pieces:
-        if name.startswith(("fillet_", "root_")):
-            run.append((name, xy))
-        else:
-            close()
-            out.append((name, xy))
-    close()
+    for joined, run in itertools.groupby(
+            pieces, key=lambda piece: piece[0].startswith(("fillet_", "root_"))):
+        run = list(run)
+        if not joined or len(run) == 1:
+            out += run
+            continue
+        first = run[0][0]
+        between = first.startswith("fillet_right") and run[-1][0].startswith("fillet_left")
+        suffix = first[len("fillet_right" if first.startswith("fillet_right") else
+                           "root_left"):]
+        out.append((("root_land" if between else "root_end") + suffix,
+                    np.concatenate([run[0][1]] + [xy[1:] for _, xy in run[1:]])))
     return out
 
 

@@ -257,11 +257,16 @@ def _statistics(model, volumes: dict[str, int], seconds: float, sizes: dict) -> 
     )
 
 
-def _min_quality(model, volumes: dict[str, int]) -> float:
-    """Smallest minimum-SICN of the volume elements."""
+def _qualities(model, volumes: dict[str, int]) -> tuple[NDArray, NDArray]:
+    """Tags and minimum-SICN qualities of the volume elements."""
     tags = np.concatenate([np.concatenate(model.mesh.getElements(3, tag)[1])
                            for tag in volumes.values()])
-    return float(np.min(model.mesh.getElementQualities(tags, "minSICN")))
+    return tags, np.asarray(model.mesh.getElementQualities(tags, "minSICN"))
+
+
+def _min_quality(model, volumes: dict[str, int]) -> float:
+    """Smallest minimum-SICN of the volume elements."""
+    return float(np.min(_qualities(model, volumes)[1]))
 
 
 def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
@@ -311,8 +316,7 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
         # gmsh's vertex relocation mends some (on the seed set's 27 coarse
         # positions: 2 of the 17 meshes that were made again before)
         model.mesh.optimize("Relocate3D")
-        if _min_quality(model, volumes) <= MIN_SICN:
-            _flip_flat_caps(model, volumes)
+        _flip_flat_caps(model, volumes)
     if spec.order == 2:  # mid-edge nodes straight in physical space, then snapped
         model.mesh.setOrder(2)
     moves = snap_flanks(model, design.pair, design.analysis, groups, design.edge_radii)
@@ -344,13 +348,9 @@ def _flip_flat_caps(model, volumes: dict[str, int]) -> int:
     element's two other faces, oriented as the two it had on the surface).
     Other turned-over elements are left for the retry with less stretch.
     """
-    threshold = MIN_SICN
-    tags = {name: np.concatenate(model.mesh.getElements(3, tag)[1])
-            for name, tag in volumes.items()}
-    bad = [(name, int(t)) for name, elems in tags.items()
-           for t, q in zip(elems, model.mesh.getElementQualities(elems, "minSICN"),
-                           strict=True) if q <= threshold]
-    if not bad:
+    tags, quality = _qualities(model, volumes)
+    bad = tags[quality <= MIN_SICN]
+    if not len(bad):
         return 0
     triangles: dict[frozenset, tuple[int, int, list[int]]] = {}
     for _, surface in model.getEntities(2):
@@ -362,8 +362,9 @@ def _flip_flat_caps(model, volumes: dict[str, int]) -> int:
                 corners = [int(n) for n in tri]
                 triangles[frozenset(corners)] = (surface, int(t), corners)
     flipped = 0
-    for name, tet in bad:
-        nodes = [int(n) for n in model.mesh.getElement(tet)[1][:4]]
+    for tet in bad:
+        _, element_nodes, _, volume = model.mesh.getElement(int(tet))
+        nodes = [int(n) for n in element_nodes[:4]]
         on = [(triangles.get(frozenset(nodes[:i] + nodes[i + 1:])), nodes[i])
               for i in range(4)]
         caps = [(face, missing) for face, missing in on if face is not None]
@@ -379,7 +380,7 @@ def _flip_flat_caps(model, volumes: dict[str, int]) -> int:
             if np.dot(np.cross(x[b] - x[a], x[c] - x[a]), normal) < 0.0:
                 b, c = c, b
             new += [a, b, c]
-        model.mesh.removeElements(3, volumes[name], [tet])
+        model.mesh.removeElements(3, volume, [int(tet)])
         model.mesh.removeElements(2, surface, [old1[1], old2[1]])
         first = int(model.mesh.getMaxElementTag()) + 1
         model.mesh.addElementsByType(surface, 2, [first, first + 1], new)

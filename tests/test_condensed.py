@@ -145,6 +145,26 @@ def test_zone_compliance_by_triangular_solves_then_by_the_inverse():
         np.testing.assert_allclose(got, expected, rtol=0, atol=TOL * np.abs(expected).max())
 
 
+def test_zone_compliance_applies_its_inverse_to_one_vector_or_several():
+    # one vector by two triangular passes (forward, backward), several by dpotrs,
+    # and both by the inverse once it is formed: each is S^-1 v
+    K = _spd().toarray()
+    dofs = np.arange(0, 60, 2)
+    S = _schur(K, dofs)
+    compliance = ZoneCompliance(S.copy())
+    rng = np.random.default_rng(5)
+    v, V = rng.standard_normal(len(dofs)), rng.standard_normal((len(dofs), 3))
+    x, X = np.linalg.solve(S, v), np.linalg.solve(S, V)
+    np.testing.assert_allclose(compliance.backward(compliance.forward(v)), x, rtol=0,
+                               atol=TOL * np.abs(x).max())
+    for inverted in (False, True):
+        assert (compliance.G is not None) == inverted
+        np.testing.assert_allclose(compliance.apply(v), x, rtol=0, atol=TOL * np.abs(x).max())
+        np.testing.assert_allclose(compliance.apply(V), X, rtol=0, atol=TOL * np.abs(X).max())
+        compliance.inner(sp.identity(len(dofs), format="csr"))   # 30 rows: forms the inverse
+    assert compliance.W is None
+
+
 def test_zone_compliance_of_no_rows_or_no_zone():
     compliance = ZoneCompliance(np.eye(4))
     assert compliance.inner(sp.csr_matrix((0, 4))).shape == (0, 0)

@@ -238,7 +238,8 @@ class ZoneCompliance:
         return lapack.dpotrs(self.L, v, lower=1)[0]
 
     def forward(self, v: np.ndarray) -> np.ndarray:
-        """``L^-1 v`` (needs the Cholesky factor: :attr:`W` is not None)."""
+        """``L^-1 v`` (while the Cholesky factor serves: the inverse, once formed,
+        replaces it)."""
         return blas.dtrsv(self.L, v, lower=1)
 
     def backward(self, v: np.ndarray) -> np.ndarray:

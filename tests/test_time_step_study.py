@@ -45,3 +45,14 @@ def test_the_checks_fail_a_step_whose_figures_move_more_than_the_tolerance():
         assert len(force) == 1 and checks[force[0]] is passed
         assert "largest energy error" in " ".join(checks)
     assert "| 100 r/min | 60 |" in ts.table(result)
+
+
+def test_the_plot_is_written_from_the_runs(tmp_path):
+    rows = [_row(n, 50.0 / n ** 2) for n in (30, 60, 120, 240)]
+    result = {"calibration_steps": 60, "reference_steps": 240, "level": "coarse",
+              "runs": {"100": {"case": "x", "rows": rows}, "1000": {"case": "y", "rows": rows}},
+              "errors": {"100": ts._errors(rows), "1000": ts._errors(rows)}}
+    path = tmp_path / "time_step.png"
+    ts.plot(result, path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]   # no temporary left

@@ -11,7 +11,7 @@ level), and each measurement the calibration makes (peak force, largest
 approach, contact time, restitution, the fitted law's force at the largest
 approach) is compared with the 240-step run's. The observed order comes
 from the 60, 120 and 240-step runs. Writes
-``out/time_step/time_step.json`` and ``time_step.md``.
+``out/time_step/time_step.json``, ``time_step.md`` and ``time_step.png``.
 
 Tolerances, set from the integrator before any run:
 
@@ -194,6 +194,55 @@ def table(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def plot(result: dict, path: Path) -> None:
+    """Each measurement's deviation from the finest run against the steps per contact
+    time (one panel a speed, the tolerance band shaded), and the energy error."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = result["runs"]
+    fig, axes = plt.subplots(1, len(runs) + 1, figsize=(4.6 * (len(runs) + 1), 4.0),
+                             squeeze=False)
+    axes = axes[0]
+    labels = {"peak_force": "peak force", "max_approach": "largest approach",
+              "contact_time": "contact time", "law_force": "law's force at it"}
+    for ax, (rpm, run_) in zip(axes, runs.items(), strict=False):
+        rows = run_["rows"]
+        ref = rows[-1]
+        n = [r["steps_per_contact"] for r in rows[:-1]]
+        for q, label in labels.items():
+            ax.plot(n, [100.0 * (r[q] / ref[q] - 1.0) for r in rows[:-1]], "o-", label=label)
+        ax.axhspan(-100 * REL_TOL, 100 * REL_TOL, color="0.85", zorder=0,
+                   label=f"tolerance {100 * REL_TOL:g}%")
+        ax.axvline(result["calibration_steps"], color="k", ls=":", lw=0.8)
+        ax.set(xscale="log", xlabel="steps per Hertz contact time",
+               ylabel=f"deviation from {ref['steps_per_contact']:g} steps (%)",
+               title=f"stage 1 at {rpm} r/min ({result['level']} mesh)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    ax = axes[-1]
+    for rpm, run_ in runs.items():
+        rows = run_["rows"]
+        ax.plot([r["steps_per_contact"] for r in rows], [r["energy_error"] for r in rows],
+                "o-", label=f"{rpm} r/min")
+    ax.axhline(ENERGY_TOL, color="k", ls="--", lw=0.8, label="tolerance")
+    ax.axvline(result["calibration_steps"], color="k", ls=":", lw=0.8)
+    ax.set(xscale="log", yscale="log", xlabel="steps per Hertz contact time",
+           ylabel="largest relative energy error", title="energy balance")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    counts = [r["steps_per_contact"] for r in next(iter(runs.values()))["rows"]]
+    for a in axes:   # the step counts tried, as plain numbers
+        a.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        a.set_xticks(counts, [f"{c:g}" for c in counts])
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("out/time_step"))
@@ -206,6 +255,7 @@ def main(argv: list[str] | None = None) -> int:
     write_json(args.out / "time_step.json", result)
     with atomic_path(args.out / "time_step.md") as tmp:
         tmp.write_text(table(result))
+    plot(result, args.out / "time_step.png")
     print(table(result))
     print(json.dumps({k: v for k, v in result.items() if k == "errors"}, indent=2))
     return ck.finish("time_step", checks, args.out)

@@ -198,15 +198,15 @@ class SurfaceMonitor:
     :attr:`margin` (:data:`MARGIN_FRACTION` of the zone's reach beyond the
     first contact, at most a quarter of a face): a face joins before it can
     touch, and a zone that merely has neighbours a few microns away is left
-    alone. A tooth impact's zone reaches 1.2 Hertz approaches beyond the
-    first contact and a Newmark step closes a gap by at most the impact
-    speed times t_c / 60, about 0.05 Hertz approaches: the margin (0.18 of
-    them) is three steps of that at the impact speed, and a face joins at
-    least 0.13 of them before it could touch. With a quarter of the reach
-    and the check after next, four of the nine default impacts grew their
-    zone though the faces outside never came closer than 0.37 Hertz
-    approaches (stage 3 at 300 r/min: the same impact to the reported
-    digits without the growth, its 100 steps 21 s instead of 44 s).
+    alone. A tooth impact's zone reaches 1.2 Hertz approaches beyond the first
+    contact (:data:`~fe_impact.calibration.sweep.ZONE_REACH`) and a Newmark
+    step closes a gap by at most the impact speed times t_c / 60, about 0.05
+    Hertz approaches: the margin (0.18 of them) is three steps of that at the
+    impact speed, and a face joins at least 0.13 of them before it could touch.
+    With a quarter of the reach and the check after next, four of the nine
+    default impacts grew their zone though the faces outside never came closer
+    than 0.37 Hertz approaches (stage 3 at 300 r/min: the same impact to the
+    reported digits without the growth, its 100 steps 21 s instead of 44 s).
     """
 
     def __init__(self, mesh: FEMesh, kin: Kinematics, zone: ContactZone,

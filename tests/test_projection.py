@@ -87,3 +87,64 @@ def test_a_stale_hint_is_searched_again():
     hinted = project(pts, surface, x, all_faces, hint=stale)
     assert hinted.face[0] == searched.face[0]
     assert hinted.gap[0] == pytest.approx(searched.gap[0], abs=1e-15)
+
+
+def _curved_face(rng, stretch: float, bend: float) -> np.ndarray:
+    """A 6-node triangle, ``stretch`` times longer than wide, its mid-side nodes
+    off their chords by up to ``bend`` times the edge (a 0.3 mm face of a 10 mm
+    radius flank: 0.004)."""
+    corners = np.array([[0.0, 0.0, 0.0], [stretch, 0.0, 0.0], [0.3 * stretch, 1.0, 0.0]])
+    corners = corners + rng.normal(0.0, 0.1, (3, 3))
+    mids = 0.5 * (corners + np.roll(corners, -1, axis=0))
+    edges = np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1)
+    mids = mids + rng.uniform(-bend, bend, (3, 3)) * edges[:, None]
+    return 1e-4 * np.vstack([corners, mids])
+
+
+@pytest.mark.parametrize("stretch", [1.0, 8.0])
+@pytest.mark.parametrize("bend", [0.2, 0.01])
+def test_the_search_skips_only_faces_without_an_inside_closest_point(stretch, bend):
+    """The flat pre-check (:func:`_far_outside`) against the Gauss-Newton iteration.
+
+    Independent truth: a point's closest points on the face found by 40
+    Gauss-Newton steps from a grid of 28 starts (the stationary points
+    inside the face). Where one lies inside, the pre-check must not skip the
+    face, for points from a tenth of a face to ten faces away, on faces bent
+    far more than a flank's (``bend`` 0.2) and as much (0.01), isotropic and
+    eight times longer than wide. On the isotropic flank-like faces it must
+    skip most of the faces whose stationary points all lie far outside (the
+    search's saving; on a stretched face bent along its length the bound
+    across it is wide, and little is skipped).
+    """
+    from fe_impact.contact.surfaces import _far_outside, _gauss_newton, _scratch
+
+    rng = np.random.default_rng(1)
+    tol = 1e-6
+    inside = skipped = far_out = 0
+    grid = [(a, b) for a in np.linspace(0, 1, 7) for b in np.linspace(0, 1, 7) if a + b <= 1]
+    N, dxi, deta, pos, t1, t2 = _scratch(6)
+    for _ in range(200):
+        X = _curved_face(rng, stretch, bend)
+        size = np.linalg.norm(X[1] - X[0])
+        cent = X[:3].mean(axis=0)
+        control = np.vstack([X[:3], 2.0 * X[3:] - 0.5 * (X[:3] + np.roll(X[:3], -1, axis=0))])
+        reach = np.linalg.norm(control - cent, axis=1).max()
+        for _ in range(40):
+            p = cent + rng.normal(0.0, 1.0, 3) * size * rng.choice([0.1, 1.0, 3.0, 10.0])
+            far = np.linalg.norm(p - cent) + reach
+            ends = []
+            for xi0, eta0 in grid:
+                xi, eta, step = _gauss_newton(p, X, xi0, eta0, 40, N, dxi, deta, pos, t1, t2)
+                if step < 1e-12:
+                    ends.append((xi, eta))
+            hit = any(xi >= -tol and eta >= -tol and xi + eta <= 1 + tol for xi, eta in ends)
+            skip = _far_outside(p, X, far, 2.0 * tol)
+            if hit:
+                inside += 1
+                assert not skip, (p, X)
+            elif ends and all(min(xi, eta, 1 - xi - eta) < -0.5 for xi, eta in ends):
+                far_out += 1
+                skipped += skip
+    assert inside > 500 and far_out > 500
+    if bend <= 0.01 and stretch == 1.0:
+        assert skipped > 0.5 * far_out

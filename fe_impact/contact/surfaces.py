@@ -280,15 +280,13 @@ def project(points: np.ndarray, master: ContactSurface, x: np.ndarray,
         control = np.concatenate([control, 2.0 * nodes[:, 3:6] - 0.5 * ends], axis=1)
     reach = np.linalg.norm(control - cent[:, None, :], axis=2).max(axis=1)
     dist, cand = cKDTree(cent).query(points, k=k)
-    cand = cand.reshape(len(points), k)
-    fidx = np.ascontiguousarray(faces[cand], dtype=np.int64)
+    cand = np.ascontiguousarray(cand.reshape(len(points), k), dtype=np.int64)
     best, xi, eta, point, nrm, gap = _project_kernel(
-        np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(x, dtype=float),
-        np.ascontiguousarray(master.faces, dtype=np.int64), fidx,
-        np.ascontiguousarray(dist.reshape(len(points), k)), np.ascontiguousarray(reach[cand]),
-        iterations, _INSIDE_TOL)
+        np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(nodes, dtype=float),
+        cand, np.ascontiguousarray(dist.reshape(len(points), k)),
+        np.ascontiguousarray(reach[cand]), iterations, _INSIDE_TOL)
     valid = best >= 0
-    face = np.where(valid, fidx[np.arange(len(points)), np.maximum(best, 0)], fidx[:, 0])
+    face = faces[np.where(valid, cand[np.arange(len(points)), np.maximum(best, 0)], cand[:, 0])]
     return Projection(valid, face, xi, eta, point, nrm, gap)
 
 
@@ -310,15 +308,16 @@ def _shape(xi, eta, nn, N, dxi, deta):
 
 
 @njit(cache=True)
-def _gauss_newton(p, x, face, xi, eta, iterations, N, dxi, deta, pos, t1, t2):
-    """Closest point of point ``p`` on the face with nodes ``face`` from ``(xi, eta)``.
+def _gauss_newton(p, X, xi, eta, iterations, N, dxi, deta, pos, t1, t2):
+    """Closest point of point ``p`` on the face of node positions ``X`` ((nn, 3))
+    from ``(xi, eta)``.
 
     At most ``iterations`` Gauss-Newton steps on the reference coordinates,
     stopping once a step is below 1e-14; ``pos``, ``t1``, ``t2`` are left
     holding the point and the tangents at the returned coordinates. Returns
     ``xi``, ``eta`` and the size of the last step (inf if none was made).
     """
-    nn = face.shape[0]
+    nn = X.shape[0]
     step = np.inf
     for it in range(iterations + 1):
         _shape(xi, eta, nn, N, dxi, deta)
@@ -327,7 +326,7 @@ def _gauss_newton(p, x, face, xi, eta, iterations, N, dxi, deta, pos, t1, t2):
             t1[d] = 0.0
             t2[d] = 0.0
             for a in range(nn):
-                xa = x[face[a], d]
+                xa = X[a, d]
                 pos[d] += N[a] * xa
                 t1[d] += dxi[a] * xa
                 t2[d] += deta[a] * xa
@@ -381,28 +380,88 @@ def _scratch(nn):
 
 
 @njit(cache=True)
-def _project_kernel(points, x, mfaces, fidx, cdist, reach, iterations, tol):
+def _far_outside(p, X, far, tol):
+    """True if no closest point of ``p`` on the face ``X`` ((nn, 3) node positions)
+    lies inside it by ``tol`` in reference coordinates, judged without iterating.
+
+    With corners ``a0, a1, a2`` the face is ``x = F + B``: ``F`` the flat
+    triangle ``a0 + xi e1 + eta e2`` and, on a 6-node face, the bubble
+    ``B = 4 (L0 L1 d01 + L1 L2 d12 + L2 L0 d20)`` of the mid-side nodes'
+    offsets ``d`` from their chords, so ``|B| <= 4/3 dev`` and
+    ``|dB/dxi|, |dB/deta| <= 8 dev`` (``dev = max |d|``) over the face. At a
+    closest point ``x*`` (``(p - x*) . x_j = 0``) the flat projection's
+    coordinates differ from ``x*``'s by ``G^-1 r`` (``G = [e_i . e_j]``),
+    where ``|r_j| <= |p - x*| |B_j| + |B| |e_j|`` and ``|p - x*|`` is at most
+    ``far``, the centroid's distance plus the face's reach. A flat
+    projection farther outside than that, plus ``tol``, has no closest
+    point inside: the search (:func:`_project_kernel`) skips the face
+    without its Gauss-Newton iteration. (A Gauss-Newton end that is not
+    yet a closest point is not covered; on the faces the iteration
+    converges within its steps.)
+    """
+    e10 = X[1, 0] - X[0, 0]
+    e11 = X[1, 1] - X[0, 1]
+    e12 = X[1, 2] - X[0, 2]
+    e20 = X[2, 0] - X[0, 0]
+    e21 = X[2, 1] - X[0, 1]
+    e22 = X[2, 2] - X[0, 2]
+    r0 = p[0] - X[0, 0]
+    r1 = p[1] - X[0, 1]
+    r2 = p[2] - X[0, 2]
+    a11 = e10 * e10 + e11 * e11 + e12 * e12
+    a12 = e10 * e20 + e11 * e21 + e12 * e22
+    a22 = e20 * e20 + e21 * e21 + e22 * e22
+    b1 = e10 * r0 + e11 * r1 + e12 * r2
+    b2 = e20 * r0 + e21 * r1 + e22 * r2
+    det = a11 * a22 - a12 * a12
+    xi = (a22 * b1 - a12 * b2) / det
+    eta = (a11 * b2 - a12 * b1) / det
+    dev2 = 0.0
+    if X.shape[0] == 6:
+        for m in range(3):
+            q = (m + 1) % 3
+            d0 = X[3 + m, 0] - 0.5 * (X[m, 0] + X[q, 0])
+            d1 = X[3 + m, 1] - 0.5 * (X[m, 1] + X[q, 1])
+            d2 = X[3 + m, 2] - 0.5 * (X[m, 2] + X[q, 2])
+            dev2 = max(dev2, d0 * d0 + d1 * d1 + d2 * d2)
+    dev = np.sqrt(dev2)
+    rb1 = dev * (8.0 * far + 4.0 / 3.0 * np.sqrt(a11))
+    rb2 = dev * (8.0 * far + 4.0 / 3.0 * np.sqrt(a22))
+    s1 = (a22 * rb1 + abs(a12) * rb2) / det + tol
+    s2 = (abs(a12) * rb1 + a11 * rb2) / det + tol
+    return xi < -s1 or eta < -s2 or xi + eta > 1.0 + s1 + s2
+
+
+@njit(cache=True)
+def _project_kernel(points, nodes, cand, cdist, reach, iterations, tol):
     """Closest in-face projection of each point over its candidate faces.
 
-    Candidates come nearest centroid first (``cdist``); one whose centroid
-    lies farther than its ``reach`` beyond the best distance found is
-    skipped. The Gauss-Newton iteration stops early once its step is below
-    1e-14 in reference coordinates. Returns the winning candidate's column
-    (-1: none inside), reference coordinates, point, unit normal ``t1 x t2``
-    and gap (+inf if none).
+    ``nodes``: the faces' node positions (nf, nn, 3); ``cand``: each point's
+    candidate faces (rows of ``nodes``), nearest centroid first (``cdist``).
+    A candidate whose centroid lies farther than its ``reach`` beyond the
+    best distance found is skipped, and so is one whose flat projection lies
+    too far outside it (:func:`_far_outside`: three quarters of the
+    candidates of a coarse tooth pair's flanks, the search six times
+    faster, the same projections). The Gauss-Newton iteration stops early
+    once its step is below 1e-14 in reference coordinates. Returns the
+    winning candidate's column (-1: none inside), reference coordinates,
+    point, unit normal ``t1 x t2`` and gap (+inf if none).
     """
-    n, k = fidx.shape
+    n, k = cand.shape
     best = -np.ones(n, dtype=np.int64)
     xi_o, eta_o, pt_o, nrm_o, gap_o = _outputs(n)
-    N, dxi, deta, pos, t1, t2 = _scratch(mfaces.shape[1])
+    N, dxi, deta, pos, t1, t2 = _scratch(nodes.shape[1])
     for i in range(n):
         dbest = np.inf
         xi_b, eta_b = 1.0 / 3.0, 1.0 / 3.0
         for c in range(k):
             if cdist[i, c] - reach[i, c] > np.sqrt(dbest):
                 continue
-            xi, eta, _ = _gauss_newton(points[i], x, mfaces[fidx[i, c]], 1.0 / 3.0, 1.0 / 3.0,
-                                       iterations, N, dxi, deta, pos, t1, t2)
+            X = nodes[cand[i, c]]
+            if _far_outside(points[i], X, cdist[i, c] + reach[i, c], 2.0 * tol):
+                continue
+            xi, eta, _ = _gauss_newton(points[i], X, 1.0 / 3.0, 1.0 / 3.0, iterations,
+                                       N, dxi, deta, pos, t1, t2)
             if xi < -tol or eta < -tol or xi + eta > 1.0 + tol:
                 continue
             dist = 0.0
@@ -438,11 +497,15 @@ def _project_hinted(points, x, mfaces, face0, xi0, eta0, iterations, margin):
     kept = np.zeros(n, dtype=np.bool_)
     xi_o, eta_o, pt_o, nrm_o, gap_o = _outputs(n)
     N, dxi, deta, pos, t1, t2 = _scratch(mfaces.shape[1])
+    X = np.empty((mfaces.shape[1], 3))
     for i in range(n):
         f = face0[i]
         if f < 0:
             continue
-        xi, eta, step = _gauss_newton(points[i], x, mfaces[f], xi0[i], eta0[i], iterations,
+        for a in range(mfaces.shape[1]):
+            for d in range(3):
+                X[a, d] = x[mfaces[f, a], d]
+        xi, eta, step = _gauss_newton(points[i], X, xi0[i], eta0[i], iterations,
                                       N, dxi, deta, pos, t1, t2)
         # converged: the last step at the round-off of coordinates in metres
         if not step < 1e-9 or xi < margin or eta < margin or xi + eta > 1.0 - margin:

@@ -533,7 +533,7 @@ class GapState:
     nodes: np.ndarray    # (n,) slave point indices
     gap: np.ndarray      # (n,) m; +inf where no master face is opposite
     weight: np.ndarray   # (n,) tributary area A_a, m^2
-    B: sp.csr_matrix     # (n, 3 * n_scalar_dofs)
+    B: sp.csr_matrix | None   # (n, 3 * n_scalar_dofs); None if not asked for
     point: np.ndarray    # (n, 3) deformed slave nodes
     normal: np.ndarray   # (n, 3) averaged master normal
 
@@ -601,8 +601,12 @@ class ContactPair:
         return layout
 
     def gap_state(self, mesh: FEMesh, u: np.ndarray, slave_faces: np.ndarray,
-                  master_faces: np.ndarray) -> GapState:
-        """Gaps of the deformed configuration ``x = X + u`` (u: (n_points, 3))."""
+                  master_faces: np.ndarray, jacobian: bool = True) -> GapState:
+        """Gaps of the deformed configuration ``x = X + u`` (u: (n_points, 3)).
+
+        ``jacobian=False``: the gaps alone, ``B`` left None (the zone's growth
+        check, which only compares gaps with a margin).
+        """
         x = mesh.points + u
         lay = self._layout(mesh, slave_faces)
         pts = np.einsum("...a,...ai->...i", lay.N, x[lay.faces[:, None, :]]).reshape(-1, 3)
@@ -614,9 +618,10 @@ class ContactPair:
         while len(self._hints) >= _LAYOUTS_KEPT and key not in self._hints:
             self._hints.pop(next(iter(self._hints)))
         self._hints[key] = (mesh, proj)
-        Nm, _ = tri_shape(proj.xi, proj.eta, self.master.nodes_per_face)
-        Bq = _gap_jacobian(mesh, lay.snodes, lay.Ns, self.master.faces[proj.face], Nm,
-                           proj.normal, proj.valid)
+        if jacobian:
+            Nm, _ = tri_shape(proj.xi, proj.eta, self.master.nodes_per_face)
+            Bq = _gap_jacobian(mesh, lay.snodes, lay.Ns, self.master.faces[proj.face], Nm,
+                               proj.normal, proj.valid)
         # the points projected inside a master face only
         Wv = lay.W.copy()
         Wv.data = Wv.data * proj.valid[Wv.indices]
@@ -627,7 +632,8 @@ class ContactPair:
         gap = np.where(ok, Wn @ np.where(proj.valid, proj.gap, 0.0), np.inf)
         normal = Wn @ proj.normal
         normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
-        return GapState(lay.nodes, gap, lay.area, (Wn @ Bq).tocsr(), x[lay.nodes], normal)
+        return GapState(lay.nodes, gap, lay.area, (Wn @ Bq).tocsr() if jacobian else None,
+                        x[lay.nodes], normal)
 
 
 def _gap_jacobian(mesh: FEMesh, snodes, Ns, mnodes, Nm, normal, valid) -> sp.csr_matrix:

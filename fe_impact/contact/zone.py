@@ -140,7 +140,8 @@ class ContactZone:
             edge = np.isin(pair.slave.faces[self.slave_faces[k]],
                            pair.slave.faces[outside]).any(axis=1)
             ring = np.union1d(outside, self.slave_faces[k][edge])
-            st = pair.gap_state(mesh, up, ring, np.arange(len(pair.master.faces)))
+            st = pair.gap_state(mesh, up, ring, np.arange(len(pair.master.faces)),
+                                jacobian=False)
             watched = ~np.isin(st.nodes, pair.slave.complete_nodes(self.slave_faces[k]))
             close = st.nodes[watched & (st.gap < margin)]
             bad = outside[np.isin(pair.slave.faces[outside], close).any(axis=1)]

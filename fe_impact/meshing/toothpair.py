@@ -304,19 +304,7 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
     _map_nodes(model, design.stretch.to_mesh)
     _reload_as_discrete(model, path)
     size_field(model, design)
-    model.mesh.generate(3)
-    # gmsh's default tetrahedral optimisation of the stretched mesh (0.02 s on
-    # a coarse pair): on the seed set's 27 coarse positions 15 -> 13 meshes
-    # made again, among them the stage-3 position at +13.3 deg that went to
-    # the isotropic mesh (159k DOFs) in the calibration's sweep
-    model.mesh.optimize("")
-    _map_nodes(model, design.stretch.to_physical)
-    if _min_quality(model, volumes) <= MIN_SICN:
-        # a large element where the map varies fast can come back turned over;
-        # gmsh's vertex relocation mends some (on the seed set's 27 coarse
-        # positions: 2 of the 17 meshes that were made again before)
-        model.mesh.optimize("Relocate3D")
-        _flip_flat_caps(model, volumes)
+    _volume_mesh(model, volumes, design.stretch)
     if spec.order == 2:  # mid-edge nodes straight in physical space, then snapped
         model.mesh.setOrder(2)
     moves = snap_flanks(model, design.pair, design.analysis, groups, design.edge_radii)
@@ -334,6 +322,25 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
         )
     write_msh(path)
     return stats
+
+
+def _volume_mesh(model, volumes: dict[str, int], stretch) -> None:
+    """Tetrahedra in the stretched space, mapped back by ``stretch.to_physical``, and
+    the elements that come back turned over mended where gmsh can (step 3 of
+    :func:`_mesh`; the two-pair sector's builder takes the same step)."""
+    model.mesh.generate(3)
+    # gmsh's default tetrahedral optimisation of the stretched mesh (0.02 s on
+    # a coarse pair): on the seed set's 27 coarse positions 15 -> 13 meshes
+    # made again, among them the stage-3 position at +13.3 deg that went to
+    # the isotropic mesh (159k DOFs) in the calibration's sweep
+    model.mesh.optimize("")
+    _map_nodes(model, stretch.to_physical)
+    if _min_quality(model, volumes) <= MIN_SICN:
+        # a large element where the map varies fast can come back turned over;
+        # gmsh's vertex relocation mends some (on the seed set's 27 coarse
+        # positions: 2 of the 17 meshes that were made again before)
+        model.mesh.optimize("Relocate3D")
+        _flip_flat_caps(model, volumes)
 
 
 def _flip_flat_caps(model, volumes: dict[str, int]) -> int:

@@ -82,6 +82,7 @@ from fe_impact.meshing.toothpair import (
     _map_nodes,
     _reload_as_discrete,
     _statistics,
+    _volume_mesh,
     mesh_with_retries,
 )
 
@@ -350,8 +351,7 @@ def _mesh(model, design: TwoPairDesign, spec: PairSpec, path: Path, started: flo
     _map_nodes(model, design.stretch.to_mesh)
     _reload_as_discrete(model, path)
     _size_field(model, design)
-    model.mesh.generate(3)
-    _map_nodes(model, design.stretch.to_physical)
+    _volume_mesh(model, volumes, design.stretch)
     if spec.order == 2:
         model.mesh.setOrder(2)
     for k, d in enumerate(design.designs, 1):

@@ -303,3 +303,51 @@ def test_a_calibrations_solids_go_to_the_users_cache(tmp_path, monkeypatch):
     (tmp_path / "file").write_text("")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "file"))
     assert toothpair.solids_folder(tmp_path / "cache") == tmp_path / "cache/solids"
+
+
+def test_a_turned_over_element_is_first_refined_at_the_same_stretch(tmp_path, monkeypatch,
+                                                                    caplog):
+    """An attempt that reports where its element turned over is made again at the same
+    stretch with smaller elements there (the size field's ball terms), before the
+    stretch is lowered; the mesh is the refined attempt's, at the level's stretch."""
+    real = toothpair._mesh
+    attempts = []
+
+    def mesh(model, design, *args, **kwargs):
+        attempts.append((design.sizes["factor"], design.refine))
+        if len(attempts) == 1:
+            # a ball at the contact zone's centre in the stretched space, 20 um elements
+            centre = tuple(float(v) for v in design.stretch.origin)
+            raise toothpair._InvertedMesh("the mesh has an element of quality -0.1",
+                                          [(*centre, 20e-6)])
+        return real(model, design, *args, **kwargs)
+
+    monkeypatch.setattr(toothpair, "_mesh", mesh)
+    with caplog.at_level(logging.INFO, logger="fe_impact.meshing.toothpair"):
+        pair = toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED,
+                                    tmp_path)
+    level = toothpair.LEVELS["coarse"].max_stretch
+    assert [a[0] for a in attempts] == [level, level]
+    assert attempts[0][1] == () and len(attempts[1][1]) == 1
+    assert any("same stretch" in r.getMessage() for r in caplog.records)
+    assert not any("meshing again with a stretch factor" in r.getMessage()
+                   for r in caplog.records)
+    assert pair.stats.element_sizes["major"] / pair.stats.element_sizes["minor"] == \
+        pytest.approx(level, rel=1e-12)
+
+
+def test_refine_terms_are_the_distance_from_each_ball():
+    """The balls' size terms: the size at the centre [mm] and the Euclidean distance
+    [mm] from it, every coordinate in parentheses (gmsh's parser rejects ``x--1``;
+    the refined build above has gmsh read such a term)."""
+    import math
+
+    from fe_impact.meshing.sizing import refine_terms
+
+    ((size, expr),) = refine_terms([(-1e-3, 2e-3, -3e-3, 5e-6)])
+    assert size == pytest.approx(5e-3)
+    assert "--" not in expr and "+-" not in expr
+    python = expr.replace("Sqrt", "math.sqrt").replace("^", "**")
+    # from (-1, 2, -3) mm to (2, 6, -3) mm: 5 mm
+    assert eval(python, {"math": math, "x": 2.0, "y": 6.0, "z": -3.0}) == \
+        pytest.approx(5.0, rel=1e-12)

@@ -109,6 +109,10 @@ class PairDesign:
     #: Tip-edge rounding radii [m] of the pinion and the face gear built into the
     #: solids (a corner contact's; 0: sharp).
     edge_radii: tuple[float, float] = (0.0, 0.0)
+    #: Balls of smaller elements in the stretched space, each ``(x, y, z, size)``
+    #: [m]: where an earlier attempt's element came back turned over
+    #: (:func:`~fe_impact.meshing.toothpair.mesh_with_retries`).
+    refine: tuple[tuple[float, float, float, float], ...] = ()
 
     @property
     def ellipse(self) -> ContactEllipse:
@@ -285,5 +289,13 @@ def size_field(model, design: PairDesign) -> None:
     centre = (st.origin + 0.5 * (lo + hi) * st.axes[0]) * MM
     half = (0.5 * (hi - lo) * MM, width * MM, depth * MM)
     _set_size_field(model, [(sizes["minor"] * MM, _box_distance(st.axes, centre, half)),
-                            *_edge_terms(design, st.to_mesh)],
+                            *_edge_terms(design, st.to_mesh), *refine_terms(design.refine)],
                     level.gradation, sizes["far"] * MM)
+
+
+def refine_terms(balls) -> list[tuple[float, str]]:
+    """Size terms [mm] of ``balls`` (``(x, y, z, size)`` in metres, stretched space):
+    ``size`` at each centre, growing with the level's gradation away from it."""
+    return [(h * MM, "Sqrt(" + "+".join(f"(({c})-({v * MM:.17g}))^2"
+                                       for c, v in zip("xyz", (x, y, z), strict=True)) + ")")
+            for x, y, z, h in balls]

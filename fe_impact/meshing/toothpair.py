@@ -139,7 +139,16 @@ MIN_SICN = 0.01
 
 
 class _InvertedMesh(MeshError):
-    """A mesh with a (nearly) inverted element; :func:`build_pair` retries."""
+    """A mesh with a (nearly) inverted element; :func:`build_pair` retries.
+
+    ``balls``: where the turned-over elements lie in the stretched space and
+    a third of their size there, ``(x, y, z, size)`` [m] each (see
+    :func:`_turned_balls`); empty if unknown.
+    """
+
+    def __init__(self, message: str, balls=()) -> None:
+        super().__init__(message)
+        self.balls = tuple(balls)
 
 
 # -- results -------------------------------------------------------------------------------
@@ -318,10 +327,25 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
     if stats.min_sicn <= MIN_SICN:
         raise _InvertedMesh(
             f"the {spec.level} mesh has an element of quality {stats.min_sicn:.3g} (minimum "
-            f"SICN; {MIN_SICN} required) at stretch factor {design.sizes['factor']:.3g}"
-        )
+            f"SICN; {MIN_SICN} required) at stretch factor {design.sizes['factor']:.3g}",
+            _turned_balls(model, volumes, design.stretch))
     write_msh(path)
     return stats
+
+
+def _turned_balls(model, volumes: dict[str, int], stretch) -> list[tuple[float, ...]]:
+    """``(x, y, z, size)`` [m] in the stretched space of each element below
+    :data:`MIN_SICN`: its corners' centroid mapped by ``stretch.to_mesh``, and a
+    third of its longest edge there (the size a retry asks for around it)."""
+    tags, quality = _qualities(model, volumes)
+    balls = []
+    for tag in tags[quality <= MIN_SICN]:
+        _, nodes, _, _ = model.mesh.getElement(int(tag))
+        corners = np.array([model.mesh.getNode(int(n))[0] for n in nodes[:4]]) / MM
+        y = stretch.to_mesh(corners)
+        edges = np.linalg.norm(y[:, None, :] - y[None, :, :], axis=2)
+        balls.append((*(float(v) for v in y.mean(axis=0)), float(edges.max()) / 3.0))
+    return balls
 
 
 def _volume_mesh(model, volumes: dict[str, int], stretch) -> None:
@@ -907,6 +931,11 @@ def _nearest(centres: NDArray, c: NDArray, name: str) -> int:
 #: the cap of 2.5 the shorter compensation is tried too before the isotropic
 #: mesh, which costs 1.5-2 times the DOFs (:data:`~fe_impact.meshing.sizing.REACH`).
 _RETRIES = ((None, REACH), (5.0, REACH), (2.5, REACH), (2.5, SHORT_REACH), (1.0, REACH))
+#: Attempts at one stretch with smaller elements around the elements that came
+#: back turned over (:func:`_turned_balls`), before the stretch is lowered: a
+#: large element where the map varies fast turns over, a smaller one there
+#: does not, and the contact zone keeps its discretisation.
+LOCAL_REFINEMENTS = 2
 
 
 def mesh_with_retries(where: str, session: str,
@@ -941,15 +970,21 @@ def mesh_with_retries(where: str, session: str,
                            "" if reach == failed[1] or stretch <= 1.0 else
                            f" and the map's compensation ending {reach:g} zone "
                            "half-lengths from the contact")
-        try:
-            with gmsh_session(session, verbose=verbose) as model:
-                stats = mesh(model, design)
-        except _InvertedMesh as exc:
-            if stretch <= 1.0:
-                raise MeshError(f"{where}: {exc}") from exc
-            failed = (exc, reach)
-            continue
-        return design, replace(stats, seconds=time.perf_counter() - started)
+        for refined in range(LOCAL_REFINEMENTS + 1):
+            try:
+                with gmsh_session(session, verbose=verbose) as model:
+                    stats = mesh(model, design)
+            except _InvertedMesh as exc:
+                if stretch <= 1.0:
+                    raise MeshError(f"{where}: {exc}") from exc
+                failed = (exc, reach)
+                if refined == LOCAL_REFINEMENTS or not exc.balls:
+                    break
+                logger.info("%s: %s; meshing again at the same stretch with elements of a "
+                            "third of its size around it", where, exc)
+                design = replace(design, refine=design.refine + exc.balls)
+                continue
+            return design, replace(stats, seconds=time.perf_counter() - started)
     raise AssertionError("unreachable: the isotropic mesh either passes or raises")
 
 

@@ -74,6 +74,7 @@ from fe_impact.meshing.sizing import (
     _set_size_field,
     _zone_half_widths,
     design_pair,
+    refine_terms,
 )
 from fe_impact.meshing.toothpair import (
     MIN_SICN,
@@ -82,6 +83,7 @@ from fe_impact.meshing.toothpair import (
     _map_nodes,
     _reload_as_discrete,
     _statistics,
+    _turned_balls,
     _volume_mesh,
     mesh_with_retries,
 )
@@ -218,6 +220,9 @@ class TwoPairDesign:
 
     designs: tuple[PairDesign, PairDesign]
     stretch: TwoZoneStretch
+    #: Balls of smaller elements in the stretched space, ``(x, y, z, size)`` [m]
+    #: (:attr:`~fe_impact.meshing.sizing.PairDesign.refine`).
+    refine: tuple[tuple[float, float, float, float], ...] = ()
 
     @property
     def pair(self) -> GearPair:
@@ -297,7 +302,8 @@ def _size_field(model, design: TwoPairDesign) -> None:
         centre = (st.origin + 0.5 * (lo + hi) * st.axes[0]) * MM
         half = (0.5 * (hi - lo) * MM, width * MM, depth * MM)
         terms.append((d.sizes["minor"] * MM, _box_distance(st.axes, centre, half)))
-    _set_size_field(model, terms, level.gradation, design.designs[0].sizes["far"] * MM)
+    _set_size_field(model, [*terms, *refine_terms(design.refine)], level.gradation,
+                    design.designs[0].sizes["far"] * MM)
 
 
 # -- meshing ---------------------------------------------------------------------------------
@@ -368,7 +374,8 @@ def _mesh(model, design: TwoPairDesign, spec: PairSpec, path: Path, started: flo
     if stats.min_sicn <= MIN_SICN:
         raise _InvertedMesh(
             f"the {spec.level} two-pair mesh has an element of quality {stats.min_sicn:.3g} "
-            f"(minimum SICN; {MIN_SICN} required) at stretch factor {design.factor:.3g}")
+            f"(minimum SICN; {MIN_SICN} required) at stretch factor {design.factor:.3g}",
+            _turned_balls(model, volumes, design.stretch))
     write_msh(path)
     return stats
 

@@ -79,7 +79,9 @@ inside out where it varies fast. The stretched mesh is first optimised by
 gmsh (its default tetrahedral optimisation) and a mesh that still comes back
 with a turned-over element gets gmsh's vertex relocation; if an element is
 still below :data:`MIN_SICN` after the flanks are snapped, the mesh is made
-again with less stretch (``_RETRIES``), down to the isotropic mesh.
+again at the same stretch with smaller elements around it
+(:data:`LOCAL_REFINEMENTS`), then with less stretch (``_RETRIES``), down to
+the isotropic mesh.
 Faces other than the flanks are only as exact as the reference surface
 mesh, and their P2 mid-edge nodes are straight (e.g. up to ~0.1 mm chord on
 the pinion's rim arc, a hub face).

@@ -351,3 +351,14 @@ def test_refine_terms_are_the_distance_from_each_ball():
     # from (-1, 2, -3) mm to (2, 6, -3) mm: 5 mm
     assert eval(python, {"math": math, "x": 2.0, "y": 6.0, "z": -3.0}) == \
         pytest.approx(5.0, rel=1e-12)
+
+
+def test_many_turned_over_elements_lower_the_stretch(monkeypatch):
+    """More than MAX_BALLS turned-over elements are not refined one by one (each is a
+    size-field term): no balls, so the retry lowers the stretch."""
+    import numpy as np
+
+    n = toothpair.MAX_BALLS + 1
+    monkeypatch.setattr(toothpair, "_qualities",
+                        lambda model, volumes: (np.arange(n), np.full(n, -0.1)))
+    assert toothpair._turned_balls(None, {}, None) == []

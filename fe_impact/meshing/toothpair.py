@@ -338,10 +338,14 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
 def _turned_balls(model, volumes: dict[str, int], stretch) -> list[tuple[float, ...]]:
     """``(x, y, z, size)`` [m] in the stretched space of each element below
     :data:`MIN_SICN`: its corners' centroid mapped by ``stretch.to_mesh``, and a
-    third of its longest edge there (the size a retry asks for around it)."""
+    third of its longest edge there (the size a retry asks for around it); none
+    if there are more than :data:`MAX_BALLS` of them."""
     tags, quality = _qualities(model, volumes)
+    bad = tags[quality <= MIN_SICN]
+    if len(bad) > MAX_BALLS:    # not a local defect: the stretch itself is too strong
+        return []
     balls = []
-    for tag in tags[quality <= MIN_SICN]:
+    for tag in bad:
         _, nodes, _, _ = model.mesh.getElement(int(tag))
         corners = np.array([model.mesh.getNode(int(n))[0] for n in nodes[:4]]) / MM
         y = stretch.to_mesh(corners)
@@ -938,6 +942,9 @@ _RETRIES = ((None, REACH), (5.0, REACH), (2.5, REACH), (2.5, SHORT_REACH), (1.0,
 #: large element where the map varies fast turns over, a smaller one there
 #: does not, and the contact zone keeps its discretisation.
 LOCAL_REFINEMENTS = 2
+#: More turned-over elements than this are not refined one by one (each is a
+#: term of the size field, evaluated at every size query): the stretch is lowered.
+MAX_BALLS = 16
 
 
 def mesh_with_retries(where: str, session: str,

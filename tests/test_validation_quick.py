@@ -34,7 +34,7 @@ STUDIES = [
     pytest.param("bench_tooth_impact", marks=pytest.mark.slow),
 ]
 # Not here: validation/corner_contact.py, whose quick setting (the finest refinement
-# alone, 258k DOFs) takes three minutes and 6.4 GB; `make validate
+# alone, 257k DOFs) takes eight minutes and 10.3 GB; `make validate
 # VALIDATE_FLAGS=--quick` asserts it. Nor validation/calculix_pair.py, which needs
 # CalculiX (a Debian package, not a pip one) and about five minutes of it;
 # tests/test_calculix_deck.py checks the deck it writes.

@@ -74,10 +74,12 @@ DEFAULT_POSITIONS = 9
 #: mesh of that edge contact has inverted elements at every stretch factor
 #: (at 5%: 198k DOFs, meshed). The coarse level holds the flank contact
 #: 0.5% of the path from either end on all three stages (first end 85k-115k
-#: DOFs, 12-22 s a position), but the coarse calibration then took 3:05
-#: against 2:13-2:16 (its positions 192 CPU s against 144), over the main
-#: job's three minutes, so every level keeps 5%; the first touch on the edge
-#: itself is the corner contact (:func:`plan_corner_positions`).
+#: DOFs, 12-22 s a position), but run alternately with 5% the coarse
+#: calibration took 14-15 s longer with it (the positions 9 and 32 CPU s
+#: more), and the 5% runs themselves took 2:42-3:00 in the machine's slow
+#: spells against the main job's three minutes, so every level keeps 5%; the
+#: first touch on the edge itself is the corner contact
+#: (:func:`plan_corner_positions`).
 END_INSET = 0.05
 #: Initial gap of the static pair (m): the approach is measured from first
 #: touch, so any small gap serves; it keeps the meshes apart.

@@ -139,9 +139,25 @@ CONVERGENCE_FORCE = 500.0
 #: The forces of each level's curve: run_position fits F = K delta^e from
 #: FIT_MIN_FORCE up, which needs two forces; the stiffness is read at 500 N.
 CONVERGENCE_FORCES = (250.0, CONVERGENCE_FORCE)
-CONVERGENCE_LEVELS = ("coarse", "default", "fine")
-QUICK_CONVERGENCE_LEVELS = ("coarse", "default")
-#: Estimated relative error of the fine level's stiffness (the grid
+#: The family of meshes the order and the error are measured on: the default
+#: level (the main job's) with every element size and the gradation
+#: multiplied by 1.5, 1 and 1/1.5 (``PairSpec.refinement`` 2/3, 1, 3/2; the
+#: stretch cap kept). Richardson's extrapolation assumes one mesh size
+#: scaled by a constant ratio; the named levels are not such a family
+#: (coarse to default and default to fine divide the zone's minor and
+#: major sizes by 1.5 and 1.33 and then by 1.33 and 1.5, the far size by
+#: 1.56 and 1.6, the gradation by 1.4 and 1.43, so the zone's and the far
+#: field's errors, each about half of a level step, fall in different
+#: proportions), and three meshes of them gave orders from 1.2 to 2 as
+#: the mesher changed. 1.5 per step (about 1.4 in n_dofs^(-1/3)) follows
+#: Celik et al.'s advice of a ratio above 1.3.
+CONVERGENCE_LEVEL = "default"
+CONVERGENCE_REFINEMENTS = (2.0 / 3.0, 1.0, 1.5)
+QUICK_CONVERGENCE_REFINEMENTS = (2.0 / 3.0, 1.0)
+#: The named levels beside the family (full study), reported with their
+#: error against the family's extrapolated value.
+REPORTED_LEVELS = ("coarse", "fine")
+#: Estimated relative error of the family's finest stiffness (the grid
 #: convergence index, Richardson's error estimate with Roache's safety
 #: factor 1.25 for three grids): 2%. The stiffness sets the pair law of the
 #: lumped model; a 2% stiffness error is a 2% force error at a given
@@ -216,7 +232,7 @@ def seed_gearset() -> tuple[object, str]:
 
 
 def first_touch_offset(gearset, text: str, case: PositionCase, level: str,
-                       cache: Path) -> float:
+                       cache: Path, refinement: float = 1.0) -> float:
     """``s = g_w - g`` of a position's static mesh (m): its approach at the FE's first touch.
 
     ``g_w`` the smallest weighted gap of the pinion flank's nodes against the
@@ -226,10 +242,11 @@ def first_touch_offset(gearset, text: str, case: PositionCase, level: str,
     """
     from fe_impact.meshing.toothpair import build_pair
 
-    key = meshcycle.case_hash(case, level, ORDER, text)
+    key = meshcycle.case_hash(case, level, ORDER, text, refinement)
     pair_mesh = build_pair(gearset, case.stage, case.roll_angle_deg, level, ORDER,
                            meshcycle.PAIR_GAP, 0.1, cache / "meshes" / f"static_{key}",
-                           reuse=True, design_force=max(case.forces), contact=case.contact)
+                           reuse=True, design_force=max(case.forces), contact=case.contact,
+                           refinement=refinement)
     return smallest_weighted_gap(pair_mesh.mesh_path) - meshcycle.PAIR_GAP
 
 
@@ -258,16 +275,17 @@ def shifted(record: PositionRecord, offset: float) -> PositionRecord:
 
 
 def position(gearset, text: str, roll_deg: float, forces, level: str,
-             cache: Path, stage: int = STAGE) -> tuple[PositionRecord, float, float]:
+             cache: Path, stage: int = STAGE,
+             refinement: float = 1.0) -> tuple[PositionRecord, float, float]:
     """The static curve at a roll angle, its first-touch offset and the wall time (s)."""
     t = time.perf_counter()
     teeth = gearset.stages[stage - 1].teeth
     case = PositionCase(stage, teeth, float(roll_deg), tuple(float(f) for f in forces))
-    record = meshcycle.run_position(case, level, ORDER, text, cache)
-    offset = first_touch_offset(gearset, text, case, level, cache)
+    record = meshcycle.run_position(case, level, ORDER, text, cache, refinement)
+    offset = first_touch_offset(gearset, text, case, level, cache, refinement)
     seconds = time.perf_counter() - t
-    logger.info("position %.3f deg, %s: %d DOFs, %.1f s", roll_deg, level, record.n_dofs,
-                seconds)
+    logger.info("position %.3f deg, %s x %.3g: %d DOFs, %.1f s", roll_deg, level,
+                1.0 / refinement, record.n_dofs, seconds)
     return record, offset, seconds
 
 
@@ -517,22 +535,32 @@ def richardson(h: list[float], phi: list[float]) -> dict:
     return out
 
 
-def run_convergence(gearset, text: str, levels: tuple[str, ...], cache: Path) -> dict:
-    """The pitch point's secant stiffness at 500 N on ``levels`` (coarse to fine)."""
-    rows = []
-    for level in levels:
-        record, offset, seconds = position(gearset, text, 0.0, CONVERGENCE_FORCES, level, cache)
-        rows.append({"level": level, "n_dofs": record.n_dofs, "seconds": seconds,
-                     "stiffness": secant_stiffness(record),
-                     "stiffness_from_first_touch": secant_stiffness(record, offset),
-                     "first_touch_offset": offset,
-                     "approach": meshcycle_approach(record, CONVERGENCE_FORCE),
-                     "exponent": record.exponent, "timings_s": record.timings_s})
-    out = {"rows": rows, "force": CONVERGENCE_FORCE}
+def run_convergence(gearset, text: str, refinements: tuple[float, ...], cache: Path,
+                    levels: tuple[str, ...] = ()) -> dict:
+    """The pitch point's secant stiffness at 500 N on the family of
+    :data:`CONVERGENCE_LEVEL` at ``refinements`` (coarse to fine), and on the
+    named ``levels`` beside it (each row's error against the family's
+    extrapolated value when three refinements give one)."""
+    def row(level: str, refinement: float) -> dict:
+        record, offset, seconds = position(gearset, text, 0.0, CONVERGENCE_FORCES, level, cache,
+                                           refinement=refinement)
+        return {"level": level, "refinement": refinement, "n_dofs": record.n_dofs,
+                "seconds": seconds, "stiffness": secant_stiffness(record),
+                "stiffness_from_first_touch": secant_stiffness(record, offset),
+                "first_touch_offset": offset,
+                "approach": meshcycle_approach(record, CONVERGENCE_FORCE),
+                "exponent": record.exponent, "timings_s": record.timings_s}
+
+    rows = [row(CONVERGENCE_LEVEL, r) for r in refinements]
+    out = {"rows": rows, "force": CONVERGENCE_FORCE, "level": CONVERGENCE_LEVEL,
+           "levels": [row(level, 1.0) for level in levels]}
     if len(rows) == 3:
         h = [r["n_dofs"] ** (-1.0 / 3.0) for r in rows]
         for key in ("stiffness", "stiffness_from_first_touch"):
             out[key] = richardson(h, [r[key] for r in rows])
+        ext = out["stiffness"]["extrapolated"]
+        for r in out["levels"] + rows:
+            r["error_against_extrapolated"] = r["stiffness"] / ext - 1.0 if ext > 0 else math.nan
     return out
 
 
@@ -697,8 +725,9 @@ def run(quick: bool = False, out: str | Path = "out/mesh_cycle",
               "exponent": record.exponent}
     same_mesh = static_on_impact_mesh(gearset, pair, forces)
     comparison = compare_impact(impact, record, offset, same_mesh)
-    convergence = run_convergence(gearset, text, QUICK_CONVERGENCE_LEVELS if quick
-                                  else CONVERGENCE_LEVELS, cache)
+    convergence = run_convergence(
+        gearset, text, QUICK_CONVERGENCE_REFINEMENTS if quick else CONVERGENCE_REFINEMENTS,
+        cache, () if quick else REPORTED_LEVELS)
     tca = tca_transmission_error(gearset)
     vanishing = run_vanishing_load(gearset, text, TE_LEVEL,
                                    QUICK_TE_POSITIONS if quick else TE_POSITIONS,
@@ -724,7 +753,8 @@ def check(result: dict) -> list[ck.Check]:
         r = conv["stiffness"]
         out.append(ck.holds("stiffness at 500 N: observed order (monotone, p > 0)", r["order"],
                             bool(r["monotone"] and r["order"] > 0.0), "monotone and > 0"))
-        out.append(ck.at_most("stiffness at 500 N: fine level's estimated error (GCI)",
+        out.append(ck.at_most(f"stiffness at 500 N: the {conv['level']} level's family, "
+                              "finest mesh's estimated error (GCI)",
                               r["gci_fine"], CONVERGENCE_TOLERANCE))
     out.append(ck.at_most("TCA unloaded TE over the path (rad)", result["tca"]["max_abs_te_rad"],
                           TCA_TE_TOLERANCE))
@@ -781,11 +811,19 @@ def report(result: dict) -> str:
              f"{c['as_is']['max_error']:.2%} |",
              *same_mesh_rows(c),
              "", f"## 2. Convergence of the stiffness at {conv['force']:g} N (pitch point)", "",
-             "| level | DOFs | time (s) | F/delta (N/um) | from first touch (N/um) | "
-             "offset s (nm) | exponent e |", "|---|---|---|---|---|---|---|"]
-    for r in conv["rows"]:
-        lines.append(f"| {r['level']} | {r['n_dofs']} | {r['seconds']:.0f} | "
-                     f"{r['stiffness'] * mn:.3f} | {r['stiffness_from_first_touch'] * mn:.3f} | "
+             f"A family of meshes: the {conv['level']} level with every element size and the "
+             "gradation scaled by one factor; the named levels below it are reported only "
+             "(see `CONVERGENCE_REFINEMENTS`).", "",
+             "| mesh | DOFs | time (s) | F/delta (N/um) | against extrapolated | "
+             "from first touch (N/um) | offset s (nm) | exponent e |",
+             "|---|---|---|---|---|---|---|---|"]
+    named = [(r, f", sizes x {1.0 / r['refinement']:.3g}") for r in conv["rows"]]
+    for r, scale in named + [(r, " (level)") for r in conv["levels"]]:
+        against = r.get("error_against_extrapolated")
+        lines.append(f"| {r['level']}{scale} | {r['n_dofs']} | {r['seconds']:.0f} | "
+                     f"{r['stiffness'] * mn:.3f} | "
+                     f"{'' if against is None else f'{against:+.2%}'} | "
+                     f"{r['stiffness_from_first_touch'] * mn:.3f} | "
                      f"{r['first_touch_offset'] * 1e9:.1f} | {r['exponent']:.3f} |")
     lines.append("")
     if "stiffness" in conv:
@@ -795,13 +833,13 @@ def report(result: dict) -> str:
             lines.append(f"- {name}: observed order p = {r['order']:.2f} "
                          f"({'monotone' if r['monotone'] else 'oscillatory'}; r21 = "
                          f"{r['r21']:.3f}, r32 = {r['r32']:.3f}), extrapolated "
-                         f"{r['extrapolated'] * mn:.3f} N/um, fine level's error "
+                         f"{r['extrapolated'] * mn:.3f} N/um, finest mesh's error "
                          f"{r['error_fine']:.2%} (GCI {r['gci_fine']:.2%})")
     else:
         a, b = conv["rows"][0], conv["rows"][-1]
-        lines.append(f"- quick: two levels only, reported (no order from two values): "
-                     f"{a['level']} to {b['level']} changes F/delta by "
-                     f"{b['stiffness'] / a['stiffness'] - 1.0:+.2%}")
+        lines.append(f"- quick: two meshes only, reported (no order from two values): "
+                     f"sizes x {1.0 / a['refinement']:.3g} to x {1.0 / b['refinement']:.3g} "
+                     f"changes F/delta by {b['stiffness'] / a['stiffness'] - 1.0:+.2%}")
     offsets = np.asarray(v["first_touch_offsets"]) * 1e9
     lines += ["", f"## 3. Vanishing load ({v['level']}, {len(v['positions_deg'])} positions)", "",
               f"- contact analysis, {TCA_SAMPLES} roll angles over the path: largest |TE| "

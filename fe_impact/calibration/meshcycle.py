@@ -314,20 +314,24 @@ def plan_corner_positions(gearset, stages: list[int] | None = None,
     return cases
 
 
-def case_hash(case: PositionCase, level: str, order: int, gearset_text: str) -> str:
-    """Resume key of a position (case, mesh level, gear set, schema, version)."""
+def case_hash(case: PositionCase, level: str, order: int, gearset_text: str,
+              refinement: float = 1.0) -> str:
+    """Resume key of a position (case, mesh level and its refinement, gear set, schema,
+    version)."""
     key = asdict(case)
     if key["contact"] == "flank":   # the key of the positions before corner positions
         del key["contact"]
-    blob = json.dumps([key, level, order, gearset_text, SCHEMA, __version__],
+    mesh = level if refinement == 1.0 else [level, refinement]
+    blob = json.dumps([key, mesh, order, gearset_text, SCHEMA, __version__],
                       sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
 # -- one position (FE) --------------------------------------------------------------------
 def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
-                 cache: str | Path) -> PositionRecord:
-    """Mesh the pair at ``case``'s roll angle and measure its load-approach curve."""
+                 cache: str | Path, refinement: float = 1.0) -> PositionRecord:
+    """Mesh the pair at ``case``'s roll angle and measure its load-approach curve
+    (``refinement``: :attr:`~fe_impact.gears.pairanalysis.PairSpec.refinement`)."""
     import tomllib
 
     from fe_impact.fe.linalg import limit_threads
@@ -336,12 +340,13 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
 
     t0 = time.perf_counter()
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
-    key = case_hash(case, level, order, gearset_text)
+    key = case_hash(case, level, order, gearset_text, refinement)
     timings = {}
     with limit_threads(1):
         pair_mesh = build_pair(gearset, case.stage, case.roll_angle_deg, level, order, PAIR_GAP,
                                0.1, Path(cache) / "meshes" / f"static_{key}", reuse=True,
-                               design_force=max(case.forces), contact=case.contact)
+                               design_force=max(case.forces), contact=case.contact,
+                               refinement=refinement)
     timings["mesh"] = time.perf_counter() - t0
     t = time.perf_counter()
     solver, result = solve_static_pair(gearset, pair_mesh, case.forces)

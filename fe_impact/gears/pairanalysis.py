@@ -59,6 +59,8 @@ MAX_IMPACT_SPEED = 20.0
 #: Refinement levels a pair can be meshed at (their element sizes:
 #: :data:`fe_impact.meshing.sizing.LEVELS`).
 LEVEL_NAMES = ("coarse", "default", "fine")
+#: Allowed :attr:`PairSpec.refinement` (a level's sizes divided by it).
+REFINEMENT_RANGE = (0.5, 4.0)
 
 
 @dataclass(frozen=True)
@@ -74,6 +76,12 @@ class PairSpec:
         (:class:`~fe_impact.gears.tca.GearPair`).
     level : {"coarse", "default", "fine"}
         Refinement (:data:`fe_impact.meshing.sizing.LEVELS`).
+    refinement : float
+        Uniform refinement of the level: every element size of the level and
+        its gradation divided by this, so the size field is the level's,
+        scaled (1: the level itself; allowed :data:`REFINEMENT_RANGE`). A
+        family of meshes in the sense of Richardson's extrapolation
+        (``validation/mesh_cycle.py``).
     order : {1, 2}
         Element order.
     gap : float
@@ -122,12 +130,18 @@ class PairSpec:
     velocity_split: str = "momentum"
     pinion_axial_position: float | None = None
     contact: str = "flank"
+    refinement: float = 1.0
 
     def __post_init__(self) -> None:
         if self.contact not in CONTACTS:
             raise GeometryError(f"contact = {self.contact!r}; pick one of {list(CONTACTS)}")
         if self.level not in LEVEL_NAMES:
             raise MeshError(f"level = {self.level!r}; pick one of {list(LEVEL_NAMES)}")
+        lo, hi = REFINEMENT_RANGE
+        if isinstance(self.refinement, bool) or not (
+                isinstance(self.refinement, int | float) and lo <= self.refinement <= hi):
+            raise MeshError(f"refinement = {self.refinement!r}; allowed {lo:g} .. {hi:g} "
+                            "(element sizes divided by it)")
         if self.order not in (1, 2) or isinstance(self.order, bool):
             raise MeshError(f"order = {self.order!r}; pick 1 (linear) or 2 (quadratic)")
         if not (math.isfinite(self.gap) and 0.0 <= self.gap <= 1e-3):

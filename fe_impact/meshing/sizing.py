@@ -11,7 +11,7 @@ space (:mod:`fe_impact.meshing.toothpair` describes the steps).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,6 +31,7 @@ __all__ = [
     "MeshLevel",
     "PairDesign",
     "design_pair",
+    "level_of",
     "edge_radii",
     "reference_size_field",
     "size_field",
@@ -72,6 +73,17 @@ LEVELS: dict[str, MeshLevel] = {
 }
 if tuple(LEVELS) != LEVEL_NAMES:  # PairSpec accepts exactly these names
     raise ImportError(f"LEVELS {list(LEVELS)} differ from PairSpec's {list(LEVEL_NAMES)}")
+
+
+def level_of(spec: PairSpec) -> MeshLevel:
+    """The sizes ``spec`` is meshed with: its level, every size and the gradation
+    divided by ``spec.refinement`` (the stretch cap, a shape bound, kept)."""
+    level, r = LEVELS[spec.level], spec.refinement
+    if r == 1.0:
+        return level
+    return replace(level, minor_fraction=level.minor_fraction / r,
+                   major_fraction=level.major_fraction / r,
+                   far_modules=level.far_modules / r, gradation=level.gradation / r)
 
 
 # -- design: sizes and stretch -----------------------------------------------------------
@@ -126,7 +138,7 @@ def design_pair(gearset, spec: PairSpec, max_stretch: float | None = None,
     compensation ending ``reach`` zone half-lengths from the contact."""
     pair, analysis = analyse_stage_pair(gearset, spec)
     ellipse = analysis.design_ellipse
-    level = LEVELS[spec.level]
+    level = level_of(spec)
     minor = level.minor_fraction * ellipse.b
     cap = level.max_stretch if max_stretch is None else min(max_stretch, level.max_stretch)
     factor = float(np.clip(level.major_fraction * ellipse.a / minor, 1.0, cap))
@@ -162,7 +174,7 @@ def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllip
     reaches where the graded size has grown to the major-axis size, and the
     fall-off is twice the largest shift wide (shear below about 1).
     """
-    level = LEVELS[spec.level]
+    level = level_of(spec)
     e1 = ellipse.major if ellipse.major[2] > 0 else -ellipse.major  # towards larger radius
     n = design_contact.normal
     half = 1.3 * ellipse.a
@@ -270,7 +282,7 @@ def reference_size_field(model, design: PairDesign) -> None:
     mesh is placed on it; it is finer than the final mesh across the ellipse
     (and isotropic, so much finer along it).
     """
-    st, level = design.stretch, LEVELS[design.analysis.spec.level]
+    st, level = design.stretch, level_of(design.analysis.spec)
     width, depth = _zone_half_widths(design)
     half = (st.half_length * MM, width * MM, depth * MM)
     distance = _box_distance(st.axes, st.origin * MM, half)
@@ -283,7 +295,7 @@ def size_field(model, design: PairDesign) -> None:
     """Isotropic size field of the stretched space: ``minor`` in the image of the
     zone (ramps included, so elements stay short where the compression
     changes), graded out to ``far``."""
-    st, level, sizes = design.stretch, LEVELS[design.analysis.spec.level], design.sizes
+    st, level, sizes = design.stretch, level_of(design.analysis.spec), design.sizes
     width, depth = _zone_half_widths(design)
     lo, hi = st.mapped_interval(st.half_length)
     centre = (st.origin + 0.5 * (lo + hi) * st.axes[0]) * MM

@@ -67,13 +67,13 @@ from fe_impact.gears.tca import GearPair
 from fe_impact.meshing.contactstretch import ContactStretch
 from fe_impact.meshing.pairgeometry import MM, add_sectors, snap_flanks
 from fe_impact.meshing.sizing import (
-    LEVELS,
     REACH,
     PairDesign,
     _box_distance,
     _set_size_field,
     _zone_half_widths,
     design_pair,
+    level_of,
     refine_terms,
 )
 from fe_impact.meshing.toothpair import (
@@ -280,7 +280,7 @@ def design_two_pair(gearset, spec: PairSpec, max_stretch: float | None = None,
 def _reference_size_field(model, design: TwoPairDesign) -> None:
     """Physical-space sizes of the reference surface mesh, both contacts
     (:func:`~fe_impact.meshing.sizing.reference_size_field` for each)."""
-    level = LEVELS[design.designs[0].analysis.spec.level]
+    level = level_of(design.designs[0].analysis.spec)
     terms = []
     for d in design.designs:
         st = d.stretch
@@ -293,7 +293,7 @@ def _reference_size_field(model, design: TwoPairDesign) -> None:
 def _size_field(model, design: TwoPairDesign) -> None:
     """Stretched-space sizes, both contacts (:func:`~fe_impact.meshing.sizing.size_field`
     for each: near a contact the joint map is that contact's own)."""
-    level = LEVELS[design.designs[0].analysis.spec.level]
+    level = level_of(design.designs[0].analysis.spec)
     terms = []
     for d in design.designs:
         st = d.stretch
@@ -340,7 +340,10 @@ class TwoPairMesh:
 
 def two_pair_key(gearset, spec: PairSpec) -> str:
     """Deterministic hash (16 hex digits) of the gear set and the mesh parameters."""
-    payload = json.dumps({"gearset": asdict(gearset), "spec": asdict(spec), "two_pair": 1},
+    fields = asdict(spec)
+    if fields["refinement"] == 1.0:    # the key of the meshes before refinement families
+        del fields["refinement"]
+    payload = json.dumps({"gearset": asdict(gearset), "spec": fields, "two_pair": 1},
                          sort_keys=True, default=repr)
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 

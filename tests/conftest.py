@@ -51,7 +51,7 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
                                "test_midside_pressure_is_the_corner_mean"),
     "test_switching.py": ("test_undamped_frictionless_run_conserves_energy",),
     "test_toothmesh.py": ("test_command_writes_mesh_case_summary_and_picture",),
-    # the mesh-cycle study's quick setting (coarse impact and positions, ~2 min)
+    # the mesh-cycle study's quick setting (coarse impact and positions, ~1 min)
     "test_validation_mesh_cycle.py": ("test_quick_study_passes_its_checks",),
 }
 

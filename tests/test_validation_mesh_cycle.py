@@ -3,8 +3,8 @@
 The study (validation/mesh_cycle.py) compares the quasi-static single-pair
 curve with a tooth impact, checks its convergence under mesh refinement and
 its limit at vanishing load. The helpers here are checked on data whose
-answer is known in closed form; the quick setting (coarse meshes, about two
-minutes) must pass its own checks.
+answer is known in closed form; the quick setting (coarse meshes, about one
+minute) must pass its own checks.
 """
 
 from __future__ import annotations
@@ -92,8 +92,8 @@ def test_shift_refuses_an_offset_beyond_the_curve():
 
 
 def test_quick_study_passes_its_checks(tmp_path):
-    """Coarse impact and static curves, coarse/default stiffness, three coarse positions,
-    the nominal point against a mesh made for its load."""
+    """Coarse impact and static curves, two meshes of the stiffness's refinement family,
+    three coarse positions, the nominal point against a mesh made for its load."""
     result = study.run(quick=True, out=tmp_path)
     checks = study.check(result)
     assert len(checks) == 4          # the convergence is reported only on the quick setting

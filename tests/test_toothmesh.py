@@ -317,7 +317,8 @@ def test_command_writes_mesh_case_summary_and_picture(tmp_path, capsys):
     "argv, option",
     [(["--level", "medium"], "--level"), (["--order", "3"], "--order"),
      (["--gap", "-2"], "--gap"), (["--impact-speed", "0"], "--impact-speed"),
-     (["--stage", "7"], "--stage"), (["--face-teeth", "5"], "--face-teeth")],
+     (["--stage", "7"], "--stage"), (["--face-teeth", "5"], "--face-teeth"),
+     (["--refinement", "0.2"], "--refinement"), (["--refinement", "nan"], "--refinement")],
 )
 def test_command_user_errors_name_the_option(tmp_path, argv, option):
     args = _parser().parse_args(["mesh", *argv, "--out", str(tmp_path)])

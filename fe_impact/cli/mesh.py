@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from fe_impact.errors import MeshError
-from fe_impact.gears.pairanalysis import LEVEL_NAMES
+from fe_impact.gears.pairanalysis import LEVEL_NAMES, REFINEMENT_RANGE
 
 logger = logging.getLogger(__name__)
 
@@ -46,6 +46,11 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="pinion roll angle from the pitch-point position [deg] (default 0)")
     p.add_argument("--level", default="default", metavar="LEVEL",
                    help=f"refinement: {', '.join(LEVEL_CHOICES)} (default: default)")
+    p.add_argument("--refinement", type=float, default=1.0, metavar="R",
+                   help="divide every element size of --level and its gradation by R, "
+                        f"{REFINEMENT_RANGE[0]:g} .. {REFINEMENT_RANGE[1]:g} (default 1): "
+                        "meshes of one level at R = 1, 1.5, 2.25 are a family for a "
+                        "convergence study (Richardson's extrapolation)")
     p.add_argument("--order", type=int, default=2, help="element order, 1 or 2 (default 2)")
     p.add_argument("--gap", type=float, default=5.0, metavar="UM",
                    help="initial normal gap at the contact point [um] (default 5)")
@@ -77,6 +82,9 @@ def _check_options(args: argparse.Namespace) -> None:
     """User errors named by their option, with the value and what is allowed."""
     if args.level not in LEVEL_CHOICES:
         raise MeshError(f"--level {args.level!r}: pick one of {', '.join(LEVEL_CHOICES)}")
+    lo, hi = REFINEMENT_RANGE
+    if not (math.isfinite(args.refinement) and lo <= args.refinement <= hi):
+        raise MeshError(f"--refinement {args.refinement:g}: allowed {lo:g} .. {hi:g}")
     if args.order not in (1, 2):
         raise MeshError(f"--order {args.order}: allowed 1 (linear) or 2 (quadratic)")
     if not (math.isfinite(args.gap) and 0.0 <= args.gap <= 1000.0):
@@ -107,12 +115,14 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     stage = gearset.stages[args.stage - 1]
     print(f"{gearset.name}: stage {args.stage} ({stage.teeth} teeth), roll angle "
-          f"{args.roll_angle:g} deg, level {args.level}, P{args.order}", flush=True)
+          f"{args.roll_angle:g} deg, level {args.level}"
+          f"{'' if args.refinement == 1.0 else f' / {args.refinement:g}'}, P{args.order}",
+          flush=True)
     print("  tooth contact analysis, geometry and mesh ...", flush=True)
     pair = build_pair(gearset, args.stage, args.roll_angle, args.level, args.order,
                       args.gap * 1e-6, args.impact_speed, args.out, reuse=args.reuse,
                       n_face_teeth=args.face_teeth, neighbour_teeth=args.neighbour_teeth,
-                      contact=args.contact)
+                      contact=args.contact, refinement=args.refinement)
     c, e, s = pair.contact, pair.ellipse, pair.stats
     print(f"  contact point {np.round(c.point * 1e3, 4).tolist()} mm, normal "
           f"{np.round(c.normal, 5).tolist()}", flush=True)

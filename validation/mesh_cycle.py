@@ -906,12 +906,23 @@ def plot(result: dict, path: str | Path) -> Path:
     ax[0].plot((np.asarray(st["approaches"]) - st["first_touch_offset"]) * 1e6, st["forces"],
                "o", label="static (from first touch)")
     ax[0].set(xlabel="approach (um)", ylabel="force (N)", title="loading branch, pitch point")
-    rows = result["convergence"]["rows"]
+    conv = result["convergence"]
+    rows = conv["rows"]
     ax[1].plot([r["n_dofs"] for r in rows], [r["stiffness"] * 1e-6 for r in rows], "o-",
-               label="F/delta")
+               label=f"F/delta, {conv['level']} level's family")
     ax[1].plot([r["n_dofs"] for r in rows],
                [r["stiffness_from_first_touch"] * 1e-6 for r in rows], "s-",
                label="from first touch")
+    for r in conv.get("levels", []):
+        ax[1].plot(r["n_dofs"], r["stiffness"] * 1e-6, "kD", ms=5)
+        ax[1].annotate(f" {r['level']}", (r["n_dofs"], r["stiffness"] * 1e-6), fontsize=8)
+    if "stiffness" in conv and math.isfinite(conv["stiffness"]["extrapolated"]):
+        ext, gci = conv["stiffness"]["extrapolated"] * 1e-6, conv["stiffness"]["gci_fine"]
+        ax[1].axhline(ext, color="C0", ls="--", lw=1,
+                      label=f"extrapolated {ext:.2f} N/um (p = {conv['stiffness']['order']:.2f})")
+        finest = rows[-1]["stiffness"] * 1e-6
+        ax[1].axhspan(finest * (1 - gci), finest * (1 + gci), color="C0", alpha=0.12,
+                      label=f"finest mesh +- GCI {gci:.2%}")
     ax[1].set(xscale="log", xlabel="DOFs", ylabel="N/um", title="secant stiffness at 500 N")
     v = result["vanishing_load"]
     ax[2].loglog(v["torques"], np.asarray(v["te_mean_raw"]) * 1e6, "o-", label="loaded TE")

@@ -31,9 +31,10 @@ def test_mesh_cycle_outputs(calibrated):
     law = json.loads((run / "calibration.json").read_text())["mesh_cycle"]["1"]
     first, last = meshcycle.path_of_contact(default_gearset(), 1)
     assert len(law["roll_angle_deg"]) == 2
-    # The ends are moved inward by END_INSET of the path (the exact ends are
-    # edges where the contact analysis has no contact point).
-    inset = meshcycle.END_INSET * abs(first - last)
+    # The ends are moved inward by the coarse level's inset of the path (the exact
+    # ends are edges where the contact analysis has no contact point); --level coarse
+    # puts the positions on coarse meshes too (the level below, coarse at the least).
+    inset = meshcycle.END_INSETS["coarse"] * abs(first - last)
     assert sorted(law["roll_angle_deg"]) == pytest.approx(sorted([first - inset, last + inset]),
                                                           abs=1e-9)
     cycle = json.loads((run / "mesh_cycle.json").read_text())

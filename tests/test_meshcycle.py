@@ -110,13 +110,15 @@ def test_positions_span_the_path():
     # The path of contact over the angular pitch is the contact ratio
     # (1.7622, the geometry command's figure for the seed set).
     assert abs(first - last) / (360.0 / gs.pinion.teeth) == pytest.approx(1.7622, abs=1e-4)
-    cases = meshcycle.plan_positions(gs, [1], 9, forces=(50.0, 100.0))
-    rolls = [c.roll_angle_deg for c in cases]
-    inset = meshcycle.END_INSET * abs(first - last)
-    assert rolls[0] == pytest.approx(first - math.copysign(inset, first - last))
-    assert rolls[-1] == pytest.approx(last + math.copysign(inset, first - last))
-    assert [c.end for c in cases] == ["first"] + [""] * 7 + ["last"]
-    assert len({c.id for c in cases}) == 9
+    for level, inset in (("coarse", 0.005), ("default", 0.05), ("fine", 0.05), (None, 0.05)):
+        cases = meshcycle.plan_positions(gs, [1], 9, forces=(50.0, 100.0), level=level)
+        rolls = [c.roll_angle_deg for c in cases]
+        step = inset * abs(first - last)
+        assert rolls[0] == pytest.approx(first - math.copysign(step, first - last))
+        assert rolls[-1] == pytest.approx(last + math.copysign(step, first - last))
+        assert np.allclose(np.diff(rolls), np.diff(rolls)[0])     # evenly spaced
+        assert [c.end for c in cases] == ["first"] + [""] * 7 + ["last"]
+        assert len({c.id for c in cases}) == 9
 
 
 def test_default_forces_hold_the_nominal_load():

@@ -578,7 +578,7 @@ def tca_transmission_error(gearset, n: int = TCA_SAMPLES) -> dict:
     from fe_impact.gears.tca import GearPair
 
     first, last = meshcycle.path_of_contact(gearset, STAGE)
-    inset = meshcycle.END_INSET * (last - first)
+    inset = meshcycle.end_inset(TE_LEVEL) * (last - first)
     rolls = np.linspace(first + inset, last - inset, n)
     pair = GearPair.from_gearset(gearset, STAGE)
     path = pair.path(np.radians(rolls))
@@ -594,7 +594,7 @@ def run_vanishing_load(gearset, text: str, level: str, n_positions: int,
     """Positions over the path (and the pitch point) and the loaded TE at halving torques."""
     # ascending: meshcycle.pair_force reads the points in increasing approach
     forces = tuple(sorted(TE_TOP_FORCE * 0.5 ** k for k in halvings))
-    rolls = meshcycle.path_positions(gearset, STAGE, n_positions)
+    rolls = meshcycle.path_positions(gearset, STAGE, n_positions, level)
     records, offsets, seconds = [], [], 0.0
     for roll in rolls:
         rec, off, sec = position(gearset, text, roll, forces, level, cache)
@@ -674,7 +674,7 @@ def nominal_along_path(stage: int, level: str, cache: Path, top_force: float | N
 
     gearset, text = seed_gearset()
     rows = []
-    for roll in meshcycle.path_positions(gearset, stage, n):
+    for roll in meshcycle.path_positions(gearset, stage, n, level):
         try:
             rows.append({"roll_deg": roll, **run_nominal(gearset, text, level, cache, stage,
                                                           roll, top_force)})

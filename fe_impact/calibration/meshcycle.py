@@ -67,20 +67,27 @@ logger = logging.getLogger(__name__)
 SCHEMA = "fe-impact/mesh-cycle/2"
 #: Positions along the path of contact by default (ends included).
 DEFAULT_POSITIONS = 9
-#: The end positions are moved inward by this fraction of the path. At the
-#: exact ends the contact runs onto the face gear's (sharp) tip edge and the
-#: pinion's form circle: the tooth contact analysis has no contact point
-#: there, and up to 2% of the path from the first point the default-level
-#: mesh of that edge contact has inverted elements at every stretch factor
-#: (at 5%: 198k DOFs, meshed). The coarse level holds the flank contact
-#: 0.5% of the path from either end on all three stages (first end 85k-115k
-#: DOFs, 12-22 s a position), but run alternately with 5% the coarse
-#: calibration took 14-15 s longer with it (the positions 9 and 32 CPU s
-#: more), and the 5% runs themselves took 2:42-3:00 in the machine's slow
-#: spells against the main job's three minutes, so every level keeps 5%; the
-#: first touch on the edge itself is the corner contact
-#: (:func:`plan_corner_positions`).
-END_INSET = 0.05
+#: The end positions are moved inward by this fraction of the path, per mesh
+#: level of the positions. At the exact ends the contact runs onto a tooth's
+#: edge, where the flank ends (the pinion's form circle at the first point,
+#: its tip at the last): the tooth contact analysis has no contact point
+#: there, and that first touch on an edge is the corner contact
+#: (:func:`plan_corner_positions`). The coarse meshes hold the flank contact
+#: 0.5% of the path (0.17 deg of roll) from either end on all three stages of
+#: the seed set (at the first end 85k / 101k / 115k DOFs, 12 / 17 / 22 s; 0.2%
+#: at stage 1 too). The default level's mesh of the first end has a turned-over
+#: element at every stretch factor up to 2% of the path from it (at 0.2%, also
+#: isotropic), and meshes at 5% (198k DOFs). The ends cost: measured
+#: alternately against 5% on every level, the coarse calibration took 14-15 s
+#: longer (its positions 9 and 32 CPU s more).
+END_INSETS = {"coarse": 0.005, "default": 0.05, "fine": 0.05}
+#: The inset of a level not named in :data:`END_INSETS` (the largest).
+END_INSET = max(END_INSETS.values())
+
+
+def end_inset(level: str | None) -> float:
+    """Fraction of the path by which the end positions at mesh ``level`` move inward."""
+    return END_INSETS.get(level, END_INSET)
 #: Initial gap of the static pair (m): the approach is measured from first
 #: touch, so any small gap serves; it keeps the meshes apart.
 PAIR_GAP = 1e-6
@@ -207,13 +214,15 @@ def path_of_contact(gearset, stage: int) -> tuple[float, float]:
     return math.degrees(ends["first_roll_rad"]), math.degrees(ends["last_roll_rad"])
 
 
-def path_positions(gearset, stage: int, n: int = DEFAULT_POSITIONS) -> list[float]:
+def path_positions(gearset, stage: int, n: int = DEFAULT_POSITIONS,
+                   level: str | None = None) -> list[float]:
     """``n`` evenly spaced roll angles (deg) from the first to the last point of contact,
-    the ends moved inward by :data:`END_INSET` of the path."""
+    the ends moved inward by :func:`end_inset` of the path for mesh ``level`` (None:
+    :data:`END_INSET`, which every level meshes)."""
     if n < 2:
         raise CalibrationError(f"--positions {n}: need at least 2 (the path's ends)")
     first, last = path_of_contact(gearset, stage)
-    inset = END_INSET * (last - first)
+    inset = end_inset(level) * (last - first)
     return [float(v) for v in np.linspace(first + inset, last - inset, n)]
 
 
@@ -243,10 +252,12 @@ def stage_forces(gearset, stage: int, top_force: float | None = None) -> tuple[f
 
 def plan_positions(gearset, stages: list[int] | None = None, positions: int | list[float]
                    = DEFAULT_POSITIONS, forces: tuple[float, ...] | None = None,
-                   top_force: float | None = None) -> list[PositionCase]:
+                   top_force: float | None = None, level: str | None = None
+                   ) -> list[PositionCase]:
     """The mesh-cycle cases: every stage at every position.
 
-    ``positions``: a count (evenly along the path, ends included) or roll
+    ``positions``: a count (evenly along the path, the ends :func:`end_inset`
+    of the path inside it for mesh ``level``) or roll
     angles in degrees, each checked against the path of contact; together
     they must span one angular pitch (the cycle shares the load between the
     pairs one pitch apart). ``forces`` default: the stage's nominal force and
@@ -266,7 +277,7 @@ def plan_positions(gearset, stages: list[int] | None = None, positions: int | li
                 f"{(hi - lo) / pitch:.3f}): no two-pair zone, so there is no mesh cycle to "
                 "measure; widen the face gear's teeth (addendum) or run with --no-mesh-cycle")
         if isinstance(positions, int):
-            rolls = path_positions(gearset, s, positions)
+            rolls = path_positions(gearset, s, positions, level)
         else:
             rolls = [float(r) for r in positions]
             bad = [r for r in rolls if not lo < r < hi]
@@ -598,7 +609,7 @@ def mesh_cycle(records: list[PositionRecord], pitch_deg: float, torque: float,
     roll angle lies on the path of contact: ``path`` (first and last point of
     contact, deg), or else the span of ``records`` (the positions of one
     stage). Between the path's ends and the outermost positions (which
-    :data:`END_INSET` moves inward) a pair follows the nearest position's
+    :func:`end_inset` moves inward) a pair follows the nearest position's
     curve. At each roll angle every pair in contact closes by
     the same approach ``delta`` (one pinion rotation, unmodified flanks: no
     unloaded transmission error), its force follows the FE curves of the

@@ -141,8 +141,9 @@ def _parser() -> argparse.ArgumentParser:
                         "default when no value is given)")
     c.add_argument("--positions", type=_positions, default=None, metavar="N|DEG,...",
                    help="mesh cycle: quasi-static single-pair load-approach curves at N "
-                        "positions along the path of contact (default 9, ends included) or "
-                        "at the given pinion roll angles (deg, comma-separated)")
+                        "positions along the path of contact (default 9, the ends 0.5%% of the "
+                        "path inside it on coarse meshes, 5%% on finer ones) or at the given "
+                        "pinion roll angles (deg, comma-separated)")
     c.add_argument("--no-mesh-cycle", action="store_true",
                    help="impacts only: no single-pair curves along the path of contact")
     c.add_argument("--corners", action="store_true",
@@ -321,7 +322,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                                                     c.impact_speed).force_max for c in impacts),
                       default=None)
             flank = plan_positions(gearset, args.stages, args.positions if args.positions
-                                   is not None else DEFAULT_POSITIONS, top_force=top)
+                                   is not None else DEFAULT_POSITIONS, top_force=top,
+                                   level=settings.position_level)
             if not args.corners:
                 return flank
             from fe_impact.calibration.meshcycle import plan_corner_positions

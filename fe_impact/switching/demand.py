@@ -281,8 +281,9 @@ def place_switches(demand: Demand, planned: Sequence, gearset: GearSet
     action, as a pinion roll angle (`fe_impact.switching.geometry.MeshGeometry.roll_at`;
     the coast flank's place is the mirror of
     the drive flank's, which the FE pair models). A place beyond the path's ends
-    (a first touch on a tip edge) is taken at the nearest FE position of the path
-    (`fe_impact.calibration.meshcycle.path_positions`' ends), and said so. Returns
+    (a first touch on a tip edge) is taken at the nearest end of the FE path
+    (`fe_impact.calibration.meshcycle.path_positions`' ends at the inset that every
+    mesh level can make), and said so. Returns
     the cases and one line per stage moved."""
     from dataclasses import replace
 

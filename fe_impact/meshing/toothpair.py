@@ -226,11 +226,9 @@ class PairMesh:
 
 def pair_key(gearset, spec: PairSpec) -> str:
     """Deterministic hash (16 hex digits) of the gear set and the mesh parameters."""
-    fields = asdict(spec)
+    fields = spec.key_fields()
     if fields["contact"] == "flank":   # the key of the meshes before corner contacts
         del fields["contact"]
-    if fields["refinement"] == 1.0:    # the key of the meshes before refinement families
-        del fields["refinement"]
     # format 2: corner meshes whose loft stations keep half a fine step from the fine
     # window (pairgeometry._stations_through); flank meshes are unchanged
     payload = json.dumps(

@@ -340,10 +340,7 @@ class TwoPairMesh:
 
 def two_pair_key(gearset, spec: PairSpec) -> str:
     """Deterministic hash (16 hex digits) of the gear set and the mesh parameters."""
-    fields = asdict(spec)
-    if fields["refinement"] == 1.0:    # the key of the meshes before refinement families
-        del fields["refinement"]
-    payload = json.dumps({"gearset": asdict(gearset), "spec": fields, "two_pair": 1},
+    payload = json.dumps({"gearset": asdict(gearset), "spec": spec.key_fields(), "two_pair": 1},
                          sort_keys=True, default=repr)
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 

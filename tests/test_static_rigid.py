@@ -258,3 +258,23 @@ def test_row_space_solves_the_same_problem(specimen, by_motion, monkeypatch):
         assert got.contact_area[0] == pytest.approx(want.contact_area[0], rel=1e-8)
         assert abs(rough.rigid_values[0] - want.rigid_values[0]) <= \
             2e-6 * abs(want.rigid_values[0])
+
+
+def test_row_space_compliance_of_the_bordered_stiffness(specimen, by_motion, monkeypatch):
+    # The rows' compliances B K^-1 B^T come from the Schur complement of
+    # [[K, B^T], [B, 0]] on its row block; the independent truth is the same
+    # product by solves. Both are direct: they agree to round-off (5e-15 on a
+    # 206k-DOF corner), so 1e-10 leaves room for the conditioning of K only.
+    import numpy as np
+
+    import fe_impact.solvers.static as static
+
+    case, mesh = specimen
+    monkeypatch.setattr(static, "ROW_SPACE_COORDINATES", 0)
+    moved = replace(case, rigid_bodies=(_body(values=(by_motion.steps[-1].rigid_values[0],)),))
+    solver = StaticSolver(moved, mesh)
+    space = solver.rows
+    assert space is not None and len(space.index) > 3
+    B = space.B0
+    exact = B @ solver.solver.solve(B.T.toarray())
+    assert np.abs(space.C - exact).max() <= 1e-10 * np.abs(exact).max()

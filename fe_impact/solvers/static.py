@@ -24,12 +24,13 @@ A zone of more than :data:`ROW_SPACE_COORDINATES` coordinates (a tip edge's
 corner contact: the patch runs along the edge, and the flank beside it
 separates slowly) is not condensed: its dense compliance would cost the cube
 of its size. The stiffness is factorised plainly, and the dense problem is
-formed in the space of the gap rows near the patch (:class:`_RowSpace`: a
-solve per row, kept over the projections, the load steps and the zone's
-growth); because a kept row's Jacobian is that of the projection it was
-first met at, each projection corrects the gaps by the exact response to
-the last forces (one more solve), so the iteration converges to the same
-solution (to 1e-12 of the coordinate-space one in the tests).
+formed in the space of the zone's gap rows (:class:`_RowSpace`: their
+compliances from one Schur complement of the stiffness bordered by their
+Jacobian, kept over the projections and the load steps); because a kept
+row's Jacobian is that of the projection it was formed at, each projection
+corrects the gaps by the exact response to the last forces (one more
+solve), so the iteration converges to the same solution (to 1e-12 of the
+coordinate-space one in the tests).
 
 A rigid body whose ``loads`` are given (a torque on a hub) is solved for its
 coordinate ``q`` inside each projection: the contact-free displacement is
@@ -59,7 +60,7 @@ from fe_impact.errors import ContactError
 from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
 from fe_impact.fe.kinematics import Kinematics
-from fe_impact.fe.linalg import inverse_from_cholesky, schur_cholesky
+from fe_impact.fe.linalg import SPDSolver, inverse_from_cholesky, schur_cholesky
 from fe_impact.fe.mesh import FEMesh
 from fe_impact.solvers.model import ContactSetup, Prescribed, displacement_reach, gap_reach
 
@@ -84,10 +85,11 @@ MAX_LOAD_ITERATIONS = 60
 #: about nine coordinates per gap row (the rows' slave and master faces'
 #: nodes), and only the rows near the patch enter the dense problem.
 #: Measured on one core: a tip-edge corner contact (206k DOFs, 2,143 rows,
-#: 20,064 coordinates) took 42 s of factorisation with the Schur complement
-#: and 156 s of condensation in coordinate space, where a plain
-#: factorisation takes 4.7 s and a solve 0.027 s a row (in blocks); a
-#: flank position (40k DOFs, 2,500-3,000 coordinates) condenses in 0.6 s.
+#: 20,064 coordinates) took 47 s of factorisation with the Schur complement
+#: and 157 s of condensation in coordinate space (278 s of FE, 7.4 GB), and
+#: takes 5.1 s of plain factorisation and 7.7 s for its rows' compliances
+#: in row space (40 s of FE, 3.5 GB); a flank position (40k DOFs, 2,500-3,000
+#: coordinates) condenses in 0.6 s.
 ROW_SPACE_COORDINATES = 8000
 #: Right-hand sides per block of :class:`_RowSpace`'s solves (memory: one
 #: block of the free DOFs' size).
@@ -220,9 +222,12 @@ class StaticSolver:
             self.solver.release()
             self.solver = ZoneSolver(self.K_ff, schur_solves=0)   # a plain factorisation
             factor = 0.0
-            self.rows = _RowSpace(self.solver.solve, self.K_ff.shape[0])
+            self.rows = _RowSpace(self.K_ff, self.solver.solve)
             logger.info("contact zone of %d coordinates: solved in the space of its gap "
                         "rows", self.n_condensed)
+        if self.rows is not None:
+            ok = self.contact.active_rows
+            self.rows.prime(self._row_keys()[ok], self.contact.B[ok])
         if self.rows is None:
             S = self.solver.condense(frames.R, frames.condensed)
             self.G = inverse_from_cholesky(schur_cholesky(S))
@@ -323,10 +328,10 @@ class StaticSolver:
                                            self.solver.solve)
                 if lam_prev is not None and len(lam_prev) == len(h) and (lam_prev > 0).any():
                     rows.correct(lam_prev, c.B @ self.solver.solve(c.BT @ lam_prev))
-                    # A row costs a solve here: start from the rows in contact and
-                    # let :meth:`_forces` add those the forces close (the rows
-                    # penetrating under the rigid motion alone are several times
-                    # the patch: on a corner 1,205 rows solved in 30 s, against 47 s).
+                    # Start from the rows in contact and let :meth:`_forces` add
+                    # those the forces close: the rows penetrating under the rigid
+                    # motion alone are several times the patch (on a tip-edge
+                    # corner, load steps 21.4 s against 24.4 s).
                     seed = lam_prev > 0
             if hw is not None and not seed[c.active_rows].any():
                 # Nothing touches yet: start from the row nearest to touching.
@@ -636,24 +641,46 @@ class _RowCompliance:
 
 
 class _RowSpace:
-    """Compliances of gap rows, ``C = B K^-1 B^T``, formed by solves and kept by row.
+    """Compliances of gap rows, ``C = B K^-1 B^T``, kept by row.
 
-    A row enters with its Jacobian ``b`` of the projection it is first met
-    at, and its compliances with every row met before come from one solve
-    ``K^-1 b^T`` (in blocks of :data:`ROW_BLOCK`). The rows' Jacobians move
-    a little as the projection follows the deformation, so the kept ``C`` is
-    close to, not equal to, the current one: :class:`_RowSpaceCompliance`
-    corrects the gaps by the difference at the last forces (a defect
-    correction whose fixed point is the exact solution), and the zone's
-    growth needs no new factorisation, only the new rows' solves.
+    :meth:`prime` forms them for every row of the zone at once: the Schur
+    complement of ``[[K, B^T], [B, 0]]`` on its row block is ``-B K^-1
+    B^T``, which PARDISO forms while it factorises the SPD interior ``K``
+    (the Schur block itself is never factorised, so its zero diagonal does
+    no harm). On a tip-edge corner (206k DOFs, 2,143 rows) that took 6.6 s,
+    where solves took 27 ms a row. A row met later (its gap finite only
+    after the deformation) enters by a solve ``K^-1 b^T`` (in blocks of
+    :data:`ROW_BLOCK`). Each row keeps the Jacobian ``b`` of the projection
+    it entered at; those move a little as the projection follows the
+    deformation, so the kept ``C`` is close to, not equal to, the current
+    one: :class:`_RowSpaceCompliance` corrects the gaps by the difference
+    at the last forces (a defect correction whose fixed point is the exact
+    solution).
     """
 
-    def __init__(self, solve: Callable[[np.ndarray], np.ndarray], n: int) -> None:
-        self.solve = solve
-        self.seconds = 0.0     # spent forming the compliances
+    def __init__(self, K: sp.csr_matrix, solve: Callable[[np.ndarray], np.ndarray]) -> None:
+        self.K, self.solve = K, solve
+        self.seconds = 0.0     # spent forming the compliances of rows met later
         self.index: dict[int, int] = {}
-        self.B0 = sp.csr_matrix((0, n))
+        self.B0 = sp.csr_matrix((0, K.shape[0]))
         self.C = np.zeros((0, 0))
+
+    def prime(self, keys: np.ndarray, B: sp.csr_matrix) -> None:
+        """Form the compliances of the rows ``keys`` (Jacobian rows ``B``, every one
+        nonzero) at once, in place of those kept (its time is the caller's)."""
+        n, m = self.K.shape[0], B.shape[0]
+        if m:
+            # the row block's diagonal stored, as zeros: PARDISO reads every diagonal
+            zero = sp.csr_matrix((np.zeros(m), (np.arange(m), np.arange(m))), shape=(m, m))
+            M = sp.bmat([[self.K, B.T], [B, zero]], format="csr")
+            solver = SPDSolver(M, schur_dofs=np.arange(n, n + m))
+            C = -solver.schur
+            solver.release()
+            self.C = 0.5 * (C + C.T)
+        else:
+            self.C = np.zeros((0, 0))
+        self.B0 = B.tocsr()
+        self.index = {k: i for i, k in enumerate(keys.tolist())}
 
     def positions(self, keys: np.ndarray, B: sp.csr_matrix) -> np.ndarray:
         """Positions in :attr:`C` of the rows ``keys`` (Jacobian rows ``B``), the

@@ -16,8 +16,9 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
 
+# The main job: the calibration with the tip edges' corner laws measured too.
 run: $(STAMP)
-	$(BIN)/fe-impact calibrate --out out/calibration
+	$(BIN)/fe-impact calibrate --corners --out out/calibration
 
 # Two processes, each taking whole test files (module fixtures run once); a
 # worker that dies ends the run at once, naming the test (pytest-xdist's

@@ -151,8 +151,8 @@ def _parser() -> argparse.ArgumentParser:
                         "edge's first touch (the face gear's before the path, the pinion's "
                         "after it, at the corner gap of the closed-form corner laws); their "
                         "fitted stiffness and exponent replace the closed form's in the corner "
-                        "laws (at coarse, stage 1: 30 s for the recess corner, 6 min and "
-                        "9 GB for the approach corner)")
+                        "laws (part of make run; coarse, one core: a recess corner 27-41 s, an "
+                        "approach corner 83-115 s and up to 3.5 GB)")
     c.add_argument("--corner-impacts", action="store_true",
                    help="also FE impacts on the rounded tip edges (the elastic-plastic "
                         "corner laws) at the median and the largest closing speed the seed's "

@@ -1,9 +1,9 @@
 """Corner-contact validation: FE of a rounded tip edge's first touch against Hertz.
 
 Run ``python validation/corner_contact.py --out out/corner_contact`` (about
-12 minutes on one core, 10.4 GB at the finest refinement, 257k DOFs;
+four minutes on one core, 4.7 GB, 257k DOFs at the finest refinement;
 ``--quick``: the finest refinement alone, its check without the
-convergence, about eight minutes). It writes ``corner_contact.json``, ``corner_contact.md``
+convergence, 1 min 34 s). It writes ``corner_contact.json``, ``corner_contact.md``
 (with the checks) and ``checks.json``; the meshes go to ``<out>/cache`` and
 are reused by a rerun. Exits 1 when a check fails. The seed gear set, stage
 1, quadratic elements.

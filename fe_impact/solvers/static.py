@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from fe_impact.contact.condensed import ZoneSolver
+from fe_impact.contact.condensed import ROW_SPACE_COORDINATES, ZoneSolver, row_compliance
 from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.linearised import ContactModel, zone_frames
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
@@ -60,7 +60,7 @@ from fe_impact.errors import ContactError
 from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
 from fe_impact.fe.kinematics import Kinematics
-from fe_impact.fe.linalg import SPDSolver, inverse_from_cholesky, schur_cholesky
+from fe_impact.fe.linalg import inverse_from_cholesky, schur_cholesky
 from fe_impact.fe.mesh import FEMesh
 from fe_impact.solvers.model import ContactSetup, Prescribed, displacement_reach, gap_reach
 
@@ -79,18 +79,6 @@ TRUSTED_RATE = 0.1
 #: Iterations of the load-controlled coordinate per projection; the reaction
 #: is piecewise linear in it, so a safeguarded secant needs a handful.
 MAX_LOAD_ITERATIONS = 60
-#: Zones with more condensed coordinates than this are solved in the gap rows'
-#: space (:class:`_RowSpace`) instead of through the zone's dense compliance,
-#: whose factorisation and inverse cost the cube of their size. A P2 zone has
-#: about nine coordinates per gap row (the rows' slave and master faces'
-#: nodes), and only the rows near the patch enter the dense problem.
-#: Measured on one core: a tip-edge corner contact (206k DOFs, 2,143 rows,
-#: 20,064 coordinates) took 47 s of factorisation with the Schur complement
-#: and 157 s of condensation in coordinate space (278 s of FE, 7.4 GB), and
-#: takes 5.1 s of plain factorisation and 7.7 s for its rows' compliances
-#: in row space (40 s of FE, 3.5 GB); a flank position (40k DOFs, 2,500-3,000
-#: coordinates) condenses in 0.6 s.
-ROW_SPACE_COORDINATES = 8000
 #: Right-hand sides per block of :class:`_RowSpace`'s solves (memory: one
 #: block of the free DOFs' size).
 ROW_BLOCK = 128
@@ -643,12 +631,8 @@ class _RowCompliance:
 class _RowSpace:
     """Compliances of gap rows, ``C = B K^-1 B^T``, kept by row.
 
-    :meth:`prime` forms them for every row of the zone at once: the Schur
-    complement of ``[[K, B^T], [B, 0]]`` on its row block is ``-B K^-1
-    B^T``, which PARDISO forms while it factorises the SPD interior ``K``
-    (the Schur block itself is never factorised, so its zero diagonal does
-    no harm). On a tip-edge corner (206k DOFs, 2,143 rows) that took 6.6 s,
-    where solves took 27 ms a row. A row met later (its gap finite only
+    :meth:`prime` forms them for every row of the zone at once
+    (:func:`~fe_impact.contact.condensed.row_compliance`). A row met later (its gap finite only
     after the deformation) enters by a solve ``K^-1 b^T`` (in blocks of
     :data:`ROW_BLOCK`). Each row keeps the Jacobian ``b`` of the projection
     it entered at; those move a little as the projection follows the
@@ -668,17 +652,7 @@ class _RowSpace:
     def prime(self, keys: np.ndarray, B: sp.csr_matrix) -> None:
         """Form the compliances of the rows ``keys`` (Jacobian rows ``B``, every one
         nonzero) at once, in place of those kept (its time is the caller's)."""
-        n, m = self.K.shape[0], B.shape[0]
-        if m:
-            # the row block's diagonal stored, as zeros: PARDISO reads every diagonal
-            zero = sp.csr_matrix((np.zeros(m), (np.arange(m), np.arange(m))), shape=(m, m))
-            M = sp.bmat([[self.K, B.T], [B, zero]], format="csr")
-            solver = SPDSolver(M, schur_dofs=np.arange(n, n + m))
-            C = -solver.schur
-            solver.release()
-            self.C = 0.5 * (C + C.T)
-        else:
-            self.C = np.zeros((0, 0))
+        self.C = row_compliance(self.K, B)
         self.B0 = B.tocsr()
         self.index = {k: i for i, k in enumerate(keys.tolist())}
 

@@ -435,27 +435,3 @@ def test_step_linearisation_is_the_solves_derivative_on_either_factorisation(tmp
     condensed.solver.solves = condensed.solver.schur_solves   # the plain one takes over
     assert not condensed.solver.partial
     np.testing.assert_allclose(lin(w), partial, rtol=0, atol=1e-9 * scale)
-
-
-def test_row_space_step_equals_the_coordinate_space_step(tmp_path, monkeypatch):
-    """A zone above ``ROW_SPACE_COORDINATES`` is stepped in the space of its gap
-    rows (:class:`~fe_impact.contact.condensed.RowSpaceContact`): the kept
-    Delassus matrix, corrected each step by the exact response to the forces
-    until the correction changes by less than 1e-10 of their gap change. The
-    coordinate space's step (its exact complementarity problem) is the truth.
-    A gap error becomes a force error amplified by the penalty, by the gap
-    change over the penetration, about 1e3 here: 1e-7 a step, and with 30
-    steps in contact 1e-5 of the peak bounds it."""
-    from fe_impact.contact import condensed
-
-    case, mesh = _newmark_sphere_impact(tmp_path)
-    runs = {}
-    for name, limit in (("coordinates", 10**9), ("rows", -1)):
-        monkeypatch.setattr(condensed, "ROW_SPACE_COORDINATES", limit)
-        solver = DynamicSolver(case, load_mesh(mesh))
-        runs[name] = solver.run()
-        assert isinstance(solver.condensed, condensed.RowSpaceContact) == (name == "rows")
-    a, b = runs["coordinates"], runs["rows"]
-    for key in ("contact_force", "approach", "kinetic_energy"):
-        scale = np.abs(a.history[key]).max()
-        np.testing.assert_allclose(b.history[key], a.history[key], rtol=0, atol=1e-5 * scale)

@@ -81,21 +81,3 @@ def test_failed_newton_step_falls_back_to_anderson(coarse_runs, tmp_path, monkey
     r = run_speed(5.0, tmp_path, coarse=True)
     assert r["newton_fallbacks"] > 0 and r["krylov_products"] == 0
     assert r["restitution"] == pytest.approx(coarse_runs[5.0]["restitution"], rel=1e-6)
-
-
-def test_row_space_gives_the_same_plastic_impact(coarse_runs, tmp_path, monkeypatch):
-    # The 5 V_y impact stepped in the space of its gap rows (the contact zone's
-    # kept Delassus matrix, corrected each step to the exact response; the
-    # plastic Newton on that matrix's approximate Jacobian) against the
-    # coordinate space's run above. Newton stops at 1e-7 of the zone's
-    # displacement, and the two Jacobians stop it at different iterates within
-    # that: restitution (a ratio of speeds) to 1e-5, the dent (a tenth of the
-    # approach, so ten times the relative error) to 1e-4 of itself.
-    from fe_impact.contact import condensed
-
-    monkeypatch.setattr(condensed, "ROW_SPACE_COORDINATES", -1)
-    rows = run_speed(5.0, tmp_path, coarse=True)
-    want = coarse_runs[5.0]
-    assert rows["restitution"] == pytest.approx(want["restitution"], abs=1e-5)
-    assert rows["residual_indentation_um"] == pytest.approx(
-        want["residual_indentation_um"], rel=1e-4)

@@ -25,7 +25,6 @@ from scipy.linalg import blas, cho_factor, cho_solve, lapack
 
 from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.linearised import ContactModel, ZoneFrames, zone_frames
-from fe_impact.errors import ContactError
 from fe_impact.fe.kinematics import Kinematics
 from fe_impact.fe.linalg import SPDSolver, inverse_from_cholesky, schur_cholesky
 from fe_impact.fe.mesh import FEMesh
@@ -44,10 +43,10 @@ logger = logging.getLogger(__name__)
 #: 3,000 in the 78 of the yielding sphere impact of bench_dynamic). Taking
 #: over after the break-even costs at most about twice the better choice.
 SCHUR_SOLVES = 250
-#: Zones with more condensed coordinates than this are solved in the space of
-#: their gap rows (:func:`row_compliance`; the static solver's ``_RowSpace``
-#: and :class:`RowSpaceContact`) instead of through the zone's dense
-#: compliance, whose factorisation and inverse cost the cube of their size.
+#: Static zones with more condensed coordinates than this are solved in the
+#: space of their gap rows (:func:`row_compliance`, the static solver's
+#: ``_RowSpace``) instead of through the zone's dense compliance, whose
+#: factorisation and inverse cost the cube of their size.
 #: A P2 zone has about nine coordinates per gap row (the rows' slave and
 #: master faces' nodes). Measured on one core: a tip-edge corner contact
 #: (206k DOFs, 2,143 rows, 20,064 coordinates) took 47 s of factorisation
@@ -55,7 +54,11 @@ SCHUR_SOLVES = 250
 #: (278 s of static FE, 7.4 GB), and takes 5.1 s of plain factorisation and
 #: 7.7 s for its rows' compliances in row space (40 s, 3.5 GB); the default
 #: static tooth pair (96k DOFs, a flank zone) took 17.4 s in row space
-#: against 13.2 s in coordinate space.
+#: against 13.2 s in coordinate space. A Newmark step is not: on the stage-1
+#: approach corner's elastic-plastic impact a step on the rows' kept Delassus
+#: matrix, corrected to the exact response by solves, took about 20 s against
+#: 11 s through the dense compliance (each of the plastic Newton's elastic
+#: solves and products became two to four solves of 240k DOFs).
 ROW_SPACE_COORDINATES = 8000
 
 
@@ -528,109 +531,3 @@ class CondensedContact:
 
         return apply
 
-
-#: Defect-correction passes of :meth:`RowSpaceContact.solve` before it gives up.
-MAX_CORRECTIONS = 20
-#: The passes stop when the gaps' correction changes by less than this fraction
-#: of the contact forces' gap change: the rows' kept compliance differs from the
-#: current one by about 1e-4 (the projection moves the Jacobian a little), so a
-#: pass gains about four digits and two or three reach this.
-CORRECTION_TOLERANCE = 1e-10
-
-
-class RowSpaceContact:
-    """:class:`CondensedContact` for a large zone, in the space of its gap rows.
-
-    ``K_eff`` is factorised plainly, and the Delassus matrix ``f B K_eff^-1
-    B^T`` of every row with a gap comes from one bordered factorisation
-    (:func:`row_compliance`) with the Jacobian ``B0`` of the projection it was
-    formed at. A step solves the rows' complementarity problem on it, then
-    the displacement by a solve, and corrects the gaps by what the exact
-    response to those forces (the current ``B``) differs from the kept
-    matrix's, until the correction settles (:data:`CORRECTION_TOLERANCE`):
-    the same step as the coordinate space's, at two or three solves in
-    place of passes over a dense compliance of the zone's size (20k
-    coordinates on a tip-edge corner). The products of :meth:`linearisation`
-    use the kept matrix, an approximate Jacobian of an exact step.
-    """
-
-    def __init__(self, mesh: FEMesh, kin: Kinematics, contact: ContactModel,
-                 K_eff: sp.csr_matrix, force_factor: float) -> None:
-        self.mesh, self.kin, self.contact = mesh, kin, contact
-        self.K_eff = K_eff
-        self.solver = ZoneSolver(K_eff, schur_solves=0)     # a plain factorisation
-        self.force_factor = force_factor
-        self.seconds = 0.0
-        self.cpu_seconds = 0.0
-        self.corrections = 0            # defect-correction passes over the run
-        self.condense()
-
-    def condense(self) -> None:
-        """Frame the zone's nodes and form the Delassus matrix of its rows anew."""
-        t, c = time.perf_counter(), time.process_time()
-        frames = zone_frames(self.mesh, self.kin, self.contact)
-        self.contact.set_projector(frames.projector)
-        self._rows = self.contact.active_rows.copy()
-        self._delassus = self.force_factor * row_compliance(
-            self.K_eff, self.contact.B[self._rows].tocsr())
-        self._offset = np.zeros(int(self._rows.sum()))
-        logger.info("contact zone of %d coordinates: %d gap rows, solved in their space",
-                    len(frames.condensed), int(self._rows.sum()))
-        self.seconds += time.perf_counter() - t
-        self.cpu_seconds += time.process_time() - c
-
-    def solve(self, rhs: np.ndarray, active: np.ndarray | None) -> StepContact:
-        """The step's displacement and contact forces; ``active`` warm-starts the LCP."""
-        c = self.contact
-        if not np.array_equal(c.active_rows, self._rows):   # rows gained or lost a gap
-            self.condense()
-        ok = self._rows
-        z_star = self.solver.solve(rhs)
-        h = c.gaps(z_star)
-        if not np.any(h < 0) and (active is None or not active.any()):
-            return StepContact(np.zeros(len(h)), z_star, None)
-        warm = None if active is None or len(active) != len(ok) else active[ok]
-        offset = self._offset
-        lam = np.zeros(len(h))
-        f = self.force_factor
-        for _ in range(MAX_CORRECTIONS):
-            self.corrections += 1
-            lam[ok], _ = solve_penalty_lcp(None, None, h[ok] + offset, c.eps_w[ok], warm,
-                                           C=self._delassus)
-            on = lam > 0
-            if not on.any():
-                return StepContact(lam, z_star, on)
-            dz = f * self.solver.solve(c.BT @ lam)
-            exact = (c.B @ dz)[ok]
-            new = exact - self._delassus @ lam[ok]
-            settled = np.abs(new - offset).max() <= \
-                CORRECTION_TOLERANCE * max(np.abs(exact).max(), 1e-300)
-            offset, warm = new, on[ok]
-            if settled:
-                break
-        else:
-            raise ContactError(f"the contact forces did not settle in {MAX_CORRECTIONS} "
-                               "corrections of the rows' kept compliance")
-        self._offset = offset
-        return StepContact(lam, z_star + dz, on)
-
-    def linearisation(self, lam: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-        """``w -> dz``: the step's response to a force ``w`` at a fixed active set
-        (see :meth:`CondensedContact.linearisation`), with the kept Delassus matrix."""
-        c = self.contact
-        ok = np.flatnonzero(self._rows)
-        on = lam[ok] > 0
-        if not on.any():
-            return self.solver.solve
-        rows = ok[on]
-        fac = cho_factor(self._delassus[np.ix_(on, on)] + np.diag(1.0 / c.eps_w[rows]))
-        f = self.force_factor
-        B_S = c.B[rows]
-        BT_S = B_S.T.tocsr()
-
-        def apply(w):
-            dz = self.solver.solve(w)
-            dlam = -cho_solve(fac, B_S @ dz)
-            return dz + f * self.solver.solve(BT_S @ dlam)
-
-        return apply

@@ -42,9 +42,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from fe_impact.contact import condensed
-from fe_impact.contact.condensed import CondensedContact, RowSpaceContact, StepContact
-from fe_impact.contact.linearised import ContactModel, SurfaceMonitor, zone_frames
+from fe_impact.contact.condensed import CondensedContact, StepContact
+from fe_impact.contact.linearised import ContactModel, SurfaceMonitor
 from fe_impact.contact.zone import (
     PENALTY_FACTOR_EXPLICIT,
     ContactZone,
@@ -207,16 +206,11 @@ class DynamicSolver:
             self.cpu_timings["factorisation"] -= self.condensed.cpu_seconds
         self.log = _RunLog(SeparationWatch(a.stop_after_separation))
 
-    def _scheme(self) -> tuple[ti.CentralDifference | ti.Newmark,
-                               CondensedContact | RowSpaceContact | None]:
+    def _scheme(self) -> tuple[ti.CentralDifference | ti.Newmark, CondensedContact | None]:
         """The integrator and, for Newmark, the factorised and condensed contact problem."""
         if self.explicit:
             return ti.CentralDifference(self.dt, self.K, self.m), None
         nm = ti.Newmark(self.dt, self.K, self.M, self.case.analysis.hht_alpha)
-        if len(zone_frames(self.mesh, self.kin, self.contact).condensed) > \
-                condensed.ROW_SPACE_COORDINATES:
-            return nm, RowSpaceContact(self.mesh, self.kin, self.contact,
-                                       nm.effective_stiffness(), nm.force_factor)
         # One factorisation serves the solves and the condensation (see ZoneSolver).
         return nm, CondensedContact(self.mesh, self.kin, self.contact,
                                     nm.effective_stiffness(), nm.force_factor)

@@ -632,9 +632,9 @@ class _RowSpace:
     """Compliances of gap rows, ``C = B K^-1 B^T``, kept by row.
 
     :meth:`prime` forms them for every row of the zone at once
-    (:func:`~fe_impact.contact.condensed.row_compliance`). A row met later (its gap finite only
-    after the deformation) enters by a solve ``K^-1 b^T`` (in blocks of
-    :data:`ROW_BLOCK`). Each row keeps the Jacobian ``b`` of the projection
+    (:func:`~fe_impact.contact.condensed.row_compliance`). A row met later
+    (its gap finite only after the deformation) enters by a solve ``K^-1
+    b^T`` (in blocks of :data:`ROW_BLOCK`). Each row keeps the Jacobian ``b`` of the projection
     it entered at; those move a little as the projection follows the
     deformation, so the kept ``C`` is close to, not equal to, the current
     one: :class:`_RowSpaceCompliance` corrects the gaps by the difference

@@ -216,7 +216,7 @@ class StaticSolver:
         if self.rows is not None:
             ok = self.contact.active_rows
             self.rows.prime(self._row_keys()[ok], self.contact.B[ok])
-        if self.rows is None:
+        else:
             S = self.solver.condense(frames.R, frames.condensed)
             self.G = inverse_from_cholesky(schur_cholesky(S))
             self.R_c = frames.R[:, frames.condensed].tocsc()
@@ -667,9 +667,7 @@ class _RowSpace:
             C = np.zeros((m0 + m, m0 + m))
             C[:m0, :m0] = self.C
             for a in range(0, m, ROW_BLOCK):
-                X = self.solve(Bn[a:a + ROW_BLOCK].T.toarray())
-                if X.ndim == 1:
-                    X = X[:, None]
+                X = self.solve(Bn[a:a + ROW_BLOCK].T.toarray())   # (n, k) for (n, k)
                 b = slice(m0 + a, m0 + a + X.shape[1])
                 C[:m0, b] = self.B0 @ X
                 C[m0:, b] = Bn @ X
@@ -720,9 +718,9 @@ class _RowSpaceCompliance:
     def offset(self) -> np.ndarray | float:
         if self._lam is None:
             return 0.0
-        on = np.flatnonzero(self._lam > 0)
-        where = np.searchsorted(self.rows, on, sorter=np.argsort(self.rows))
-        order = np.argsort(self.rows)[where]
+        on = np.flatnonzero(self._lam > 0)     # all among rows (include adds them)
+        sorter = np.argsort(self.rows)
+        order = sorter[np.searchsorted(self.rows, on, sorter=sorter)]
         return self._exact[self.rows] - self.C[:, order] @ self._lam[on]
 
     def gap_change(self, lam: np.ndarray) -> np.ndarray:

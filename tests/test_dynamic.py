@@ -14,6 +14,7 @@ from fe_impact.cli.main import main
 from fe_impact.errors import CaseError, SolverError
 from fe_impact.fe.case import Case, load_case
 from fe_impact.fe.casefile import write_case
+from fe_impact.fe.linalg import inverse_from_cholesky
 from fe_impact.fe.mesh import load_mesh
 from fe_impact.physics import hertz
 from fe_impact.solvers.dynamic import DynamicSolver
@@ -399,12 +400,14 @@ def test_step_by_one_pass_over_the_zone_factor_equals_the_step_by_two_solves(tmp
 def test_step_linearisation_is_the_solves_derivative_on_either_factorisation(tmp_path):
     """The plastic Newton's products ``w -> dz`` (a Newmark step's response at a fixed
     active set) come from one forward and one backward substitution through the
-    kept Schur factorisation, or from two solves once the plain factorisation
-    serves. Both must be the derivative of the step's own contact solve: at a
-    fixed active set the penalty LCP's solution is linear in the right-hand side,
-    so a finite difference of two solves is exact to round-off (and the LCP
-    solver's stop, 1e-12 of the forces), checked to 1e-7; the two ways agree to
-    1e-9 (one backward-stable factorisation against another)."""
+    kept Schur factorisation, the zone's part by its Cholesky factor (one pass
+    each way with the gap rows' ``L^-1 B^T``) or by its inverse (once formed),
+    or from two solves once the plain factorisation serves. Each must be the
+    derivative of the step's own contact solve: at a fixed active set the
+    penalty LCP's solution is linear in the right-hand side, so a finite
+    difference of two solves is exact to round-off (and the LCP solver's stop,
+    1e-12 of the forces), checked to 1e-7; the three ways agree to 1e-9 (one
+    backward-stable factorisation against another)."""
     case, mesh = _newmark_sphere_impact(tmp_path)
     solver = DynamicSolver(case, load_mesh(mesh))
     last = {"steps": 0}
@@ -426,12 +429,17 @@ def test_step_linearisation_is_the_solves_derivative_on_either_factorisation(tmp
     assert base.lam.any()
     w = np.random.default_rng(1).standard_normal(len(state.z))
     w *= 1e-3 * np.linalg.norm(state.f_contact) / np.linalg.norm(w)   # keeps the active set
-    lin = condensed.linearisation(base.lam)
-    partial = lin(w)
+    assert condensed.compliance.W is not None                 # the Cholesky factor's way
+    partial = condensed.linearisation(base.lam)(w)
     moved = condensed.solve(rhs0 + w, base.active)
     assert np.array_equal(moved.lam > 0, base.lam > 0)        # the same active set
     scale = np.abs(partial).max()
     assert np.abs((moved.z - base.z) - partial).max() < 1e-7 * scale
+    zone = condensed.compliance                                # the inverse's way
+    zone.G, zone.L, zone.W = inverse_from_cholesky(zone.L), None, None
+    np.testing.assert_allclose(condensed.linearisation(base.lam)(w), partial, rtol=0,
+                               atol=1e-9 * scale)
     condensed.solver.solves = condensed.solver.schur_solves   # the plain one takes over
     assert not condensed.solver.partial
-    np.testing.assert_allclose(lin(w), partial, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(condensed.linearisation(base.lam)(w), partial, rtol=0,
+                               atol=1e-9 * scale)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from fe_impact.solvers.integrators import PLASTIC_TOL
 from validation.plastic_impact import run_speed
 
 
@@ -56,16 +57,17 @@ def test_energy_balance_includes_plastic_work(coarse_runs):
 
 def test_newton_and_anderson_solve_the_same_steps(coarse_runs, tmp_path):
     # Newton with the consistent tangent and Anderson-accelerated modified Newton
-    # solve the same step equations to the same tolerance (1e-7 of the step's
-    # displacement), so the impact must agree to 1e-6. The largest plastic
-    # strain is one point's sum over every plastic step's increment, so the
-    # iteration error accumulates there: measured 1.4e-6, allowed 5e-6.
+    # solve the same step equations to the same tolerance (PLASTIC_TOL of the
+    # step's displacement), so the impact must agree to ten times it. The
+    # largest plastic strain is one point's sum over every plastic step's
+    # increment, so the iteration error accumulates there: allowed fifty times
+    # (measured 1.4e-6 at a tolerance of 1e-7, 8.5e-6 at 1e-6).
     newton = coarse_runs[30.0]
     anderson = run_speed(30.0, tmp_path, coarse=True, solver="anderson")
     for key in ("restitution", "dissipation_share", "peak_force"):
-        assert anderson[key] == pytest.approx(newton[key], rel=1e-6), key
+        assert anderson[key] == pytest.approx(newton[key], rel=10 * PLASTIC_TOL), key
     assert anderson["max_plastic_strain"] == pytest.approx(newton["max_plastic_strain"],
-                                                           rel=5e-6)
+                                                           rel=50 * PLASTIC_TOL)
     assert newton["krylov_products"] > 0 and anderson["krylov_products"] == 0
 
 
@@ -80,4 +82,5 @@ def test_failed_newton_step_falls_back_to_anderson(coarse_runs, tmp_path, monkey
     monkeypatch.setattr(plasticity, "solve_newton", failing)
     r = run_speed(5.0, tmp_path, coarse=True)
     assert r["newton_fallbacks"] > 0 and r["krylov_products"] == 0
-    assert r["restitution"] == pytest.approx(coarse_runs[5.0]["restitution"], rel=1e-6)
+    assert r["restitution"] == pytest.approx(coarse_runs[5.0]["restitution"],
+                                             rel=10 * PLASTIC_TOL)

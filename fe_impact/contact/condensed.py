@@ -473,14 +473,13 @@ class CondensedContact:
         return StepContact(lam, z, (lam > 0) if lam.any() else None)
 
     def _through_schur(self, b: np.ndarray,
-                       forces: Callable[[np.ndarray], np.ndarray | None],
-                       count: bool = True) -> np.ndarray:
+                       forces: Callable[[np.ndarray], np.ndarray | None]) -> np.ndarray:
         """``K_eff^-1 (b + f g)`` by one forward and one backward substitution through
         the kept Schur factorisation: ``g``, a force on the condensed coordinates, is
         what ``forces(x_c)`` returns for the condensed part ``x_c`` of ``K_eff^-1 b``
-        (None: no force). ``count``: see :meth:`ZoneSolver.forward`."""
+        (None: no force)."""
         cond = self.frames.condensed
-        y = self.solver.forward(b, count)
+        y = self.solver.forward(b)
         x_c = self.compliance.apply(y[cond])
         g = forces(x_c)
         if g is not None:
@@ -501,8 +500,8 @@ class CondensedContact:
         a product costs what a step's solve costs, one forward and one
         backward substitution: ``B_S`` and the forces ``B_S^T dlam`` act on
         the condensed coordinates only, so both corrections are made on the
-        Schur system (:meth:`_through_schur`, as :meth:`_solve_partial`), about half the
-        cost of the two solves it takes otherwise. These products do not
+        Schur system (:meth:`_schur_linearisation`, as :meth:`_solve_partial`), about
+        half the cost of the two solves it takes otherwise. These products do not
         count towards :data:`SCHUR_SOLVES`: the plain factorisation would
         make them dearer, not cheaper (measured on the coarse stage-2 ratio
         switch, 1,453 products in 116 steps: time steps 82 -> 72 s, results within

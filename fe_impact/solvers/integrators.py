@@ -274,15 +274,11 @@ def newmark_step(s: State, nm: Newmark, contact: ContactModel,
 
 @dataclass
 class PlasticStats:
-    """Counters of the Newmark plasticity over a run, and the last plastic step's
-    correction (the next one's predictor)."""
+    """Counters of the Newmark plasticity over a run."""
 
     iterations: int = 0         # solver iterations, elastic trials included
     krylov_products: int = 0    # GMRES products of the Newton corrections
     newton_fallbacks: int = 0   # steps Newton handed to Anderson
-    #: the last plastic solve's displacement less its elastic trial (None after an
-    #: elastic step): the next plastic solve starts from its own trial plus this
-    correction: np.ndarray | None = field(default=None, repr=False)
 
 
 class _ElasticSolve:
@@ -323,12 +319,7 @@ def plastic_newmark_solve(rhs0: np.ndarray, active: np.ndarray | None, z_n: np.n
     correction; ``anderson``
     (:func:`~fe_impact.fe.plasticity.solve_fixed_point`) modified Newton on
     the elastic factorisation with Anderson mixing. A step Newton fails is
-    redone by Anderson. ``stats`` counts the work and keeps the last
-    plastic solve's correction to its elastic trial: the iteration starts
-    from this solve's trial plus that correction, since plastic flow goes
-    on from one step to the next (`validation/plastic_impact.py --quick`:
-    11-20% fewer GMRES products, results within 7e-7 of starting from the
-    trial).
+    redone by Anderson. ``stats`` counts the work.
     """
     from fe_impact.fe.plasticity import solve_fixed_point, solve_newton
 
@@ -340,10 +331,8 @@ def plastic_newmark_solve(rhs0: np.ndarray, active: np.ndarray | None, z_n: np.n
     f_new = zone.update(z_new)
     if np.array_equal(f_new, f_old):
         stats.iterations += 1
-        stats.correction = None
         return step.last
-    trial, products = z_new, 0
-    z0 = trial if stats.correction is None else trial + stats.correction
+    z0, products = z_new, 0
 
     def anderson():
         try:
@@ -366,5 +355,4 @@ def plastic_newmark_solve(rhs0: np.ndarray, active: np.ndarray | None, z_n: np.n
             z_new, its = anderson()
     stats.iterations += its
     stats.krylov_products += products
-    stats.correction = z_new - trial
     return StepContact(step.last.lam, z_new, step.last.active)

@@ -1,4 +1,5 @@
-"""PARDISO solves and Schur-complement condensation against dense linear algebra."""
+"""PARDISO solves, Schur-complement condensation and MKL's sparse products against
+dense linear algebra and scipy."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import scipy.sparse as sp
 
 from fe_impact.errors import SolverError
 from fe_impact.fe.linalg import (
+    SparseProduct,
     SPDSolver,
     _mirror_lower,
     condensed_cholesky,
@@ -198,3 +200,56 @@ def test_mkl_is_found_from_the_wheels_file_list_without_pypardisos_search():
             "assert 'pypardiso' not in sys.modules, 'pypardiso was imported'\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
+
+
+def _unsorted_with_duplicates(rng, n: int, m: int) -> sp.csr_matrix:
+    """A CSR matrix with repeated entries and its column indices shuffled within each row."""
+    i, j = rng.integers(0, n, 6 * n), rng.integers(0, m, 6 * n)
+    v = rng.standard_normal(6 * n)
+    i, j, v = (np.concatenate([a, a[:n]]) for a in (i, j, v))     # n duplicates
+    order = np.lexsort((rng.permutation(len(i)), i))             # rows kept, columns shuffled
+    indptr = np.searchsorted(i[order], np.arange(n + 1))
+    A = sp.csr_matrix((v[order], j[order], indptr), shape=(n, m))
+    assert not A.has_sorted_indices
+    return A
+
+
+@pytest.mark.parametrize("shape", [(50, 50), (40, 70), (70, 40)])
+def test_sparse_product_is_scipys_product(shape):
+    """MKL's analysed product against scipy's on square and rectangular matrices with
+    unsorted indices: a sum of at most ~30 terms of size 1 each way, so the two
+    orders of summation differ by a few eps (1e-13 absolute leaves a factor 100)."""
+    rng = np.random.default_rng(3)
+    A = _unsorted_with_duplicates(rng, *shape)
+    P = SparseProduct(A, calls=10)
+    assert P.uses_mkl
+    x = rng.standard_normal(shape[1])
+    np.testing.assert_allclose(P @ x, A @ x, rtol=0, atol=1e-13)
+    X = rng.standard_normal((shape[1], 3))          # several vectors: scipy's way
+    np.testing.assert_allclose(P @ X, A @ X, rtol=0, atol=1e-13)
+    P.release()
+    np.testing.assert_allclose(P @ x, A @ x, rtol=0, atol=1e-13)   # released: scipy's
+
+
+def test_sparse_product_keeps_its_own_copy_and_pickles():
+    """The product does not change when the caller's matrix does, and a pickled one
+    (sent to a worker) gives the same products."""
+    import pickle
+
+    A = _spd(40)
+    x = np.arange(40.0)
+    P = SparseProduct(A)
+    want = A @ x
+    A.data[:] = 0.0
+    np.testing.assert_allclose(P @ x, want, rtol=0, atol=1e-12)
+    Q = pickle.loads(pickle.dumps(P))
+    assert Q.uses_mkl
+    np.testing.assert_allclose(Q @ x, want, rtol=0, atol=1e-12)
+
+
+def test_sparse_product_of_an_empty_matrix_and_a_wrong_vector():
+    P = SparseProduct(sp.csr_matrix((5, 4)))
+    assert not P.uses_mkl
+    np.testing.assert_array_equal(P @ np.ones(4), np.zeros(5))
+    with pytest.raises(ValueError):
+        SparseProduct(_spd(6)) @ np.ones(5)

@@ -329,6 +329,39 @@ def test_zone_kernel_matches_material_point(cube):
     assert np.all(zone.equivalent_plastic_strain("mean") <= epe + 1e-18)
 
 
+def test_screening_skips_elements_and_changes_nothing(cube_model):
+    """The update skips elements whose stress bound stays below yield; it must give
+    exactly the results of evaluating every point (a second zone whose references
+    are cleared before each update), through loading past yield, unloading and
+    Newton-like trial updates that are not committed."""
+    model = cube_model
+    cells = np.arange(len(model.mesh.cells))
+    screened, full = PlasticZone(model, cells), PlasticZone(model, cells)
+    rng = np.random.default_rng(11)
+    # a bending-like field graded along x: the elements near x = 1 yield first
+    x = model.basis.doflocs
+    shape = rng.standard_normal(model.n_dofs) * 0.02 + np.where(np.arange(model.n_dofs) % 3
+                                                                == 0, x[2] * x[0] ** 3, 0.0)
+    shape *= 3.0 * Y / E
+    skipped = 0
+    for scale in np.r_[np.linspace(0.0, 1.2, 25), np.linspace(1.2, 0.8, 5)]:
+        for trial in (0.97, 1.0):                      # an uncommitted trial, then the step
+            u = trial * scale * shape
+            full._sref[:] = 1e300                      # every element evaluated
+            F1, F2 = screened.update(u), full.update(u)
+            assert full.evaluated == full.n_elements
+            skipped += screened.n_elements - screened.evaluated
+            np.testing.assert_array_equal(F1, F2)
+            assert screened.n_yielded == full.n_yielded
+            assert screened.energy_correction(u) == full.energy_correction(u)
+        screened.commit()
+        full.commit()
+        np.testing.assert_array_equal(screened.plastic_strain, full.plastic_strain)
+        assert screened.dissipation() == full.dissipation()
+    assert full.n_yielded == 0 and screened.alpha.max() > 0      # it yielded, then unloaded
+    assert skipped > 0
+
+
 def test_tangent_correction_against_finite_differences(cube):
     model, zone = cube
     rng = np.random.default_rng(7)

@@ -14,12 +14,14 @@ the same run, never an absolute time (the machine is shared).
    issue's 15 s for the run).
 2. Explicit: the average time of one central-difference step (stiffness
    product, contact forces, history) over 2000 steps of the same model
-   (after an untimed warm-up run that compiles or loads the kernels),
-   against the memory-bandwidth bound of the stiffness product measured in
-   the same run: the bytes a CSR product must read (values, column indices,
-   row pointers, x, and y written) divided by the read bandwidth of a large
-   numpy reduction, reported (goal 1.5x); asserted: the step at most 1.5x
-   its own stiffness product timed in the same run.
+   (after an untimed warm-up run that compiles or loads the kernels; the
+   best of three runs), against the memory-bandwidth bound of the stiffness
+   product measured in the same run: the bytes a CSR product must read
+   (values, column indices, row pointers, x, and y written) divided by the
+   read bandwidth of a large numpy reduction, reported (the speed issue's
+   goal 1.3x); asserted: the step at most 1.5x its own stiffness product
+   (MKL's analysed product, :class:`~fe_impact.fe.linalg.SparseProduct`)
+   timed in the same run. scipy's CSR product is timed beside it.
 3. Elastic-plastic explicit: the same 2000 steps with J2 plasticity (yield
    835 MPa) tracked near the contact, against the elastic step of item 2.
    Target: at most 2x.
@@ -43,6 +45,7 @@ import numpy as np
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from fe_impact.fe.linalg import limit_threads
 from fe_impact.fe.mesh import load_mesh
 from fe_impact.output.files import write_json
 from fe_impact.physics import hertz
@@ -60,11 +63,11 @@ YIELD = 835e6
 #: step's one unavoidable pass over the matrix; the contact and the history
 #: may add half of it);
 EXPLICIT_OVER_PRODUCT = 1.5
-#: the speed work's goal for the explicit step against the memory-bandwidth
-#: bound of its stiffness product: reported, not asserted, while the product
-#: itself streams at 1.6-2.3 x the bound (CSR reads at about half the
-#: bandwidth of a plain reduction), which the step cannot beat.
-EXPLICIT_OVER_BOUND_GOAL = 1.5
+#: the speed issue's goal for the explicit step against the memory-bandwidth
+#: bound of its stiffness product: reported, not asserted. scipy's CSR product
+#: alone streams at 1.5-2.3 x the bound, MKL's analysed one at 0.85-1.1 x;
+#: the step then measured 1.09-1.48 x over separate processes (2026-11-28).
+EXPLICIT_OVER_BOUND_GOAL = 1.3
 #: the elastic-plastic explicit step against the elastic one (the return
 #: mapping on the zone near the contact may at most double it);
 PLASTIC_OVER_ELASTIC = 2.0
@@ -165,13 +168,40 @@ def _warmed_solver(mesh: Path, steps: int, plastic_: bool) -> DynamicSolver:
     return DynamicSolver(_explicit_case(mesh, steps, plastic_), load_mesh(mesh))
 
 
+#: Timed runs of each explicit item and blocks of each product timing; the best is
+#: taken (the machine's speed wanders by 10-30% between runs of a second: one
+#: quick run measured the product at 0.55 ms and the step at 1.16 times it, the
+#: next 0.42 ms and 1.50 times).
+TIMED_RUNS = 3
+PRODUCT_BLOCKS = 5
+
+
+def _timed_run(mesh: Path, steps: int, plastic_: bool):
+    """The best of :data:`TIMED_RUNS` runs: (CPU seconds a step, the last result)."""
+    best = np.inf
+    for _ in range(TIMED_RUNS):
+        solver = _warmed_solver(mesh, steps, plastic_)
+        t = clock()
+        res = solver.run()
+        best = min(best, (clock() - t) / res.info["steps"])
+    return best, res
+
+
+def _product_time(product, x: np.ndarray, reps: int = 60) -> float:
+    """Seconds of one ``product @ x``: the best block of ``reps`` of
+    :data:`PRODUCT_BLOCKS`."""
+    best = np.inf
+    for _ in range(PRODUCT_BLOCKS):
+        t = clock()
+        for _ in range(reps):
+            product @ x
+        best = min(best, (clock() - t) / reps)
+    return best
+
+
 def explicit_plastic(out: Path, elastic_step_ms: float, steps: int = 2000,
                      h: float = H_CONTACT) -> dict:
-    mesh = _mesh(out, h)
-    solver = _warmed_solver(mesh, steps, plastic_=True)
-    t = clock()
-    res = solver.run()
-    step = (clock() - t) / res.info["steps"]
+    step, res = _timed_run(_mesh(out, h), steps, plastic_=True)
     pl = res.info["plasticity"]
     return {"step_ms": step * 1e3, "over_elastic": step * 1e3 / elastic_step_ms,
             "zone_elements": pl["zone_elements"], "plastic_points": pl["plastic_points"],
@@ -184,27 +214,31 @@ def explicit(out: Path, steps: int = 2000, h: float = H_CONTACT) -> dict:
     dt = solver.dt
     K = solver.K
     x = np.random.default_rng(0).random(K.shape[0])
-    reps = 300
-    t = clock()
-    for _ in range(reps):
-        K @ x
-    matvec = (clock() - t) / reps
+    scipy_matvec = _product_time(K, x)
+    product = solver.scheme.product          # the step's own product
+    matvec = _product_time(product, x)
     bw = bandwidth()
     bound = matvec_bytes(K) / bw
-    t = clock()
-    res = solver.run()
-    step = (clock() - t) / res.info["steps"]
+    step, res = _timed_run(mesh, steps, plastic_=False)
     return {"n_reduced_dofs": int(K.shape[0]), "nnz": int(K.nnz), "time_step": dt,
             "stable_time_step": res.info["stable_time_step"], "steps": res.info["steps"],
             "bandwidth_GB_s": bw / 1e9, "matvec_bytes": matvec_bytes(K),
-            "bound_ms": bound * 1e3, "matvec_ms": matvec * 1e3, "step_ms": step * 1e3,
+            "bound_ms": bound * 1e3, "matvec_ms": matvec * 1e3,
+            "matvec_backend": "mkl" if product.uses_mkl else "scipy",
+            "scipy_matvec_ms": scipy_matvec * 1e3, "step_ms": step * 1e3,
             "step_over_bound": step / bound, "matvec_over_bound": matvec / bound,
             "bound_goal": EXPLICIT_OVER_BOUND_GOAL, "target_ratio": EXPLICIT_OVER_PRODUCT}
 
 
 def run(quick: bool = False, out: str | Path = "out/bench_dynamic") -> dict:
-    """Items 1-4; ``quick``: 500 explicit steps and no item 4."""
-    out = Path(out)
+    """Items 1-4; ``quick``: 500 explicit steps and no item 4. On one thread (BLAS,
+    PARDISO, MKL's products), as the calibration's workers run, so that each
+    ratio compares one core's work with one core's."""
+    with limit_threads(1):
+        return _run(quick, Path(out))
+
+
+def _run(quick: bool, out: Path) -> dict:
     h = QUICK_H_CONTACT if quick else H_CONTACT
     steps = 500 if quick else 2000
     result = {"quick": quick, "newmark": newmark(out, h=h),

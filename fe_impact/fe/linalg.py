@@ -1,6 +1,7 @@
-"""Sparse direct solves for symmetric positive definite stiffness matrices.
+"""Sparse direct solves for symmetric positive definite stiffness matrices, and
+the sparse products of the time steps.
 
-Two tools, both on Intel MKL PARDISO (shipped by the ``pypardiso`` wheel):
+Three tools, all on Intel MKL (shipped by the ``pypardiso`` wheel):
 
 - :class:`SPDSolver`, a factorisation reused for many right-hand sides;
   given ``schur_dofs`` it also returns the dense Schur complement
@@ -12,7 +13,12 @@ Two tools, both on Intel MKL PARDISO (shipped by the ``pypardiso`` wheel):
 - :func:`condensed_compliance`, the compliance ``P K^-1 P^T`` on a small set
   of DOFs (the contact zone): ``P K^-1 P^T = S^-1``. This costs about one
   factorisation, where column-by-column solves cost one back-substitution per
-  contact DOF (about 50 s for 2,300 DOFs at 40k DOF, against 1.2 s).
+  contact DOF (about 50 s for 2,300 DOFs at 40k DOF, against 1.2 s);
+- :class:`SparseProduct`, ``A @ x`` for a matrix used many times over (the
+  stiffness product of every explicit step, the stiffness and mass products
+  of every Newmark step) by MKL's inspector-executor sparse BLAS, which
+  analyses the matrix once and streams it at about twice the speed of
+  scipy's CSR loop.
 """
 
 from __future__ import annotations
@@ -62,9 +68,9 @@ def _mkl_rt_file() -> str | None:
 
 
 @functools.cache
-def _mkl_pardiso():
-    """The MKL ``pardiso`` entry point (looked up once: every factorisation asks
-    for it): from the ``mkl`` wheel's file list, else the way pypardiso finds it."""
+def _mkl_rt() -> ctypes.CDLL:
+    """The MKL runtime library (loaded once): from the ``mkl`` wheel's file list,
+    else the way pypardiso finds it."""
     lib = None
     path = _mkl_rt_file()
     if path is not None:
@@ -76,7 +82,14 @@ def _mkl_pardiso():
         from pypardiso.pardiso_wrapper import PyPardisoSolver
 
         lib = PyPardisoSolver().libmkl
-    fn = lib.pardiso
+    return lib
+
+
+@functools.cache
+def _mkl_pardiso():
+    """The MKL ``pardiso`` entry point (looked up once: every factorisation asks
+    for it)."""
+    fn = _mkl_rt().pardiso
     i32 = ctypes.POINTER(ctypes.c_int32)
     fn.argtypes = ([ctypes.POINTER(ctypes.c_int64)] + [i32] * 5
                    + [ctypes.c_void_p, i32, i32, i32, i32, i32, i32,
@@ -343,3 +356,136 @@ def condensed_compliance(K: sp.spmatrix, dofs: np.ndarray) -> np.ndarray:
         Symmetric positive definite compliance on ``dofs`` in that order.
     """
     return inverse_from_cholesky(condensed_cholesky(K, dofs))
+
+
+# -- sparse products -------------------------------------------------------------------
+
+class _MatrixDescr(ctypes.Structure):
+    """MKL's ``struct matrix_descr`` (type, fill mode, diagonal)."""
+
+    _fields_ = [("type", ctypes.c_int), ("mode", ctypes.c_int), ("diag", ctypes.c_int)]
+
+
+_SPARSE_INDEX_BASE_ZERO = 0
+_SPARSE_OPERATION_NON_TRANSPOSE = 10
+_GENERAL = _MatrixDescr(20, 42, 50)   # general matrix (full storage, non-unit diagonal)
+_SPARSE_MEMORY_NONE = 80              # the analysis keeps no copy of its own (as fast here)
+
+
+@functools.cache
+def _mkl_sparse() -> ctypes.CDLL | None:
+    """MKL's inspector-executor sparse BLAS with its argument types, or None if the
+    runtime lacks it (then :class:`SparseProduct` uses scipy)."""
+    try:
+        lib = _mkl_rt()
+        vp, i32 = ctypes.c_void_p, ctypes.c_int32
+        lib.mkl_sparse_d_create_csr.argtypes = [ctypes.POINTER(vp), ctypes.c_int, i32, i32,
+                                                vp, vp, vp, vp]
+        lib.mkl_sparse_set_mv_hint.argtypes = [vp, ctypes.c_int, _MatrixDescr, i32]
+        lib.mkl_sparse_set_memory_hint.argtypes = [vp, ctypes.c_int]
+        lib.mkl_sparse_optimize.argtypes = [vp]
+        lib.mkl_sparse_d_mv.argtypes = [ctypes.c_int, ctypes.c_double, vp, _MatrixDescr, vp,
+                                        ctypes.c_double, vp]
+        lib.mkl_sparse_destroy.argtypes = [vp]
+        lib.MKL_Set_Num_Threads_Local.argtypes = [ctypes.c_int]
+        for f in ("mkl_sparse_d_create_csr", "mkl_sparse_set_mv_hint",
+                  "mkl_sparse_set_memory_hint", "mkl_sparse_optimize", "mkl_sparse_d_mv",
+                  "mkl_sparse_destroy", "MKL_Set_Num_Threads_Local"):
+            getattr(lib, f).restype = ctypes.c_int
+    except (OSError, AttributeError, ImportError) as exc:
+        logger.debug("MKL's sparse BLAS is not available (%s): scipy's products", exc)
+        return None
+    return lib
+
+
+class SparseProduct:
+    """``A @ x`` for a fixed sparse matrix and many vectors ``x``.
+
+    MKL's inspector-executor sparse BLAS analyses the matrix once
+    (``mkl_sparse_optimize`` with the expected number of products, which may
+    keep its own copy of the matrix) and then streams it faster than scipy's
+    CSR loop: on the explicit benchmark's stiffness (16,440 DOFs, 1.1M
+    nonzeros, one core) 0.44 ms a product against 0.75 ms, 0.90 times the
+    bandwidth bound of the CSR arrays; on a 117k-DOF tooth pair's (9.1M
+    nonzeros, out of cache) 5.3 ms against 6.8 ms, after 0.07 s of analysis.
+    Falls back to scipy where MKL's sparse BLAS is missing or refuses the
+    matrix, and for anything but one vector.
+
+    A product runs on ``threads`` MKL threads whatever the process's setting:
+    on two cores, MKL's second thread made the explicit benchmark's step 1.4-1.8
+    times slower than on one (its threads spin between the short products and
+    take the core the step's other work runs on).
+
+    Parameters
+    ----------
+    A : sparse matrix, shape (n, m)
+        Copied to CSR with sorted 32-bit indices and float64 values (MKL
+        reads the copy in place, so the caller may change ``A``).
+    calls : int
+        Expected number of products (MKL's hint: how much analysis pays).
+    threads : int
+        MKL threads of a product.
+    """
+
+    def __init__(self, A: sp.spmatrix, calls: int = 1000, threads: int = 1) -> None:
+        A = sp.csr_matrix(A, dtype=np.float64, copy=True)
+        A.sum_duplicates()            # canonical: sorted indices, no duplicates
+        self.A, self.shape, self._calls, self._threads = A, A.shape, calls, threads
+        self._indptr = A.indptr.astype(np.int32)
+        self._indices = A.indices.astype(np.int32)
+        self._handle: ctypes.c_void_p | None = None
+        lib = _mkl_sparse()
+        if lib is None or A.nnz == 0 or A.nnz > np.iinfo(np.int32).max:
+            return
+        h = ctypes.c_void_p()
+        status = lib.mkl_sparse_d_create_csr(
+            ctypes.byref(h), _SPARSE_INDEX_BASE_ZERO, self.shape[0], self.shape[1],
+            self._indptr.ctypes.data, self._indptr.ctypes.data + 4,
+            self._indices.ctypes.data, A.data.ctypes.data)
+        if status != 0:
+            logger.debug("mkl_sparse_d_create_csr: status %d; scipy's products", status)
+            return
+        self._handle = h
+        status = (lib.mkl_sparse_set_mv_hint(h, _SPARSE_OPERATION_NON_TRANSPOSE, _GENERAL,
+                                             max(int(calls), 1))
+                  or lib.mkl_sparse_set_memory_hint(h, _SPARSE_MEMORY_NONE)
+                  or lib.mkl_sparse_optimize(h))
+        if status != 0:
+            logger.debug("mkl_sparse_optimize: status %d; scipy's products", status)
+            self.release()
+
+    @property
+    def uses_mkl(self) -> bool:
+        return self._handle is not None
+
+    def __matmul__(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x)
+        if self._handle is None or x.ndim != 1 or x.shape[0] != self.shape[1]:
+            return self.A @ x
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        y = np.empty(self.shape[0])
+        lib = _mkl_sparse()
+        before = lib.MKL_Set_Num_Threads_Local(self._threads)
+        try:
+            status = lib.mkl_sparse_d_mv(_SPARSE_OPERATION_NON_TRANSPOSE, 1.0, self._handle,
+                                         _GENERAL, x.ctypes.data, 0.0, y.ctypes.data)
+        finally:
+            lib.MKL_Set_Num_Threads_Local(before)
+        if status != 0:
+            raise SolverError(f"sparse product failed: MKL status {status}")
+        return y
+
+    def release(self) -> None:
+        """Free MKL's analysis (also done on garbage collection)."""
+        if self._handle is not None:
+            _mkl_sparse().mkl_sparse_destroy(self._handle)
+            self._handle = None
+
+    def __del__(self) -> None:
+        try:
+            self.release()
+        except Exception:  # interpreter shutdown: nothing sensible to do
+            pass
+
+    def __reduce__(self):
+        return SparseProduct, (self.A, self._calls, self._threads)

@@ -245,9 +245,15 @@ def _add_stress_divergence(sxx, syy, szz, syz, sxz, sxy, Gq, fe):
         fe[a, 2] += sxz * g0 + syz * g1 + szz * g2
 
 
+#: An element without plastic strain is skipped while its bound on the trial
+#: stress stays below this fraction of the yield radius (the bound is exact;
+#: the margin covers rounding in it).
+SCREEN_MARGIN = 1.0 - 1e-6
+
+
 @njit(cache=True, fastmath=True)
 def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new, dgam,
-                   snorm, nflow, ylist, f):
+                   snorm, nflow, ylist, f, uref, sref, cbound):
     """Strains, radial return and plastic force of every zone point.
 
     ``u`` local DOF values; ``ldofs`` (ne, nb, 3) local DOFs; ``G`` (ne, nq, nb, 3)
@@ -258,19 +264,48 @@ def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new
     (the unit flow direction s/|s|, tensor components) and
     their flat indices ``e * nq + q`` into ``ylist``; the local plastic force
     goes into ``f``. Returns the plastic work of the step (J), the number of
-    yielded points and ``sum w eps_p : C : eps_p / 2`` (J) of the trial state.
+    yielded points, ``sum w eps_p : C : eps_p / 2`` (J) of the trial state
+    and the number of elements whose points were evaluated.
+
+    Screening: an element without plastic strain has trial stress
+    ``s = 2 mu dev(sym grad u)``, linear in its nodal values ``u_e``, and
+    ``|s(u)| <= |s(u_ref)| + 2 mu |G_q|_F |u_e - u_ref|_F`` at each point
+    (Cauchy-Schwarz on ``grad u = sum_a u_a G_a``; the deviatoric, symmetric
+    part is no larger). ``uref`` (ne, nb, 3) and ``sref`` (ne,) hold the
+    element's values and largest trial ``|s|`` when it was last evaluated
+    (any call: they are facts about ``u_ref``, not state), ``cbound`` (ne,)
+    ``2 mu max_q |G_q|_F``. While ``sref + cbound |u_e - u_ref|`` stays
+    below the yield radius, no point of the element can yield and it has
+    no plastic force, so it is skipped: the results are those of evaluating
+    every point.
     """
     ne, nq, nb, _ = G.shape
     f[:] = 0.0
     work = 0.0
     energy = 0.0
     ny = 0
+    evaluated = 0
     ue = np.empty((nb, 3))
     fe = np.empty((nb, 3))
     for e in range(ne):
+        virgin = True
+        for q in range(nq):
+            if al_old[e, q] > 0.0:
+                virgin = False
+                break
+        if virgin:
+            d2 = 0.0     # read from u directly: most elements go no further
+            for a in range(nb):
+                for c in range(3):
+                    d = u[ldofs[e, a, c]] - uref[e, a, c]
+                    d2 += d * d
+            if sref[e] + cbound[e] * math.sqrt(d2) < SCREEN_MARGIN * SQRT23 * Y[e]:
+                continue
         for a in range(nb):
             for c in range(3):
                 ue[a, c] = u[ldofs[e, a, c]]
+        evaluated += 1
+        smax = 0.0
         m2 = 2.0 * mu[e]
         hard = H[e]
         plastic = False
@@ -300,6 +335,7 @@ def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new
             n2 = s0 * s0 + s1 * s1 + s2 * s2 + 2.0 * (s3 * s3 + s4 * s4 + s5 * s5)
             R = SQRT23 * (Y[e] + hard * a_old)
             nrm = math.sqrt(n2)
+            smax = max(smax, nrm)
             if nrm > R:     # on the norm, not its square: dg > 0 strictly
                 dg = (nrm - R) / (m2 + (2.0 / 3.0) * hard)
                 r = dg / nrm
@@ -336,11 +372,16 @@ def _update_kernel(u, ldofs, G, w, lam, mu, Y, H, ep_old, al_old, ep_new, al_new
                 plastic = True
             energy += _accumulate(p0, p1, p2, p3, p4, p5, lam[e], mu[e], w[e, q], G[e, q],
                                   fe)
+        if virgin:
+            for a in range(nb):
+                for c in range(3):
+                    uref[e, a, c] = ue[a, c]
+            sref[e] = smax
         if plastic:
             for a in range(nb):
                 for c in range(3):
                     f[ldofs[e, a, c]] += fe[a, c]
-    return work, ny, energy
+    return work, ny, energy, evaluated
 
 
 @njit(cache=True, fastmath=True, inline="always")
@@ -512,6 +553,12 @@ class PlasticZone:
         self._work = 0.0
         self._work_t = 0.0
         self._pending = False
+        # the update's screening of elements far from yield (see _update_kernel)
+        self._uref = np.zeros((ne, nb, 3))
+        self._sref = np.full(ne, 1e300)    # finite (fastmath): evaluated at the first update
+        self._cbound = 2.0 * self._mu * np.sqrt((self._G ** 2).sum(axis=(2, 3))).max(
+            axis=1, initial=0.0)
+        self.evaluated = 0      # elements the last update evaluated
         # zone elements sharing a node with an element outside the zone
         cells = model.mesh.cells
         inside = np.zeros(len(cells), dtype=bool)
@@ -597,10 +644,10 @@ class PlasticZone:
         """
         ul = np.ascontiguousarray(self._local(u))
         if self.n_elements:
-            self._work_t, self._ny, self._energy_t = _update_kernel(
+            self._work_t, self._ny, self._energy_t, self.evaluated = _update_kernel(
                 ul, self._ldofs, self._G, self._w, self._lam, self._mu, self._Y, self._H,
                 self._ep, self._al, self._ep_t, self._al_t, self._dg, self._sn, self._nf,
-                self._ylist, self._f)
+                self._ylist, self._f, self._uref, self._sref, self._cbound)
         self._pending = True
         return self._global(self._f)
 

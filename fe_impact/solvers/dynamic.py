@@ -353,8 +353,11 @@ class DynamicSolver:
                 "total_energy": ke + strain + ce + dis}
 
     def _check(self, s: ti.State, total: float) -> None:
+        # The total energy is finite exactly when z and v are: it holds v M v
+        # (M positive definite, a positive diagonal when lumped) and z K z, and a
+        # sum with an infinite or NaN term is infinite or NaN.
         e0, t = self.log.energy0, s.n * self.dt
-        if not (math.isfinite(total) and np.isfinite(s.z).all() and np.isfinite(s.v).all()):
+        if not math.isfinite(total):
             raise SolverError(f"the solution became NaN/inf at t = {t:.6g} s (step {s.n}): "
                               "reduce the time step, or check the case's values for one far "
                               "out of scale (penalty, modulus, inertia, speed)")

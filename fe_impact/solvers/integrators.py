@@ -29,12 +29,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from numba import njit
 
 from fe_impact.contact.condensed import CondensedContact, StepContact
 from fe_impact.contact.linearised import ContactModel
 from fe_impact.errors import CaseError, ContactError, SolverError
 from fe_impact.fe.case import Case
-from fe_impact.fe.linalg import SPDSolver
+from fe_impact.fe.linalg import SparseProduct, SPDSolver
 
 logger = logging.getLogger(__name__)
 
@@ -117,15 +118,21 @@ def time_step(case: Case, dt_stable: float | None) -> float:
 
 @dataclass(frozen=True, eq=False)
 class CentralDifference:
-    """Explicit central difference with the lumped reduced mass ``m``."""
+    """Explicit central difference with the lumped reduced mass ``m``.
+
+    A step's one pass over ``K`` is :attr:`product` (MKL's analysed product:
+    0.44 ms against scipy's 0.75 ms on the 16k-DOF benchmark stiffness).
+    """
 
     dt: float
     K: sp.csr_matrix
     m: np.ndarray
     minv: np.ndarray = field(init=False, repr=False)
+    product: SparseProduct = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "minv", 1.0 / self.m)
+        object.__setattr__(self, "product", SparseProduct(self.K))
 
 
 def stable_time_step(K: sp.csr_matrix, m: np.ndarray, contact: ContactModel) -> float:
@@ -166,26 +173,49 @@ def central_difference_step(s: State, cd: CentralDifference, contact: ContactMod
     zone, before the forces are evaluated.
     """
     n, dt = s.n + 1, cd.dt
-    # v = v_n + dt a_n / 2 and z = z_n + dt v with one new array each: the
-    # step is bound by memory traffic.
-    v = 0.5 * dt * s.a
-    v += s.v
-    z = dt * v
-    z += s.z
+    v, z = _verlet_predict(s.a, s.v, s.z, 0.5 * dt, dt)
     if n % CHECK_EVERY == 0:
         if contact.moved(z):
             contact.update(z)
         if watch is not None:
             watch(z)
-    Kz = cd.K @ z
-    f_int = Kz
+    Kz = cd.product @ z
+    strain_energy = 0.5 * float(z @ Kz)
+    f = Kz                      # K z - F_p - B^T lam, made the acceleration in place
     if plastic is not None:
-        f_int = Kz - plastic.update(z)
+        f -= plastic.update(z)
         plastic.commit()
     lam, _ = contact.forces(z)
-    a = cd.minv * (contact.BT @ lam - f_int)
-    v += 0.5 * dt * a
-    return State(n, z, v, a, lam, 0.5 * float(z @ Kz))
+    contact.add_forces(-lam, f)
+    a = _verlet_correct(f, cd.minv, v, 0.5 * dt)
+    return State(n, z, v, a, lam, strain_energy)
+
+
+# The explicit step's vector work in two passes instead of nine numpy operations and
+# four temporary arrays (on the 16k-DOF benchmark the step's work besides the
+# stiffness product was about 100 us, half of it the Python and numpy calls), with
+# the same operations in the same order: the results are those of the numpy
+# expressions to the last bit (no fastmath: no fused multiply-adds).
+@njit(cache=True)
+def _verlet_predict(a, v_old, z_old, half_dt, dt):
+    """``v = v_n + dt/2 a_n`` and ``z = z_n + dt v``, new arrays."""
+    v = np.empty_like(v_old)
+    z = np.empty_like(z_old)
+    for i in range(len(v)):
+        vi = half_dt * a[i] + v_old[i]
+        v[i] = vi
+        z[i] = dt * vi + z_old[i]
+    return v, z
+
+
+@njit(cache=True)
+def _verlet_correct(f, minv, v, half_dt):
+    """``a = -f / m`` in place of ``f`` (``f = K z - F_p - B^T lam``) and ``v += dt/2 a``."""
+    for i in range(len(f)):
+        ai = minv[i] * -f[i]
+        f[i] = ai
+        v[i] += half_dt * ai
+    return f
 
 
 # -- Newmark / HHT-alpha -----------------------------------------------------------

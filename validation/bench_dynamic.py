@@ -21,7 +21,10 @@ the same run, never an absolute time (the machine is shared).
    read bandwidth of a large numpy reduction, reported (the speed issue's
    goal 1.3x); asserted: the step at most 1.5x its own stiffness product
    (MKL's analysed product, :class:`~fe_impact.fe.linalg.SparseProduct`)
-   timed in the same run. scipy's CSR product is timed beside it.
+   timed inside the same steps (timed apart, before the run, it came out
+   anywhere from 0.39 to 0.55 ms between processes while the steps' own
+   products did not follow). The product timed apart and scipy's CSR
+   product are reported beside it.
 3. Elastic-plastic explicit: the same 2000 steps with J2 plasticity (yield
    835 MPa) tracked near the contact, against the elastic step of item 2.
    Target: at most 2x.
@@ -176,15 +179,32 @@ TIMED_RUNS = 3
 PRODUCT_BLOCKS = 5
 
 
+class _TimedProduct:
+    """The step's stiffness product, timed where the step calls it."""
+
+    def __init__(self, product) -> None:
+        self.product, self.seconds, self.calls = product, 0.0, 0
+
+    def __matmul__(self, x: np.ndarray) -> np.ndarray:
+        t = clock()
+        y = self.product @ x
+        self.seconds += clock() - t
+        self.calls += 1
+        return y
+
+
 def _timed_run(mesh: Path, steps: int, plastic_: bool):
-    """The best of :data:`TIMED_RUNS` runs: (CPU seconds a step, the last result)."""
-    best = np.inf
+    """The best of :data:`TIMED_RUNS` runs: CPU seconds a step, the seconds of a
+    stiffness product within that run's steps, and the last result."""
+    best = (np.inf, np.inf)
     for _ in range(TIMED_RUNS):
         solver = _warmed_solver(mesh, steps, plastic_)
+        timed = _TimedProduct(solver.scheme.product)
+        object.__setattr__(solver.scheme, "product", timed)
         t = clock()
         res = solver.run()
-        best = min(best, (clock() - t) / res.info["steps"])
-    return best, res
+        best = min(best, ((clock() - t) / res.info["steps"], timed.seconds / timed.calls))
+    return best[0], best[1], res
 
 
 def _product_time(product, x: np.ndarray, reps: int = 60) -> float:
@@ -201,7 +221,7 @@ def _product_time(product, x: np.ndarray, reps: int = 60) -> float:
 
 def explicit_plastic(out: Path, elastic_step_ms: float, steps: int = 2000,
                      h: float = H_CONTACT) -> dict:
-    step, res = _timed_run(_mesh(out, h), steps, plastic_=True)
+    step, _, res = _timed_run(_mesh(out, h), steps, plastic_=True)
     pl = res.info["plasticity"]
     return {"step_ms": step * 1e3, "over_elastic": step * 1e3 / elastic_step_ms,
             "zone_elements": pl["zone_elements"], "plastic_points": pl["plastic_points"],
@@ -219,13 +239,14 @@ def explicit(out: Path, steps: int = 2000, h: float = H_CONTACT) -> dict:
     matvec = _product_time(product, x)
     bw = bandwidth()
     bound = matvec_bytes(K) / bw
-    step, res = _timed_run(mesh, steps, plastic_=False)
+    step, in_step, res = _timed_run(mesh, steps, plastic_=False)
     return {"n_reduced_dofs": int(K.shape[0]), "nnz": int(K.nnz), "time_step": dt,
             "stable_time_step": res.info["stable_time_step"], "steps": res.info["steps"],
             "bandwidth_GB_s": bw / 1e9, "matvec_bytes": matvec_bytes(K),
             "bound_ms": bound * 1e3, "matvec_ms": matvec * 1e3,
             "matvec_backend": "mkl" if product.uses_mkl else "scipy",
             "scipy_matvec_ms": scipy_matvec * 1e3, "step_ms": step * 1e3,
+            "matvec_in_steps_ms": in_step * 1e3,
             "step_over_bound": step / bound, "matvec_over_bound": matvec / bound,
             "bound_goal": EXPLICIT_OVER_BOUND_GOAL, "target_ratio": EXPLICIT_OVER_PRODUCT}
 
@@ -260,7 +281,7 @@ def check(result: dict) -> list[ck.Check]:
     ex = result["explicit"]
     return [
         ck.at_most("explicit step / its stiffness product",
-                   ex["step_ms"] / ex["matvec_ms"], EXPLICIT_OVER_PRODUCT),
+                   ex["step_ms"] / ex["matvec_in_steps_ms"], EXPLICIT_OVER_PRODUCT),
         ck.at_most("plastic explicit step / elastic step",
                    result["explicit_plastic"]["over_elastic"], PLASTIC_OVER_ELASTIC),
         ck.at_most("Newmark step / one solve", result["newmark"]["step_over_solve"],

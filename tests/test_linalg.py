@@ -253,3 +253,12 @@ def test_sparse_product_of_an_empty_matrix_and_a_wrong_vector():
     np.testing.assert_array_equal(P @ np.ones(4), np.zeros(5))
     with pytest.raises(ValueError):
         SparseProduct(_spd(6)) @ np.ones(5)
+
+
+def test_sparse_product_without_a_copy_shares_the_matrix():
+    A = _spd(30)
+    A.indices = A.indices.astype(np.int32)
+    P = SparseProduct(A, copy=False)
+    assert P.uses_mkl and np.shares_memory(P.A.data, A.data)
+    x = np.linspace(-1.0, 1.0, 30)
+    np.testing.assert_allclose(P @ x, A @ x, rtol=0, atol=1e-12)

@@ -419,20 +419,27 @@ class SparseProduct:
     Parameters
     ----------
     A : sparse matrix, shape (n, m)
-        Copied to CSR with sorted 32-bit indices and float64 values (MKL
-        reads the copy in place, so the caller may change ``A``).
+        Made CSR with sorted 32-bit indices and float64 values, which MKL
+        reads in place.
     calls : int
         Expected number of products (MKL's hint: how much analysis pays).
     threads : int
         MKL threads of a product.
+    copy : bool
+        Copy ``A`` first, so that the caller may change it later; without, a
+        float64 CSR ``A`` is shared (its indices sorted in place) and must
+        not be changed (the solvers' own matrices: no second copy of a
+        stiffness that can take a few hundred MB).
     """
 
-    def __init__(self, A: sp.spmatrix, calls: int = 1000, threads: int = 1) -> None:
-        A = sp.csr_matrix(A, dtype=np.float64, copy=True)
+    def __init__(self, A: sp.spmatrix, calls: int = 1000, threads: int = 1,
+                 copy: bool = True) -> None:
+        A = sp.csr_matrix(A, dtype=np.float64, copy=copy)
         A.sum_duplicates()            # canonical: sorted indices, no duplicates
         self.A, self.shape, self._calls, self._threads = A, A.shape, calls, threads
-        self._indptr = A.indptr.astype(np.int32)
-        self._indices = A.indices.astype(np.int32)
+        self._copy = copy
+        self._indptr = A.indptr.astype(np.int32, copy=False)
+        self._indices = A.indices.astype(np.int32, copy=False)
         self._handle: ctypes.c_void_p | None = None
         lib = _mkl_sparse()
         if lib is None or A.nnz == 0 or A.nnz > np.iinfo(np.int32).max:
@@ -488,4 +495,4 @@ class SparseProduct:
             pass
 
     def __reduce__(self):
-        return SparseProduct, (self.A, self._calls, self._threads)
+        return SparseProduct, (self.A, self._calls, self._threads, self._copy)

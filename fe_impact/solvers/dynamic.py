@@ -340,7 +340,7 @@ class DynamicSolver:
     def _history_row(self, s: ti.State) -> dict[str, float]:
         """Time, contact force, approach, normal velocity and energies of one step."""
         v = s.v
-        ke = 0.5 * float(v @ (self.m * v) if self.explicit else v @ (self.M @ v))
+        ke = 0.5 * float(v @ (self.m * v) if self.explicit else v @ (self.scheme.M_product @ v))
         ce = self.contact.energy(s.lam)
         strain, dis = s.strain_energy, 0.0
         if self.plastic is not None:

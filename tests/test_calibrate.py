@@ -206,3 +206,22 @@ def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeyp
     with pytest.raises(KeyboardInterrupt):
         finish()
     assert json.loads((tmp_path / "summary.json").read_text())["switching"] == "stopped"
+
+
+def test_report_names_the_impacts_whose_damping_the_history_leaves_open():
+    from types import SimpleNamespace
+
+    from fe_impact.calibration.report import _undetermined_damping
+
+    def case(cid, cmax_range, d_range):
+        return SimpleNamespace(id=cid, fe=SimpleNamespace(restitution=0.99979),
+                               fit_quality=SimpleNamespace(cmax_range=cmax_range,
+                                                           d_range=d_range))
+
+    tight = case("tight", (2.0, 2.01), (1e-6, 1.001e-6))
+    old = case("old-file", None, None)                 # written before the ranges
+    wide = case("stage2_mesh_100rpm", (0.5, 2.9), (1.2e-7, 1.7e-6))
+    assert _undetermined_damping([tight, old]) == []
+    lines = _undetermined_damping([tight, wide, old])
+    assert lines[1].startswith("The history does not determine the damping")
+    assert lines[-1] == "- stage2_mesh_100rpm (e = 0.99979): cmax 0.5-2.9 N s/m, d 0.12-1.7 um"

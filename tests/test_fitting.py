@@ -153,6 +153,32 @@ def test_fit_recovers_impact_parameters(case):
     assert abs(fit.restitution_error) < 1e-6
     assert abs(fit.peak_force_error) < 1e-5
     assert abs(fit.contact_time_error) < 1e-5
+    # identifiable: every start that fits as well lands on the same law, to the
+    # fit's own precision on each parameter (2e-4 above)
+    for name in ("cmax", "d"):
+        lo, hi = getattr(fit, f"{name}_range")
+        assert lo <= getattr(fit, name) <= hi
+        assert hi <= lo * (1 + 4e-4), name
+
+
+def test_fit_reports_the_damping_a_nearly_elastic_history_leaves_open():
+    """e = 0.99988 with 1.5% of the peak force as noise (the FE teeth's vibration
+    stands in): the damping's force is some 1e-4 of the contact force, far below
+    the noise, so laws whose cmax and d differ by orders of magnitude fit the
+    history equally well, and the reported ranges must say so (a factor 10 at
+    least; an identifiable history gives 1 + 4e-4 at most, above)."""
+    k, xi, mass, speed = 1.4e10, 1.39, 0.2, 0.0125
+    law = _impact_law(k, xi, mass, speed, 1e-4, 0.5)
+    run = laws.simulate_impact(law, mass, speed)
+    assert run.restitution > 0.9998
+    time, force, delta = _fe_like(run, speed)
+    rng = np.random.default_rng(0)
+    noisy = force + 0.015 * run.force_max * rng.standard_normal(force.size) * (force > 0)
+    fit = fitting.fit_impact_law(time, noisy, delta, mass, speed, run.restitution)
+    assert fit.success, fit.message
+    (c_lo, c_hi), (d_lo, d_hi) = fit.cmax_range, fit.d_range
+    assert c_lo <= fit.cmax <= c_hi and d_lo <= fit.d <= d_hi
+    assert c_hi > 10 * c_lo and d_hi > 10 * d_lo
 
 
 def test_fit_of_fe_like_record_with_offset_clock():

@@ -92,6 +92,10 @@ class ImpactFit:
         solves for the starting ``cmax`` not counted).
     start : tuple of float
         Starting ``(k, exponent, cmax, d)`` of the winning optimisation.
+    cmax_range, d_range : tuple of float
+        Smallest and largest ``cmax`` [N s/m] and ``d`` [m] over the starts'
+        optima that fit the history as well as the winner (:data:`EQUAL_FIT`):
+        a wide range says the history does not determine the damping.
     fe_force_max, fe_contact_time : float
         Peak force [N] and contact time [s] measured on the FE history.
     wall_time : float
@@ -111,6 +115,8 @@ class ImpactFit:
     message: str
     n_evaluations: int = 0
     start: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    cmax_range: tuple[float, float] | None = None
+    d_range: tuple[float, float] | None = None
     fe_force_max: float = 0.0
     fe_contact_time: float = 0.0
     wall_time: float = field(default=0.0, compare=False)
@@ -276,9 +282,10 @@ def _starts(hist: ImpactHistory, scales: _Scales, bounds: _Bounds, mass: float,
 
 # -- refinement ---------------------------------------------------------------------------
 def _refine(residual: _Residual, starts: list[np.ndarray], lower: np.ndarray,
-            upper: np.ndarray) -> tuple[OptimizeResult, np.ndarray]:
-    """The lowest-cost least-squares optimum over the starts, with its start."""
-    best = None
+            upper: np.ndarray) -> tuple[OptimizeResult, np.ndarray, list[OptimizeResult]]:
+    """The lowest-cost least-squares optimum over the starts, with its start, and the
+    optima of every start that could be evaluated."""
+    best, optima = None, []
     for q0 in starts:
         try:
             result = least_squares(
@@ -296,11 +303,54 @@ def _refine(residual: _Residual, starts: list[np.ndarray], lower: np.ndarray,
         except (ValueError, FeImpactError) as exc:  # pragma: no cover - defensive
             logger.debug("start %s failed: %s", q0, exc)
             continue
+        optima.append(result)
         if best is None or result.cost < best[0].cost:
             best = (result, q0)
     if best is None:  # pragma: no cover - defensive
         raise CalibrationError("the impact-law fit could not evaluate any start")
-    return best
+    return best[0], best[1], optima
+
+
+#: Laws whose residual (the root of the least-squares cost) is within this
+#: fraction of the best one's fit the history equally well. On the tooth
+#: impacts the residual is mostly the teeth's vibration, which no IMPACT law
+#: follows (1.5-2% of the peak force), and a thousandth of it separates no
+#: two laws; the ranges of ``cmax`` and ``d`` over such laws
+#: (:attr:`ImpactFit.cmax_range`, ``d_range``) say how far the history
+#: determines the damping. Seen on the nearly elastic stage-2 impact at
+#: 100 r/min (e = 0.9998): two starts 1e-5 apart in residual, cmax 0.50 and
+#: 2.88 N s/m, and which won depended on the history's last digits.
+EQUAL_FIT = 1e-3
+
+
+def _damping_ranges(optima: list[OptimizeResult], best: OptimizeResult, scales: _Scales,
+                    lower: np.ndarray, upper: np.ndarray
+                    ) -> tuple[tuple[float, float], tuple[float, float]]:
+    """``(cmax_lo, cmax_hi), (d_lo, d_hi)`` of the laws that fit as well as ``best``
+    (:data:`EQUAL_FIT`): the other starts' optima within it, and how far ``log cmax``
+    and ``log d`` reach before the cost's quadratic model about ``best`` (``J^T J``,
+    the other variables following) crosses it, within the variables' bounds and
+    ``cmax`` within the starts' search range (a direction the history does not see
+    reaches a bound)."""
+    limit = best.cost * (1.0 + EQUAL_FIT) ** 2
+    qs = [r.x for r in optima if r.cost <= limit]
+    H = best.jac.T @ best.jac
+    lam, V = np.linalg.eigh(H)
+    flat = lam <= 1e-14 * max(float(lam.max(initial=0.0)), 1e-300)
+    with np.errstate(divide="ignore"):
+        cov = (V ** 2 / np.where(flat, 0.0, lam)).sum(axis=1)     # diag(H^-1), inf if flat
+    cov[np.any((V ** 2 > 1e-16) & flat, axis=1)] = np.inf
+    reach = np.sqrt(2.0 * (limit - best.cost) * cov)
+    top = upper.copy()
+    top[2] = min(top[2], math.log(1e3))     # cmax v / F_peak at most 1e3: the starts' range
+    for i in (2, 3):
+        for side in (-1.0, 1.0):
+            q = best.x.copy()
+            q[i] = float(np.clip(best.x[i] + side * reach[i], lower[i], top[i]))
+            qs.append(q)
+    laws_ = [scales.unpack(q) for q in qs]
+    cmax, d = [q[2] for q in laws_], [q[3] for q in laws_]
+    return (min(cmax), max(cmax)), (min(d), max(d))
 
 
 def _notes(result: OptimizeResult) -> list[str]:
@@ -462,8 +512,9 @@ def fit_impact_law(
     residual = _Residual(hist, scales, mass, speed, restitution, restitution_weight,
                          delta_weight)
     starts, lower, upper = _starts(hist, scales, bounds, mass, restitution, d_starts)
-    result, q0 = _refine(residual, starts, lower, upper)
+    result, q0, optima = _refine(residual, starts, lower, upper)
     k, n, cmax, d = scales.unpack(result.x)
+    cmax_range, d_range = _damping_ranges(optima, result, scales, lower, upper)
     notes = _notes(result)
     success = bool(result.success) and all(math.isfinite(v) for v in (k, n, cmax, d))
     figures = _quality((k, n, cmax, d), hist, mass, speed, contact_threshold)
@@ -483,6 +534,8 @@ def fit_impact_law(
         message="; ".join(notes),
         n_evaluations=residual.evaluations,
         start=scales.unpack(q0),
+        cmax_range=cmax_range,
+        d_range=d_range,
         fe_force_max=hist.force_max,
         fe_contact_time=hist.contact_time,
         wall_time=_time.perf_counter() - clock,

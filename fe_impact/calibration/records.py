@@ -259,7 +259,9 @@ class FitQuality(_Record):
     (:class:`fe_impact.calibration.impact_fit.ImpactFit` without the parameters).
 
     Relative errors of the one-DOF model against the FE; ``start`` is the
-    initial guess ``(k, exponent, cmax, d)``; ``wall_time`` in s.
+    initial guess ``(k, exponent, cmax, d)``; ``cmax_range`` and ``d_range``
+    the damping parameters of the starts that fit equally well (absent in
+    files written before them); ``wall_time`` in s.
     """
 
     residual_force_rms: float | None = _number(optional=True)
@@ -271,6 +273,8 @@ class FitQuality(_Record):
     message: str = _field("string")
     n_evaluations: int | None = _field("integer", optional=True, low=0)
     start: tuple[float, ...] | None = _field("numbers", optional=True, size=4)
+    cmax_range: tuple[float, ...] | None = _field("numbers", optional=True, size=2)
+    d_range: tuple[float, ...] | None = _field("numbers", optional=True, size=2)
     fe_force_max: float | None = _number(optional=True)
     fe_contact_time: float | None = _number(optional=True)
     wall_time: float | None = _number(optional=True)

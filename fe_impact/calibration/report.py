@@ -43,6 +43,34 @@ def _span(values, spec: str = ".3g") -> str:
     return lo if lo == hi else f"{lo}-{hi}"
 
 
+#: A damping range wider than this (largest over smallest) is reported as undetermined.
+UNDETERMINED_SPREAD = 1.1
+
+
+def _undetermined_damping(cases) -> list[str]:
+    """Lines on the cases whose history does not determine ``cmax`` and ``d``: laws
+    that fit it equally well (:data:`~fe_impact.calibration.impact_fit.EQUAL_FIT`)
+    span more than :data:`UNDETERMINED_SPREAD` in either."""
+    from fe_impact.calibration.impact_fit import EQUAL_FIT
+
+    wide = []
+    for c in cases:
+        q = c.fit_quality
+        if q is None or q.cmax_range is None or q.d_range is None:
+            continue
+        (c_lo, c_hi), (d_lo, d_hi) = q.cmax_range, q.d_range
+        if c_hi > UNDETERMINED_SPREAD * c_lo or d_hi > UNDETERMINED_SPREAD * d_lo:
+            wide.append(f"- {c.id} (e = {c.fe.restitution:.5f}): cmax {c_lo:.3g}-{c_hi:.3g} "
+                        f"N s/m, d {d_lo * 1e6:.3g}-{d_hi * 1e6:.3g} um")
+    if not wide:
+        return []
+    return ["", f"The history does not determine the damping of these impacts: laws that "
+            f"reproduce it equally well (force and restitution residual within {EQUAL_FIT:.1%} "
+            "of the best; the other starts' optima and the residual's quadratic model about "
+            "the best) span these ranges. The table gives the best fit; the nearly elastic "
+            "impacts lose too little energy for the history to tell cmax from d.", "", *wide]
+
+
 def terminal_summary(doc: dict) -> list[str]:
     """A few lines per stage of a calibration.json document, for the terminal: what
     the FE impacts fitted against the closed form, and the mesh cycle's single-pair
@@ -123,6 +151,7 @@ def write_calibration_report(out: Path, calibration: Calibration,
                      f"{_fmt(i.d, '.4g', 1e6)} | {_fmt(cf.d, '.4g', 1e6)} | "
                      f"{_fmt(q.residual_force_rms, '.2%')} | "
                      f"{_fmt(q.restitution_error, '.2e')} |")
+    lines += _undetermined_damping(cases)
     with_models = [c for c in cases if c.restitution_models is not None]
     if with_models:
         lines += ["", "## Restitution against the seed's eq. 14", "",

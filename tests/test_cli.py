@@ -66,3 +66,24 @@ def test_static_solve_stopped_keeps_the_steps_done(coarse_hertz_case, tmp_path, 
     assert [s["value"] for s in summary["steps"]] == [-5e-6, -1e-5]
     assert sorted(p.name for p in out.glob("step_*.vtu")) == ["step_001.vtu", "step_002.vtu"]
     assert not [p for p in out.iterdir() if is_temporary(p)]
+
+
+def test_help_and_option_errors_do_not_load_the_solvers():
+    """The parser quotes its defaults from fe_impact.defaults: building it must not
+    import numba, scipy's optimisers, gmsh or the switching kernels (1.4-2.8 s
+    before a help text when it did). A fresh interpreter, since this one has
+    them all loaded."""
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "from fe_impact.cli.main import main\n"
+            "for argv in (['--help'], ['mesh', '--help'], ['switching', '--help'],\n"
+            "             ['calibrate', '--no-such-option']):\n"
+            "    main(argv)\n"
+            "heavy = [m for m in ('numba', 'scipy.optimize', 'gmsh', 'skfem',\n"
+            "                     'fe_impact.switching.simulation') if m in sys.modules]\n"
+            "print('HEAVY', heavy)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert "HEAVY []" in out.stdout, out.stdout[-500:] + out.stderr[-2000:]

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fe_impact.defaults import LEVEL_NAMES, REFINEMENT_RANGE
 from fe_impact.errors import MeshError
-from fe_impact.gears.pairanalysis import LEVEL_NAMES, REFINEMENT_RANGE
 
 logger = logging.getLogger(__name__)
 

@@ -19,8 +19,8 @@ import sys
 import time
 from pathlib import Path
 
+from fe_impact.defaults import SAMPLE_INTERVAL
 from fe_impact.errors import CalibrationError, CaseError
-from fe_impact.switching.study import SAMPLE_INTERVAL
 
 __all__ = ["MIN_MESH_CYCLES", "register", "run"]
 

@@ -22,6 +22,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from fe_impact.defaults import LEVEL_NAMES, REFINEMENT_RANGE
 from fe_impact.errors import GeometryError, MeshError
 from fe_impact.gears.tca import (
     ContactEllipse,
@@ -56,11 +57,6 @@ VELOCITY_SPLITS = ("momentum", "pinion", "face_gear")
 #: Largest impact speed a tooth pair is built for, m/s (the seed's fastest
 #: ratio-switch impact, at 1000 r/min, is about 4.2 m/s).
 MAX_IMPACT_SPEED = 20.0
-#: Refinement levels a pair can be meshed at (their element sizes:
-#: :data:`fe_impact.meshing.sizing.LEVELS`).
-LEVEL_NAMES = ("coarse", "default", "fine")
-#: Allowed :attr:`PairSpec.refinement` (a level's sizes divided by it).
-REFINEMENT_RANGE = (0.5, 4.0)
 
 
 @dataclass(frozen=True)

@@ -11,12 +11,11 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from fe_impact.defaults import SAMPLE_INTERVAL
 from fe_impact.switching.presets import Preset
 
 __all__ = ["SAMPLE_INTERVAL", "SEED_STUDIES", "run_study", "seed_study_job", "study_stages"]
 
-#: Default time-series sampling interval [s].
-SAMPLE_INTERVAL = 2e-4
 #: The seed's condition sets: its Tables 1-4 (sections 4.1, 4.2) and its two
 #: switching runs (sections 5.1, 5.2).
 SEED_STUDIES = ("table1", "table2", "table3", "table4", "variable-speed", "variable-load")

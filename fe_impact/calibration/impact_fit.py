@@ -93,8 +93,8 @@ class ImpactFit:
     start : tuple of float
         Starting ``(k, exponent, cmax, d)`` of the winning optimisation.
     cmax_range, d_range : tuple of float
-        Smallest and largest ``cmax`` [N s/m] and ``d`` [m] over the starts'
-        optima that fit the history as well as the winner (:data:`EQUAL_FIT`):
+        Smallest and largest ``cmax`` [N s/m] and ``d`` [m] of the laws that fit
+        the history as well as the winner (:data:`EQUAL_FIT`, :func:`_damping_ranges`):
         a wide range says the history does not determine the damping.
     fe_force_max, fe_contact_time : float
         Peak force [N] and contact time [s] measured on the FE history.

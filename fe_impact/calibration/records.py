@@ -260,7 +260,7 @@ class FitQuality(_Record):
 
     Relative errors of the one-DOF model against the FE; ``start`` is the
     initial guess ``(k, exponent, cmax, d)``; ``cmax_range`` and ``d_range``
-    the damping parameters of the starts that fit equally well (absent in
+    the spans of the damping parameters that fit equally well (absent in
     files written before them); ``wall_time`` in s.
     """
 

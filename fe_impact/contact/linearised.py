@@ -75,12 +75,13 @@ class ContactModel:
         self._transpose()
 
     def _transpose(self) -> None:
-        """``B^T`` (the forces ``B^T lam`` of every step: transposed once), and its rows
-        that hold anything, for :meth:`add_forces`."""
+        """``B^T`` (the forces ``B^T lam`` of every step: transposed once), and ``B`` on the
+        columns that hold anything, for :meth:`gaps` (products of every step: MKL's
+        call costs a third of scipy's here). ``B^T``'s rows that hold anything are
+        formed at the first :meth:`add_forces` after a change of ``B`` (the explicit
+        step's; the Newmark step takes ``BT``)."""
         self.BT = self.B.T.tocsr()
-        self._force_coords = np.flatnonzero(np.diff(self.BT.indptr))
-        # products of every explicit step: MKL's call costs a third of scipy's here
-        self._BT_held = SparseProduct(self.BT[self._force_coords])
+        self._BT_held: tuple[np.ndarray, SparseProduct] | None = None
         cols, B_held = _held_columns(self.B)
         self._gap_cols, self._B_held = cols, SparseProduct(B_held)
 
@@ -88,7 +89,11 @@ class ContactModel:
         """``out += B^T lam`` in place, touching only the coordinates ``B`` reaches
         (on the explicit benchmark 93 rows of 16,440 coordinates: a product with
         the whole ``B^T`` passes over every empty row)."""
-        out[self._force_coords] += self._BT_held @ lam
+        if self._BT_held is None:
+            rows = np.flatnonzero(np.diff(self.BT.indptr))
+            self._BT_held = rows, SparseProduct(self.BT[rows])
+        rows, BT_held = self._BT_held
+        out[rows] += BT_held @ lam
         return out
 
     def moved(self, z: np.ndarray) -> bool:
@@ -250,7 +255,7 @@ class SurfaceMonitor:
             margins.append(MARGIN_FRACTION * max(s - float(np.min(st.gap[ok])), 0.0))
         self.margin = min(min(margins), 0.25 * min(face_size(mesh, p.slave)
                                                    for p in zone.pairs))
-        self._held_cache: dict[int, tuple[int, np.ndarray, sp.csr_matrix]] = {}
+        self._outside_cache: dict[int, tuple[int, np.ndarray, sp.csr_matrix]] = {}
         #: Smallest linearised gap outside the zone seen so far (m).
         self.closest = math.inf
         self.closing = 0.0    # closure of that gap since the last check (m)
@@ -273,12 +278,12 @@ class SurfaceMonitor:
         """Reference gaps and gap rows of pair ``k``'s watched nodes that the zone does not
         hold: those not all of whose faces are in it (cached: zones only grow)."""
         faces = self.zone.slave_faces[k]
-        cached = self._held_cache.get(k)
+        cached = self._outside_cache.get(k)
         if cached is None or cached[0] != len(faces):
             nodes, g0, B = self.pairs[k]
             out = ~np.isin(nodes, self.zone.pairs[k].slave.complete_nodes(faces))
             cached = (len(faces), g0[out], B[out])
-            self._held_cache[k] = cached
+            self._outside_cache[k] = cached
         return cached[1], cached[2]
 
     def close_outside(self, z: np.ndarray) -> bool:

@@ -252,6 +252,21 @@ SOLVE = [
     ("rigid inertia 1e300", solve(changed(sdof(), "inertia = 0.01", "inertia = 1e300")),
      ["inertia = 1e+300", "must be in [0.0, 1e+09] (kg, or kg m^2 for a rotation)"]),
     ("dynamic penalty 1e300", solve(sdof(penalty=1e300)), ["penalty = 1e+300"]),
+    ("carries an unknown volume",
+     solve(changed(sdof(), "initial_velocity = -1.0", 'initial_velocity = -1.0\n'
+                   'carries = ["uper"]')),
+     ["rigid_bodies[0].carries = 'uper'", "no volume group 'uper'"]),
+    ("carries a volume with its own initial velocity",
+     solve(changed(sdof(), "initial_velocity = -1.0", 'initial_velocity = -1.0\n'
+                   'carries = ["upper"]\n[[initial_velocities]]\nvolumes = ["upper"]\n'
+                   'value = [0.0, 0.0, -1.0]')),
+     ["[rigid_bodies[0]] carries = 'upper'", "from [initial_velocities[0]]",
+      "one initial velocity"]),
+    ("carries in a static case",
+     static('fix = ["z"]', 'fix = ["z"]\n[[rigid_bodies]]\nsurface = "sphere_equator"\n'
+            'motion = "translation"\ndirection = [0.0, 0.0, 1.0]\nvalues = [0.0]\n'
+            'carries = ["sphere"]'),
+     ["carries need [analysis] type = \"dynamic\""]),
 ]
 
 MESH = [

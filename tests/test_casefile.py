@@ -64,7 +64,7 @@ def _dynamic(folder: Path) -> Case:
         initial_velocities=(InitialVelocitySpec(("sphere",), (0.0, 0.1 / 3.0, -1.0)),),
         rigid_bodies=(
             RigidBodySpec("pinion_hub", "rotation", (0.0, 0.0, 1.0), (0.0, 0.0285, 0.0),
-                          1.96e-4, -0.17453292519943295),
+                          1.96e-4, -0.17453292519943295, carries=("block",)),
             RigidBodySpec("top", "translation", (0.6, 0.0, 0.8), inertia=0.125,
                           initial_velocity=-1.0 / 7.0),
         ),

@@ -63,6 +63,15 @@ initial velocities and rigid bodies::
     point = [0.0, 0.0, 0.0]         # a point on the rotation axis, m
     inertia = 0.5                   # kg, or kg m^2 for a rotation
     initial_velocity = -1.0         # m/s or rad/s along/about the direction
+    carries = ["sphere"]            # volumes that start in the body's motion (optional)
+
+A body's ``carries`` start with its rigid velocity field (``initial_velocity``
+times ``direction``, or times ``direction x (x - point)`` for a rotation): a
+gear on its rotor turns with it from the first instant. Volumes not carried
+and not in ``[[initial_velocities]]`` start at rest even where the body's
+surface drags them (a rod struck by a mass tied to its end). A volume takes
+one initial velocity: it may be carried by one body at most, and not also
+listed in ``[[initial_velocities]]``.
 
 Parsing checks every key and value; :meth:`Case.check_groups` then checks the
 group names against a loaded mesh. :func:`fe_impact.fe.casefile.write_case`
@@ -182,6 +191,7 @@ class RigidBodySpec:
     point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     inertia: float = 0.0
     initial_velocity: float = 0.0
+    carries: tuple[str, ...] = ()      # dynamic: volumes starting in the body's motion
     values: tuple[float, ...] = ()     # static: coordinate per load step (m or rad)
     loads: tuple[float, ...] = ()      # static: force or torque per load step (N, N m)
 
@@ -266,6 +276,8 @@ class Case:
                     _group(mesh.volume, name, f"initial_velocities[{i}].volumes")
             for i, b in enumerate(self.rigid_bodies):
                 _group(mesh.surface, b.surface, f"rigid_bodies[{i}].surface")
+                for name in b.carries:
+                    _group(mesh.volume, name, f"rigid_bodies[{i}].carries")
         except MeshError as exc:
             raise CaseError(f"{self.path.name}: {exc}") from exc
         assigned = [v for m in self.materials for v in m.volumes]
@@ -315,6 +327,10 @@ def parse_case(data: dict[str, Any], path: Path) -> Case:
         return tuple(read(r, t, f"{key}[{i}]")
                      for i, t in enumerate(r.array(data, "", key, required=required)))
 
+    initial_velocities = each("initial_velocities", _initial_velocity)
+    rigid_bodies = _rigid_bodies(r, r.array(data, "", "rigid_bodies"), analysis.dynamic,
+                                 _displacement_steps(data))
+    _one_initial_velocity(r, initial_velocities, rigid_bodies)
     return Case(
         path=path, mesh_file=mesh_file, unit=unit,
         materials=each("materials", _material, required=True),
@@ -322,10 +338,25 @@ def parse_case(data: dict[str, Any], path: Path) -> Case:
         supports=each("supports", _support),
         displacements=_displacements(r, r.array(data, "", "displacements")),
         analysis=analysis,
-        initial_velocities=each("initial_velocities", _initial_velocity),
-        rigid_bodies=_rigid_bodies(r, r.array(data, "", "rigid_bodies"), analysis.dynamic,
-                                   _displacement_steps(data)),
+        initial_velocities=initial_velocities,
+        rigid_bodies=rigid_bodies,
     )
+
+
+def _one_initial_velocity(r: Reader, given: tuple[InitialVelocitySpec, ...],
+                          bodies: tuple[RigidBodySpec, ...]) -> None:
+    """A volume carried by a rigid body has no other initial velocity."""
+    owner: dict[str, str] = {}
+    for i, v in enumerate(given):
+        for name in v.volumes:
+            owner.setdefault(name, f"initial_velocities[{i}]")
+    for i, b in enumerate(bodies):
+        for name in b.carries:
+            if name in owner:
+                raise r.problem(f"[rigid_bodies[{i}]] carries = '{name}', which already has "
+                                f"its initial velocity from [{owner[name]}]; a volume starts "
+                                "with one initial velocity")
+            owner[name] = f"rigid_bodies[{i}]"
 
 
 def _displacement_steps(data: dict) -> int | None:
@@ -383,10 +414,10 @@ def _initial_velocity(r: Reader, t: dict, where: str) -> InitialVelocitySpec:
 def _rigid_body(r: Reader, t: dict, where: str, dynamic: bool = True) -> RigidBodySpec:
     common = {"surface", "motion", "direction", "point"}
     if dynamic:
-        r.keys(t, where, common | {"inertia", "initial_velocity"},
+        r.keys(t, where, common | {"inertia", "initial_velocity", "carries"},
                required={"surface", "motion", "direction"})
     else:
-        dynamic_keys = sorted({"inertia", "initial_velocity"} & set(t))
+        dynamic_keys = sorted({"inertia", "initial_velocity", "carries"} & set(t))
         if dynamic_keys:
             raise r.problem(f'[{where}] {" and ".join(dynamic_keys)} need [analysis] type = '
                             '"dynamic"; a static case prescribes the body\'s values or loads')
@@ -406,7 +437,8 @@ def _rigid_body(r: Reader, t: dict, where: str, dynamic: bool = True) -> RigidBo
                        hint="(kg, or kg m^2 for a rotation)")
     v0 = r.number(t, where, "initial_velocity", low=-MAX_SPEED, high=MAX_SPEED, default=0.0,
                   hint="(m/s, or rad/s for a rotation)")
-    return replace(spec, inertia=inertia, initial_velocity=v0)
+    carries = tuple(r.strings(t, where, "carries")) if "carries" in t else ()
+    return replace(spec, inertia=inertia, initial_velocity=v0, carries=carries)
 
 
 def _static_motion(r: Reader, t: dict, where: str, spec: RigidBodySpec) -> RigidBodySpec:

@@ -129,8 +129,9 @@ def _rigid_body(b: RigidBodySpec, dynamic: bool) -> list[str]:
     if not dynamic:
         key, values = ("loads", b.loads) if b.load_controlled else ("values", b.values)
         return lines + [f"{key} = {_numbers(values)}"]
-    return lines + [f"inertia = {_number(b.inertia)}",
-                    f"initial_velocity = {_number(b.initial_velocity)}"]
+    lines += [f"inertia = {_number(b.inertia)}",
+              f"initial_velocity = {_number(b.initial_velocity)}"]
+    return lines + ([f"carries = {_strings(b.carries)}"] if b.carries else [])
 
 
 def _analysis(a: AnalysisSpec) -> list[str]:

@@ -43,14 +43,19 @@ def impact_case(gearset, pair: GearPair, analysis: PairAnalysis, case_path: Path
     face flank (master) with the automatic penalty; each hub tied to a rigid
     rotor with the gear's inertia about its axis, turning at the
     :attr:`~fe_impact.gears.pairanalysis.PairAnalysis.velocities` that close
-    the gap at the impact speed; Newmark with the automatic step over :data:`DURATION_FACTOR` Hertz
-    contact times, :data:`FRAMES_PER_CONTACT` output frames per contact time.
+    the gap at the impact speed, and carrying its sector, which starts in the
+    rotor's rigid motion (a sector at rest behind a turning hub would be
+    struck by its hub and close the gap at the momentum-weighted 0.9 of the
+    impact speed, its teeth ringing); Newmark with the automatic step over
+    :data:`DURATION_FACTOR` Hertz contact times, :data:`FRAMES_PER_CONTACT` output
+    frames per contact time.
     """
     a, mat = analysis, gearset.material
     t_c = a.impact.contact_time
-    rotors = (("pinion_hub", pair.pinion_axis, gearset.pinion.inertia, a.velocities[0]),
-              ("face_hub", pair.face_axis, gearset.stages[a.spec.stage - 1].inertia,
-               a.velocities[1]))
+    rotors = (("pinion_hub", "pinion", pair.pinion_axis, gearset.pinion.inertia,
+               a.velocities[0]),
+              ("face_hub", "face_gear", pair.face_axis,
+               gearset.stages[a.spec.stage - 1].inertia, a.velocities[1]))
     return Case(
         path=case_path, mesh_file=mesh_path.resolve(), unit="mm",
         materials=(MaterialSpec(
@@ -61,8 +66,8 @@ def impact_case(gearset, pair: GearPair, analysis: PairAnalysis, case_path: Path
         rigid_bodies=tuple(
             RigidBodySpec(surface, "rotation", direction=_floats(direction),
                           point=_floats(point), inertia=float(inertia),
-                          initial_velocity=float(omega))
-            for surface, (point, direction), inertia, omega in rotors),
+                          initial_velocity=float(omega), carries=(volume,))
+            for surface, volume, (point, direction), inertia, omega in rotors),
         analysis=AnalysisSpec(type="dynamic", integrator="newmark",
                               duration=DURATION_FACTOR * t_c,
                               output_interval=t_c / FRAMES_PER_CONTACT),

@@ -272,6 +272,27 @@ def newmark_start(nm: Newmark, v0: np.ndarray, contact: ContactModel) -> State:
     return State(0, z, v0.copy(), acc, lam, 0.0, f_c, np.zeros_like(z), None)
 
 
+def newmark_free_step(s: State, nm: Newmark, contact: ContactModel) -> State | None:
+    """The next step of a rigid flight to first touch; None where the flight ends.
+
+    ``s`` must be in rigid motion: ``z`` and ``v`` in the stiffness's null
+    space (rigid bodies and the volumes they carry), no acceleration, no
+    contact or plastic force. Then the step's solve returns ``z + dt v``:
+    ``K (z + dt v) = 0`` makes ``K_eff (z + dt v) = c0 M (z + dt v)``, the
+    step's right-hand side, and the acceleration stays zero. So while every
+    gap stays open at the new position and the zone has not moved, the step
+    is that sum, without the solve; it differs from the solved one by the
+    solve's rounding. None: a gap closes or the zone moved, take the full step.
+    """
+    z = s.z + nm.dt * s.v
+    lam, _ = contact.forces(z)
+    if np.any(lam > 0.0) or contact.moved(z):
+        return None
+    Kz = nm.K_product @ z
+    return State(s.n + 1, z, s.v, s.a, lam, 0.5 * float(z @ Kz), s.f_contact, s.f_plastic,
+                 s.active, Kz)
+
+
 def newmark_step(s: State, nm: Newmark, contact: ContactModel,
                  solve: Callable[[np.ndarray, np.ndarray | None, np.ndarray], StepContact],
                  plastic=None, max_projections: int = 30) -> State:

@@ -26,18 +26,18 @@ Tolerances, set from the integrator before any run:
   Hertz impact checks hold ``|1 - e|`` to 1%);
 - the energy error at most 1e-3 at every step count (as ``hertz_impact.py``).
 
-What it measured (2026-11-27, default level, 60 against 240 steps): the
-quantities the calibrated law is made of are converged, the largest
-approach within 0.07%, the fitted law's force at it within 0.23% and the
-restitution within 1e-4 at both speeds; the peak force is not: 1.8% (100
-r/min) and 2.7% (1000 r/min) below the 240-step run, and not monotonically
-(at 100 r/min 45.33, 45.01 and 46.15 N at 60, 120 and 240 steps), because
-it is the top of the teeth's vibration riding on the quasi-static force
-(46.2 N against the law's 43.9 N), which each step size resolves
-differently; the contact time moves by 0.9%. The energy error at 60 steps
-is 8.2e-4 and 1.6e-3. The study therefore fails on those three figures
-(see ``docs/tolerances.md``), and fewer steps per contact are not
-justified: at 40 the peak force is 3.1% low.
+What it measured (2026-11-28, default level, 60 against 240 steps), since
+each rotor carries its sector (the pair starts in rigid motion): peak force
+within 0.14% (100 r/min) and 0.13% (1000 r/min), largest approach within
+0.03%, contact time within 0.02%, the fitted law's force within 0.10% and
+restitution within 5e-5; energy error 4.4e-4 and 4.5e-4 at 60 steps. It
+fails on the energy error at the coarser steps only: 1.85e-3 and 1.01e-3 at
+30 and 40 steps (100 r/min), 1.53e-3 at 30 (1000 r/min). Before, the
+sectors started at rest behind their turning hubs, which struck them and set
+the teeth vibrating: the peak force was the top of that vibration riding on
+the quasi-static force, 1.8% and 2.7% below the 240-step run and not
+monotonic in the step (45.33, 45.01, 46.15 N at 60, 120, 240 steps), the
+contact time within 0.9%, the energy error 8.2e-4 and 1.6e-3 at 60 steps.
 """
 
 from __future__ import annotations

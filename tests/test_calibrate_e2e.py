@@ -89,6 +89,12 @@ def test_calibration_outputs(calibrated):
     # (wave loss only); the approach and force are checked against a static
     # solve of the same mesh in test_tooth_impact_against_its_quasi_static_solve.
     assert 0.98 < fe["restitution"] <= 1.0 + 1e-3
+    # Each rotor carries its sector, so the pair flies rigidly to first touch and
+    # closes at the speed its rotors were given: the probe's velocity (at the FE node
+    # of the first touch, along its normal) differs from the contact analysis' only
+    # by where that node and normal lie, of order h / R (a sector at rest behind
+    # its turning hub closed at 0.90 of it)
+    assert fe["impact_velocity"] == pytest.approx(case["impact_speed"], rel=1e-3)
     # Newmark's average acceleration conserves kinetic + strain + penalty energy
     # up to the contact switches (the sphere impacts close to 1e-4).
     assert fe["energy_error"] < 1e-3
@@ -167,14 +173,15 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
     kinetic energy on the static force-approach curve, which gives the
     largest approach. The impact lasts many periods of the teeth's lowest
     modes, so the FE must reach it within 1% (a 1% error of the force over
-    the loading branch moves it by 0.7%; measured 0.02%). The force
-    oscillates about the static curve with the teeth's vibration that the
-    impact starts, and the peak can sit anywhere in that swing:
-    ``validation/mesh_cycle.py`` measures the swing on the same stage and
-    level as 7.9% of the local force at most (the sector's neighbour teeth,
-    free on the rim, vibrate with the loaded ones; +5.5% at that impact's
-    peak), so the peak force is held to 8% (measured +4.6% here; the
-    force averaged over the swing is checked to 2% by that study).
+    the loading branch moves it by 0.7%; measured -0.25%). The force
+    oscillates about the static curve with the teeth's vibration, and the
+    peak can sit anywhere in that swing. The peak force is held to 8%, set
+    when the sectors started at rest behind their turning hubs, which struck
+    them: ``validation/mesh_cycle.py`` then measured the swing on the same
+    stage and level as 7.9% of the local force at most (+4.6% here). Since
+    each rotor carries its sector the swing is 0.5% and this peak +0.08%;
+    the 8% is kept as it was set (the force averaged over the swing is
+    checked to 2% by that study).
 
     Action and reaction, in the static solve at the impact's largest approach:
     K u sums to zero to round-off, and the reactions of the two hubs are equal

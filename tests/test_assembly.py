@@ -51,3 +51,20 @@ def test_matrices_equal_scikit_fem(order, curved):
         outside = A - A.multiply(R.astype(bool))
         assert outside.nnz == 0 or abs(outside).max() <= 1e-13 * abs(R).max()
         assert A.nnz >= 0.999 * R.nnz
+
+
+@pytest.mark.parametrize(("order", "curved"), [(1, False), (2, False), (2, True)])
+def test_von_mises_equals_scikit_fem(order, curved):
+    """The compiled element means of the von Mises stress against scikit-fem's
+    interpolation, for a smooth displacement with every strain component."""
+    mesh = two_material_box(order, curved)
+    model = el.build_model(mesh, (STEEL, SOFT))
+    x = mesh.points[mesh.point_dof >= 0]
+    u = np.zeros(model.n_dofs)
+    dofs = 3 * mesh.point_dof[mesh.point_dof >= 0]
+    for c in range(3):
+        u[dofs + c] = 1e-4 * np.sin(2.0 * x[:, c] + x[:, (c + 1) % 3]) * (1.0 + x[:, (c + 2) % 3])
+    vm, ref = el.von_mises(model, u), el.von_mises_skfem(model, u)
+    # the same quadrature and map, sums in another order: a few ulps of each mean
+    np.testing.assert_allclose(vm, ref, rtol=1e-12)
+    assert ref.min() > 0.0

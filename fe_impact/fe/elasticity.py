@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from fe_impact.fe.assembly import element_data, mass_matrix, stiffness_matrix
+from fe_impact.fe.assembly import element_data, mass_matrix, stiffness_matrix, von_mises_means
 from fe_impact.fe.case import MaterialSpec
 from fe_impact.fe.mesh import FEMesh
 
@@ -75,13 +75,18 @@ def element_materials(mesh: FEMesh, materials: tuple[MaterialSpec, ...]) -> np.n
     return mat
 
 
+def stiffness_intorder(order: int) -> int:
+    """The model's quadrature order: stiffness integrands are polynomials of degree
+    2(p-1), exact for affine elements."""
+    return max(2 * (order - 1), 1)
+
+
 def build_model(mesh: FEMesh, materials: tuple[MaterialSpec, ...]) -> ElasticModel:
     """Assemble the stiffness matrix of the whole mesh."""
     from skfem import Basis, ElementTetP1, ElementTetP2, ElementVector
 
     elem = ElementTetP2() if mesh.order == 2 else ElementTetP1()
-    # Stiffness integrands are polynomials of degree 2(p-1): exact for affine elements.
-    intorder = max(2 * (mesh.order - 1), 1)
+    intorder = stiffness_intorder(mesh.order)
     basis = Basis(mesh.skfem_mesh, ElementVector(elem), intorder=intorder)
     mat = element_materials(mesh, materials)
     if np.any(mat < 0):
@@ -123,7 +128,20 @@ def assemble_stiffness(basis, mat: np.ndarray, materials) -> sp.csr_matrix:
 
 
 def von_mises(model: ElasticModel, u: np.ndarray) -> np.ndarray:
-    """Element-mean von Mises stress (Pa) of the DOF vector ``u``; shape (n_elements,)."""
+    """Element-mean von Mises stress (Pa) of the DOF vector ``u``; shape (n_elements,).
+
+    The compiled element loop (:func:`~fe_impact.fe.assembly.von_mises_means`) on the
+    basis' quadrature; :func:`von_mises_skfem` where the model has no element data.
+    """
+    if model.elements is None:
+        return von_mises_skfem(model, u)
+    mu = np.array([lame_from_youngpoisson(m.youngs_modulus, m.poisson_ratio)[1]
+                   for m in model.materials])[model.material]
+    return von_mises_means(model.elements, u, mu, stiffness_intorder(model.mesh.order))
+
+
+def von_mises_skfem(model: ElasticModel, u: np.ndarray) -> np.ndarray:
+    """:func:`von_mises` through scikit-fem's interpolation (its reference)."""
     lam_mu = np.array([lame_from_youngpoisson(m.youngs_modulus, m.poisson_ratio)
                        for m in model.materials])[model.material]
     grad = model.basis.interpolate(u).grad  # (3, 3, ne, nq)

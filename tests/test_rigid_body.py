@@ -38,15 +38,18 @@ AXIS_POINT = (0.5e-3, 0.5e-3, 0.0)
 OMEGA = 200.0        # rad/s: 0.2 rad over the run, 0.14 mm at the corners
 
 
-def rotor_case(path, integrator: str, time_step: float, duration: float) -> Case:
+def rotor_case(path, integrator: str, time_step: float, duration: float,
+               surface: str = "upper_all", omega: float = OMEGA,
+               carries: tuple[str, ...] = ()) -> Case:
+    """The rotor tied to ``surface`` of the upper cube, turning at ``omega``."""
     return Case(
         path=path.with_suffix(".case"), mesh_file=path, unit="m",
         materials=(MaterialSpec(("upper", "lower"), E, NU, RHO),),
         contacts=(ContactSpec("upper_bottom", "lower_top", penalty=1e14),),
         supports=(SupportSpec("lower_all", (0, 1, 2)),),
-        rigid_bodies=(RigidBodySpec("upper_all", "rotation", (0.0, 0.0, 1.0),
+        rigid_bodies=(RigidBodySpec(surface, "rotation", (0.0, 0.0, 1.0),
                                     point=AXIS_POINT, inertia=0.0,
-                                    initial_velocity=OMEGA),),
+                                    initial_velocity=omega, carries=carries),),
         analysis=AnalysisSpec(type="dynamic", integrator=integrator, duration=duration,
                               time_step=time_step, output_interval=duration / 4))
 
@@ -103,17 +106,7 @@ OMEGA_SLOW = 2.0
 
 def carried_case(path, carries: tuple[str, ...]) -> Case:
     """The rotor tied to the upper cube's bottom face only, carrying the cube or not."""
-    duration = 1e-3
-    return Case(
-        path=path.with_suffix(".case"), mesh_file=path, unit="m",
-        materials=(MaterialSpec(("upper", "lower"), E, NU, RHO),),
-        contacts=(ContactSpec("upper_bottom", "lower_top", penalty=1e14),),
-        supports=(SupportSpec("lower_all", (0, 1, 2)),),
-        rigid_bodies=(RigidBodySpec("upper_bottom", "rotation", (0.0, 0.0, 1.0),
-                                    point=AXIS_POINT, inertia=0.0,
-                                    initial_velocity=OMEGA_SLOW, carries=carries),),
-        analysis=AnalysisSpec(type="dynamic", integrator="newmark", duration=duration,
-                              time_step=duration / 40, output_interval=duration / 4))
+    return rotor_case(path, "newmark", 1e-3 / 40, 1e-3, "upper_bottom", OMEGA_SLOW, carries)
 
 
 def test_a_carried_cube_turns_with_its_rotor_and_its_flight_needs_no_solve():

@@ -218,6 +218,7 @@ class DynamicSolver:
             self.cpu_timings["condensation"] = self.condensed.cpu_seconds
             self.cpu_timings["factorisation"] -= self.condensed.cpu_seconds
         self.log = _RunLog(SeparationWatch(a.stop_after_separation))
+        self._flying = False    # in the rigid flight to first touch (set by each run)
 
     def _scheme(self) -> tuple[ti.CentralDifference | ti.Newmark, CondensedContact | None]:
         """The integrator and, for Newmark, the factorised and condensed contact problem."""

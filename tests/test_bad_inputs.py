@@ -262,6 +262,11 @@ SOLVE = [
                    'value = [0.0, 0.0, -1.0]')),
      ["[rigid_bodies[0]] carries = 'upper'", "from [initial_velocities[0]]",
       "one initial velocity"]),
+    ("carries a supported volume",
+     solve(changed(sdof(), "initial_velocity = -1.0", 'initial_velocity = -1.0\n'
+                   'carries = ["lower"]')),
+     ["[rigid_bodies[0]] carries = 'lower'", "supports[0] (surface 'lower_all')",
+      "move with its body alone"]),
     ("carries in a static case",
      static('fix = ["z"]', 'fix = ["z"]\n[[rigid_bodies]]\nsurface = "sphere_equator"\n'
             'motion = "translation"\ndirection = [0.0, 0.0, 1.0]\nvalues = [0.0]\n'

@@ -71,7 +71,8 @@ gear on its rotor turns with it from the first instant. Volumes not carried
 and not in ``[[initial_velocities]]`` start at rest even where the body's
 surface drags them (a rod struck by a mass tied to its end). A volume takes
 one initial velocity: it may be carried by one body at most, and not also
-listed in ``[[initial_velocities]]``.
+listed in ``[[initial_velocities]]``. A carried volume moves with its body
+alone: no support holds it and no other rigid body's surface lies on it.
 
 Parsing checks every key and value; :meth:`Case.check_groups` then checks the
 group names against a loaded mesh. :func:`fe_impact.fe.casefile.write_case`
@@ -288,6 +289,27 @@ class Case:
         dup = sorted({v for v in assigned if assigned.count(v) > 1})
         if dup:
             raise CaseError(f"{self.path.name}: volume groups {dup} have more than one material")
+        self._check_carried(mesh)
+
+    def _check_carried(self, mesh: FEMesh) -> None:
+        """A carried volume moves with its body only: no support holds it and no other
+        rigid body's surface lies on it (it would start against them)."""
+        import numpy as np
+
+        holders = [(f"supports[{j}]", s.surface) for j, s in enumerate(self.supports)]
+        for i, b in enumerate(self.rigid_bodies):
+            if not b.carries:
+                continue
+            others = [(f"rigid_bodies[{j}]", o.surface) for j, o in enumerate(self.rigid_bodies)
+                      if j != i]
+            for name in b.carries:
+                points = np.unique(mesh.cells[mesh.volume(name)])
+                for where, surface in holders + others:
+                    if np.isin(mesh.surface_points(surface), points).any():
+                        raise CaseError(
+                            f"{self.path.name}: [rigid_bodies[{i}]] carries = '{name}', which "
+                            f"{where} (surface '{surface}') also moves or holds: a carried "
+                            "volume must move with its body alone")
 
 
 def _group(getter, name: str, where: str) -> None:

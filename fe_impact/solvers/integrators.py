@@ -281,8 +281,10 @@ def newmark_free_step(s: State, nm: Newmark, contact: ContactModel) -> State | N
     ``K (z + dt v) = 0`` makes ``K_eff (z + dt v) = c0 M (z + dt v)``, the
     step's right-hand side, and the acceleration stays zero. So while every
     gap stays open at the new position and the zone has not moved, the step
-    is that sum, without the solve; it differs from the solved one by the
-    solve's rounding. None: a gap closes or the zone moved, take the full step.
+    is that sum, without the solve; it differs from the solved one only by
+    rounding (the solve's, and K's on the rigid field, which the solved steps
+    feel as a slight stiffness). None: a gap closes or the zone moved, take the
+    full step.
     """
     z = s.z + nm.dt * s.v
     lam, _ = contact.forces(z)

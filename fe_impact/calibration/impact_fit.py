@@ -313,9 +313,11 @@ def _refine(residual: _Residual, starts: list[np.ndarray], lower: np.ndarray,
 
 #: Laws whose residual (the root of the least-squares cost) is within this
 #: fraction of the best one's fit the history equally well. On the tooth
-#: impacts the residual is mostly the teeth's vibration, which no IMPACT law
-#: follows (1.5-2% of the peak force), and a thousandth of it separates no
-#: two laws; the ranges of ``cmax`` and ``d`` over such laws
+#: impacts the residual is what no IMPACT law follows (the teeth's vibration
+#: and the FE contact's discrete onset: 1.5-2.2% of the peak force on the
+#: default impacts when the sectors started at rest behind their hubs,
+#: 0.08-0.26% since they start in rigid motion), and a thousandth of it
+#: separates no two laws; the ranges of ``cmax`` and ``d`` over such laws
 #: (:attr:`ImpactFit.cmax_range`, ``d_range``) say how far the history
 #: determines the damping. Seen on the nearly elastic stage-2 impact at
 #: 100 r/min (e = 0.9998): two starts 1e-5 apart in residual, cmax 0.50 and

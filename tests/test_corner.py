@@ -216,6 +216,63 @@ def test_loft_stations_keep_half_a_fine_step_from_the_fine_window():
     assert np.max(np.diff(window)) <= FINE_STEP * (1 + 1e-9)
 
 
+@pytest.mark.parametrize("stage", [1, 2])
+def test_the_meshed_face_flank_runs_on_along_its_tangent_beyond_the_face_ends(stage):
+    # The lofts' section planes cross the face's ends, so the flank they interpolate
+    # must be smooth there: beyond an end its polar angle is continued along its
+    # tangent in the radius (held constant, its kink put the loft up to 13 um off
+    # the flank next to the end and turned a corner mesh's elements over). Checked
+    # at heights on the generated flank and on its continuation below h_ext: the
+    # value is continuous (to rounding), and the slope beyond equals the slope
+    # inside from a Richardson-extrapolated one-sided difference (error O(h^2)).
+    # The continuation's own slope is a one-sided difference over 1 um: its
+    # relative error is about |a''/a'| x 0.5 um, and |a''/a'| is at most 450 /m
+    # at the inner end (the slope changes by 1% over 20 um there), 2.3e-4: 1e-3.
+    from fe_impact.meshing.pairgeometry import _FaceFlank
+
+    face = GearPair.from_gearset(GEARSET, stage).face
+    flank = _FaceFlank(face)
+    h = 1e-6
+    for height in (flank.h_ext + 1e-3, flank.h_ext - 0.5e-3):
+        for end, out in ((face.face_inner, -1.0), (face.face_outer, 1.0)):
+            def angle(radius, height=height):
+                return float(flank.angle(np.array([radius]), np.array([height]))[0])
+
+            at = angle(end)
+            beyond = [angle(end + out * d) for d in (1e-4, 2e-4)]
+            slope_beyond = (beyond[1] - beyond[0]) / (out * 1e-4)
+            assert beyond[0] - at == pytest.approx(slope_beyond * out * 1e-4, abs=1e-15)
+            one_sided = [(at - angle(end - out * k * h)) / (out * k * h) for k in (1, 2)]
+            slope_inside = 2.0 * one_sided[0] - one_sided[1]
+            assert abs(slope_inside) > 0.1   # rad/m: the flank does turn with the radius
+            assert slope_beyond == pytest.approx(slope_inside, rel=1e-3)
+
+
+@pytest.mark.slow   # one coarse corner mesh, ~20 s
+def test_a_recess_corner_refined_up_to_the_face_end_meshes(tmp_path):
+    # Stage 2's recess corner at 180 mm/s (the seed presets' fastest there) touches
+    # 1.1 mm from the face gear's inner end with a design ellipse 1.07 mm long: its
+    # micron-sized elements reach the end. With the flank held constant beyond the
+    # end, every retry down to the isotropic mesh left an element turned over
+    # (quality -0.35 at stretch 1) when the flank nodes were moved onto the flank.
+    from fe_impact.calibration.sweep import (
+        GAP_FRACTION,
+        MAX_GAP,
+        ImpactCase,
+        Settings,
+        case_contact,
+    )
+    from fe_impact.gears.pairanalysis import hertz_impact_estimate
+    from fe_impact.meshing.toothpair import MIN_SICN, build_pair
+
+    case = ImpactCase(2, GEARSET.stages[1].teeth, "corner-recess", 0.18)
+    contact, roll = case_contact(case, Settings(level="coarse"), GEARSET)
+    hit = hertz_impact_estimate(GEARSET, 2, roll, case.impact_speed, contact)
+    pair = build_pair(GEARSET, 2, roll, "coarse", 2, min(MAX_GAP, GAP_FRACTION * hit.delta_max),
+                      case.impact_speed, tmp_path, contact=contact)
+    assert pair.stats.min_sicn > MIN_SICN
+
+
 @pytest.mark.slow
 def test_the_stage_3_recess_face_gear_sector_lofts():
     # OCC's smooth loft fails through the first section of this sector (beyond the

@@ -41,7 +41,10 @@ class _FaceFlank:
     Exact (:meth:`FaceGearTooth.flank`) from the tip down to ``h_ext``, the
     lowest height the shaper involute generates over the whole face (plus a
     micrometre); below it the flank's angular position is continued along its
-    tangent at constant radius down to the root plane.
+    tangent at constant radius down to the root plane. Beyond the face's ends
+    (the ring cuts the sector there) it is continued along its tangent in the
+    radius, so that the lofts, whose sections cross the ends, interpolate a
+    smooth function there (:meth:`angle`).
     """
 
     def __init__(self, face: FaceGearTooth) -> None:
@@ -54,9 +57,31 @@ class _FaceFlank:
         return np.arctan2(p[..., 0], p[..., 2])
 
     def angle(self, radius: NDArray, height: NDArray) -> NDArray:
-        """Polar angle ``atan2(x, z)`` [rad] of the flank at radius ``L`` and height ``h``."""
+        """Polar angle ``atan2(x, z)`` [rad] of the flank at radius ``L`` and height ``h``.
+
+        Beyond the face's ends the angle goes on along its tangent in ``L`` (a
+        one-sided difference from inside). Held constant there, its kink at an
+        end put the lofts, whose section planes ``z = c`` cross the cylinder
+        ``L = face_inner`` over about 0.3 mm of ``L``, up to 12.9 um (median
+        5.2 um) off the flank within 0.15 mm of that end; moved onto the flank,
+        the micron-sized elements of a corner contact refined up to it turned
+        over (stage 2's recess corner at 180 mm/s, 1.1 mm from the inner end;
+        continued, up to 1.8 um, median 0.12 um).
+        """
         radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
-        radius = np.clip(radius, self.face.face_inner, self.face.face_outer)
+        inner, outer = self.face.face_inner, self.face.face_outer
+        clipped = np.clip(radius, inner, outer)
+        angle = self._angle_on_face(clipped, height)
+        beyond = radius != clipped
+        if np.any(beyond):
+            step = 1e-6 * np.where(radius[beyond] < inner, 1.0, -1.0)   # into the face
+            slope = (self._angle_on_face(clipped[beyond] + step, height[beyond])
+                     - angle[beyond]) / step
+            angle[beyond] += (radius[beyond] - clipped[beyond]) * slope
+        return angle
+
+    def _angle_on_face(self, radius: NDArray, height: NDArray) -> NDArray:
+        """:meth:`angle` at radii within the face."""
         h = np.maximum(height, self.h_ext)
         angle = self._angle(radius, h)
         below = height < self.h_ext

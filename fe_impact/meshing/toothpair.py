@@ -230,10 +230,10 @@ def pair_key(gearset, spec: PairSpec) -> str:
     if fields["contact"] == "flank":   # the key of the meshes before corner contacts
         del fields["contact"]
     # format 2: corner meshes whose loft stations keep half a fine step from the fine
-    # window (pairgeometry._stations_through); flank meshes are unchanged
+    # window (pairgeometry._stations_through); format 3: every mesh, the face-gear
+    # flank continued along its tangent beyond the face's ends (_FaceFlank.angle)
     payload = json.dumps(
-        {"gearset": asdict(gearset), "spec": fields,
-         "format": 1 if spec.contact == "flank" else 2},
+        {"gearset": asdict(gearset), "spec": fields, "format": 3},
         sort_keys=True, default=repr,
     )
     return hashlib.sha256(payload.encode()).hexdigest()[:16]

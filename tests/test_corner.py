@@ -219,16 +219,18 @@ def test_loft_stations_keep_half_a_fine_step_from_the_fine_window():
 @pytest.mark.parametrize("stage", [1, 2])
 def test_the_meshed_face_flank_runs_on_along_its_tangent_beyond_the_face_ends(stage):
     # The lofts' section planes cross the face's ends, so the flank they interpolate
-    # must be smooth there: beyond an end its polar angle is continued along its
-    # tangent in the radius (held constant, its kink put the loft up to 13 um off
-    # the flank next to the end and turned a corner mesh's elements over). Checked
-    # at heights on the generated flank and on its continuation below h_ext: the
-    # value is continuous (to rounding), and the slope beyond equals the slope
-    # inside from a Richardson-extrapolated one-sided difference (error O(h^2)).
-    # The continuation's own slope is a one-sided difference over 1 um: its
-    # relative error is about |a''/a'| x 0.5 um, and |a''/a'| is at most 450 /m
-    # at the inner end (the slope changes by 1% over 20 um there), 2.3e-4: 1e-3.
-    from fe_impact.meshing.pairgeometry import _FaceFlank
+    # must be smooth there: beyond an end its polar angle leaves along its tangent
+    # in the radius, its slope running out to zero over END_BLEND (held constant,
+    # its kink put the loft up to 13 um off the flank next to the end and turned a
+    # corner mesh's elements over). Checked at heights on the generated flank and
+    # on its continuation below h_ext: the value is continuous (to rounding); the
+    # slopes just beyond and just inside the end, each a Richardson-extrapolated
+    # one-sided difference (exact for the blend's quadratic, O(h^2) inside), are
+    # equal; beyond the blend the angle stays put. The continuation's own slope
+    # is a one-sided difference over 1 um: its relative error is about
+    # |a''/a'| x 0.5 um, and |a''/a'| is at most 450 /m at the inner end (the
+    # slope changes by 1% over 20 um there), 2.3e-4: 1e-3.
+    from fe_impact.meshing.pairgeometry import END_BLEND, _FaceFlank
 
     face = GearPair.from_gearset(GEARSET, stage).face
     flank = _FaceFlank(face)
@@ -238,14 +240,21 @@ def test_the_meshed_face_flank_runs_on_along_its_tangent_beyond_the_face_ends(st
             def angle(radius, height=height):
                 return float(flank.angle(np.array([radius]), np.array([height]))[0])
 
-            at = angle(end)
-            beyond = [angle(end + out * d) for d in (1e-4, 2e-4)]
-            slope_beyond = (beyond[1] - beyond[0]) / (out * 1e-4)
-            assert beyond[0] - at == pytest.approx(slope_beyond * out * 1e-4, abs=1e-15)
-            one_sided = [(at - angle(end - out * k * h)) / (out * k * h) for k in (1, 2)]
-            slope_inside = 2.0 * one_sided[0] - one_sided[1]
-            assert abs(slope_inside) > 0.1   # rad/m: the flank does turn with the radius
-            assert slope_beyond == pytest.approx(slope_inside, rel=1e-3)
+            def slope(direction, at=end, angle=angle):
+                one_sided = [(angle(at + direction * k * h) - angle(at)) / (direction * k * h)
+                             for k in (1, 2)]
+                return 2.0 * one_sided[0] - one_sided[1]
+
+            inside, beyond = slope(-out), slope(out)
+            assert abs(inside) > 0.1   # rad/m: the flank does turn with the radius
+            assert beyond == pytest.approx(inside, rel=1e-3)
+            jump = angle(end + out * 1e-9) - angle(end) - inside * out * 1e-9
+            # rad: 0.1 nm at 0.1 m; the flank's own root finding settles the angle to
+            # about 1e-13 (a step of the held angle was 8.6e-10 here)
+            assert abs(jump) < 1e-12
+            far = [angle(end + out * (END_BLEND + d)) for d in (0.0, 1e-3)]
+            assert far[1] == far[0]
+            assert far[0] - angle(end) == pytest.approx(out * inside * END_BLEND / 2, rel=1e-3)
 
 
 @pytest.mark.slow   # one coarse corner mesh, ~20 s

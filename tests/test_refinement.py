@@ -44,13 +44,13 @@ def test_refinement_scales_every_size_and_keeps_the_map(gearset):
 
 def test_refinement_one_keeps_the_cache_keys_of_existing_meshes(gearset):
     """The key of refinement 1 is the hash of the spec without the field (the key
-    of the meshes made before it, in the key's format 3 of every mesh since the
-    face-gear flank's continuation beyond the face's ends); another refinement
+    of the meshes made before it, in the key's format 4 of every mesh since the
+    face-gear flank's smooth continuation beyond the face's ends); another refinement
     is another mesh."""
     spec = PairSpec(stage=1, level="coarse", gap=2e-6, impact_speed=0.1)
     fields = asdict(spec)
     del fields["contact"], fields["refinement"]
-    payload = json.dumps({"gearset": asdict(gearset), "spec": fields, "format": 3},
+    payload = json.dumps({"gearset": asdict(gearset), "spec": fields, "format": 4},
                          sort_keys=True, default=repr)
     assert pair_key(gearset, spec) == hashlib.sha256(payload.encode()).hexdigest()[:16]
     assert pair_key(gearset, replace(spec, refinement=1.5)) != pair_key(gearset, spec)

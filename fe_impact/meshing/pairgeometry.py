@@ -35,6 +35,11 @@ MM = 1e3  # the gmsh model and the mesh file are in millimetres
 
 
 # -- exact flank models ------------------------------------------------------------------
+#: Length [m] over which the face-gear flank's slope in the radius runs out to zero
+#: beyond the face's ends (:meth:`_FaceFlank.angle`).
+END_BLEND = 2e-3
+
+
 class _FaceFlank:
     """The face-gear flank ``side=+1`` as meshed (face-gear frame, metres).
 
@@ -59,14 +64,18 @@ class _FaceFlank:
     def angle(self, radius: NDArray, height: NDArray) -> NDArray:
         """Polar angle ``atan2(x, z)`` [rad] of the flank at radius ``L`` and height ``h``.
 
-        Beyond the face's ends the angle goes on along its tangent in ``L`` (a
-        one-sided difference from inside). Held constant there, its kink at an
-        end put the lofts, whose section planes ``z = c`` cross the cylinder
-        ``L = face_inner`` over about 0.3 mm of ``L``, up to 12.9 um (median
-        5.2 um) off the flank within 0.15 mm of that end; moved onto the flank,
-        the micron-sized elements of a corner contact refined up to it turned
-        over (stage 2's recess corner at 180 mm/s, 1.1 mm from the inner end;
-        continued, up to 1.8 um, median 0.12 um).
+        Beyond the face's ends the angle leaves along its tangent in ``L`` (a
+        one-sided difference from inside), and its slope runs out linearly to
+        zero over :data:`END_BLEND`: C1 across the end, constant beyond the
+        blend. Held constant from the end, its kink there put the lofts, whose
+        section planes ``z = c`` cross the cylinder ``L = face_inner`` over
+        about 0.3 mm of ``L``, up to 12.9 um (median 5.2 um) off the flank
+        within 0.15 mm of that end; moved onto the flank, the micron-sized
+        elements of a corner contact refined up to it turned over (stage 2's
+        recess corner at 180 mm/s, 1.1 mm from the inner end): now 1.8 um,
+        median 0.26 um. The tangent continued without end (1.8 um, median
+        0.12 um) took the flank of stage 3's approach corner 3-4 mm beyond its
+        inner end far enough sideways that OCC's loft failed.
         """
         radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
         inner, outer = self.face.face_inner, self.face.face_outer
@@ -77,7 +86,8 @@ class _FaceFlank:
             step = 1e-6 * np.where(radius[beyond] < inner, 1.0, -1.0)   # into the face
             slope = (self._angle_on_face(clipped[beyond] + step, height[beyond])
                      - angle[beyond]) / step
-            angle[beyond] += (radius[beyond] - clipped[beyond]) * slope
+            out = np.minimum(np.abs(radius[beyond] - clipped[beyond]), END_BLEND)
+            angle[beyond] -= np.sign(step) * slope * (out - out**2 / (2.0 * END_BLEND))
         return angle
 
     def _angle_on_face(self, radius: NDArray, height: NDArray) -> NDArray:

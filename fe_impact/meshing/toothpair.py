@@ -230,10 +230,11 @@ def pair_key(gearset, spec: PairSpec) -> str:
     if fields["contact"] == "flank":   # the key of the meshes before corner contacts
         del fields["contact"]
     # format 2: corner meshes whose loft stations keep half a fine step from the fine
-    # window (pairgeometry._stations_through); format 3: every mesh, the face-gear
-    # flank continued along its tangent beyond the face's ends (_FaceFlank.angle)
+    # window (pairgeometry._stations_through); format 4: every mesh, the face-gear
+    # flank continued smoothly beyond the face's ends (_FaceFlank.angle; format 3
+    # continued it along its tangent without end)
     payload = json.dumps(
-        {"gearset": asdict(gearset), "spec": fields, "format": 3},
+        {"gearset": asdict(gearset), "spec": fields, "format": 4},
         sort_keys=True, default=repr,
     )
     return hashlib.sha256(payload.encode()).hexdigest()[:16]

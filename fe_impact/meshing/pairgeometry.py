@@ -73,9 +73,11 @@ class _FaceFlank:
         within 0.15 mm of that end; moved onto the flank, the micron-sized
         elements of a corner contact refined up to it turned over (stage 2's
         recess corner at 180 mm/s, 1.1 mm from the inner end): now 1.8 um,
-        median 0.26 um. The tangent continued without end (1.8 um, median
-        0.12 um) took the flank of stage 3's approach corner 3-4 mm beyond its
-        inner end far enough sideways that OCC's loft failed.
+        median 0.26 um. With the tangent continued without end (1.8 um,
+        median 0.12 um) OCC's loft of stage 3's approach corner failed: its
+        first sections lie millimetres beyond the inner end (3.7 mm at stage
+        1), where that continuation moves the flank furthest; held constant,
+        or blended over 1 or 2 mm, every corner of the three stages lofts.
         """
         radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
         inner, outer = self.face.face_inner, self.face.face_outer

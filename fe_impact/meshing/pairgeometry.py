@@ -77,7 +77,8 @@ class _FaceFlank:
         median 0.12 um) OCC's loft of stage 3's approach corner failed: its
         first sections lie millimetres beyond the inner end (3.7 mm at stage
         1), where that continuation moves the flank furthest; held constant,
-        or blended over 1 or 2 mm, every corner of the three stages lofts.
+        or blended over 1 or 2 mm, the approach and recess corners of the
+        three stages all loft (gaps of 1 and 2 um).
         """
         radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
         inner, outer = self.face.face_inner, self.face.face_outer

@@ -47,9 +47,9 @@ class _FaceFlank:
     lowest height the shaper involute generates over the whole face (plus a
     micrometre); below it the flank's angular position is continued along its
     tangent at constant radius down to the root plane. Beyond the face's ends
-    (the ring cuts the sector there) it is continued along its tangent in the
-    radius, so that the lofts, whose sections cross the ends, interpolate a
-    smooth function there (:meth:`angle`).
+    (the ring cuts the sector there) it leaves along its tangent in the radius
+    and levels off over :data:`END_BLEND`, so that the lofts, whose sections
+    cross the ends, interpolate a smooth function there (:meth:`angle`).
     """
 
     def __init__(self, face: FaceGearTooth) -> None:
@@ -86,11 +86,12 @@ class _FaceFlank:
         angle = self._angle_on_face(clipped, height)
         beyond = radius != clipped
         if np.any(beyond):
-            step = 1e-6 * np.where(radius[beyond] < inner, 1.0, -1.0)   # into the face
+            into = np.where(radius[beyond] < inner, 1.0, -1.0)   # from the end into the face
+            step = 1e-6 * into
             slope = (self._angle_on_face(clipped[beyond] + step, height[beyond])
                      - angle[beyond]) / step
             out = np.minimum(np.abs(radius[beyond] - clipped[beyond]), END_BLEND)
-            angle[beyond] -= np.sign(step) * slope * (out - out**2 / (2.0 * END_BLEND))
+            angle[beyond] -= into * slope * (out - out**2 / (2.0 * END_BLEND))
         return angle
 
     def _angle_on_face(self, radius: NDArray, height: NDArray) -> NDArray:

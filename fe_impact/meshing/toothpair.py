@@ -227,7 +227,7 @@ class PairMesh:
 def pair_key(gearset, spec: PairSpec) -> str:
     """Deterministic hash (16 hex digits) of the gear set and the mesh parameters."""
     fields = spec.key_fields()
-    if fields["contact"] == "flank":   # the key of the meshes before corner contacts
+    if fields["contact"] == "flank":   # left out, as before corner contacts existed
         del fields["contact"]
     # format 2: corner meshes whose loft stations keep half a fine step from the fine
     # window (pairgeometry._stations_through); format 4: every mesh, the face-gear

@@ -19,7 +19,8 @@ from fe_impact.errors import MeshError
 from fe_impact.gears import default_gearset
 from fe_impact.gears.pairanalysis import PairSpec
 from fe_impact.meshing.sizing import LEVELS, design_pair, level_of
-from fe_impact.meshing.toothpair import pair_key
+from fe_impact.meshing.toothpair import MESH_FORMAT, pair_key
+from fe_impact.meshing.twopair import two_pair_key
 
 
 @pytest.fixture(scope="module")
@@ -42,18 +43,24 @@ def test_refinement_scales_every_size_and_keeps_the_map(gearset):
                                                             rel=1e-12), name
 
 
-def test_refinement_one_keeps_the_cache_keys_of_existing_meshes(gearset):
-    """The key of refinement 1 is the hash of the spec without the field (the key
-    of the meshes made before it, in the key's format 4 of every mesh since the
-    face-gear flank's smooth continuation beyond the face's ends); another refinement
-    is another mesh."""
+def test_every_field_of_the_spec_and_the_format_enter_the_mesh_keys(gearset):
+    """A mesh key is the hash of the gear set, every field of the spec and the
+    mesh format: a spec that differs in any one field is another mesh, and so is
+    the same spec meshed by the two-pair builder."""
     spec = PairSpec(stage=1, level="coarse", gap=2e-6, impact_speed=0.1)
-    fields = asdict(spec)
-    del fields["contact"], fields["refinement"]
-    payload = json.dumps({"gearset": asdict(gearset), "spec": fields, "format": 4},
-                         sort_keys=True, default=repr)
+    payload = json.dumps({"gearset": asdict(gearset), "spec": asdict(spec),
+                          "format": MESH_FORMAT}, sort_keys=True, default=repr)
     assert pair_key(gearset, spec) == hashlib.sha256(payload.encode()).hexdigest()[:16]
-    assert pair_key(gearset, replace(spec, refinement=1.5)) != pair_key(gearset, spec)
+    changed = {"stage": 2, "roll_angle_deg": 1.0, "level": "default", "refinement": 1.5,
+               "order": 1, "gap": 3e-6, "impact_speed": 0.2, "n_face_teeth": 2,
+               "rim_modules": 3.0, "neighbour_teeth": 0, "design_force": 100.0,
+               "velocity_split": "pinion", "pinion_axial_position": 0.1,
+               "contact": "corner-approach"}
+    assert set(changed) == set(asdict(spec)), "a field of PairSpec is not varied here"
+    keys = {pair_key(gearset, replace(spec, **{name: value}))
+            for name, value in changed.items()}
+    assert len(keys) == len(changed) and pair_key(gearset, spec) not in keys
+    assert two_pair_key(gearset, spec) != pair_key(gearset, spec)
 
 
 @pytest.mark.parametrize("value", [0.1, 5.0, math.nan, True, "2"])

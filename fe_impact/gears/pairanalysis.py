@@ -128,14 +128,6 @@ class PairSpec:
     contact: str = "flank"
     refinement: float = 1.0
 
-    def key_fields(self) -> dict:
-        """The fields, as the mesh caches' keys hash them: ``refinement`` left out
-        at 1, so that the keys of meshes made before the field existed hold."""
-        fields = asdict(self)
-        if fields["refinement"] == 1.0:
-            del fields["refinement"]
-        return fields
-
     def __post_init__(self) -> None:
         if self.contact not in CONTACTS:
             raise GeometryError(f"contact = {self.contact!r}; pick one of {list(CONTACTS)}")

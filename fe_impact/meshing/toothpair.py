@@ -131,6 +131,7 @@ __all__ = [
     "MeshStats",
     "PairMesh",
     "build_pair",
+    "mesh_key",
     "pair_key",
 ]
 
@@ -224,20 +225,29 @@ class PairMesh:
         return self.analysis.design_ellipse
 
 
-def pair_key(gearset, spec: PairSpec) -> str:
-    """Deterministic hash (16 hex digits) of the gear set and the mesh parameters."""
-    fields = spec.key_fields()
-    if fields["contact"] == "flank":   # left out, as before corner contacts existed
-        del fields["contact"]
-    # format 2: corner meshes whose loft stations keep half a fine step from the fine
-    # window (pairgeometry._stations_through); format 4: every mesh, the face-gear
-    # flank continued smoothly beyond the face's ends (_FaceFlank.angle; format 3
-    # continued it along its tangent without end)
+#: Version of what a mesh of a given gear set and spec holds; part of every mesh key,
+#: so a change of how the solids or the mesh are made invalidates the caches.
+#: 2: corner meshes' loft stations keep half a fine step from the fine window
+#: (pairgeometry._stations_through); 4: the face-gear flank continued smoothly beyond
+#: the face's ends (_FaceFlank.angle; 3 continued it along its tangent without end);
+#: 5: the keys hash every field of the spec (before, ``contact = "flank"`` and
+#: ``refinement = 1`` were left out) and two-pair meshes carry the format too.
+MESH_FORMAT = 5
+
+
+def mesh_key(gearset, spec: PairSpec, **kind) -> str:
+    """Deterministic hash (16 hex digits) of the gear set, every field of ``spec``,
+    :data:`MESH_FORMAT` and ``kind`` (e.g. ``two_pair=1``: another builder's meshes)."""
     payload = json.dumps(
-        {"gearset": asdict(gearset), "spec": fields, "format": 4},
+        {"gearset": asdict(gearset), "spec": asdict(spec), "format": MESH_FORMAT, **kind},
         sort_keys=True, default=repr,
     )
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+
+def pair_key(gearset, spec: PairSpec) -> str:
+    """The key of the tooth-pair mesh of ``spec`` (:func:`mesh_key`)."""
+    return mesh_key(gearset, spec)
 
 
 # -- meshing --------------------------------------------------------------------------------

@@ -42,7 +42,6 @@ mesh).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import math
@@ -85,6 +84,7 @@ from fe_impact.meshing.toothpair import (
     _statistics,
     _turned_balls,
     _volume_mesh,
+    mesh_key,
     mesh_with_retries,
 )
 
@@ -339,10 +339,8 @@ class TwoPairMesh:
 
 
 def two_pair_key(gearset, spec: PairSpec) -> str:
-    """Deterministic hash (16 hex digits) of the gear set and the mesh parameters."""
-    payload = json.dumps({"gearset": asdict(gearset), "spec": spec.key_fields(), "two_pair": 1},
-                         sort_keys=True, default=repr)
-    return hashlib.sha256(payload.encode()).hexdigest()[:16]
+    """The key of the two-pair mesh of ``spec`` (:func:`~fe_impact.meshing.toothpair.mesh_key`)."""
+    return mesh_key(gearset, spec, two_pair=1)
 
 
 def _mesh(model, design: TwoPairDesign, spec: PairSpec, path: Path, started: float) -> MeshStats:

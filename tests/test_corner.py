@@ -284,9 +284,10 @@ def test_a_recess_corner_refined_up_to_the_face_end_meshes(tmp_path):
 
 @pytest.mark.slow
 def test_the_stage_3_recess_face_gear_sector_lofts():
-    # OCC's smooth loft fails through the first section of this sector (beyond the
-    # ring's inner cut); the builder drops it and lofts the rest, leaving no stray
-    # entities of the failed attempt. One volume, with its flank and hub faces found.
+    # OCC's smooth loft failed through the first section of this sector (beyond the
+    # ring's inner cut) while the face-gear flank was held constant beyond the face's
+    # ends; its smooth continuation lofts all of them. One volume, with its flank and
+    # hub faces found.
     import gmsh
 
     from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair

@@ -616,17 +616,7 @@ def _add_face_gear(model, pair: GearPair, analysis: PairAnalysis,
     angle = contact.face_angle
     sections = [_face_section(pair, flank, angle, c, spec.n_face_teeth, bottom,
                               spec.neighbour_teeth, edge_radius) for c in cs]
-    try:
-        solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
-    except MeshError:
-        # OCC's smooth loft failed through the first section, beyond the ring's inner
-        # cut, at stage 3's recess corner (any four sections from it failed, evenly
-        # spaced too; the rest lofted). Without it, when the next section still lies
-        # beyond the cut, the loft still spans the ring.
-        if not (len(cs) > 3 and cs[1] < f.face_inner * np.cos(widest)):
-            raise
-        cs, sections = cs[1:], sections[1:]
-        solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
+    solid = _loft(model, sections, int(np.argmin(np.abs(cs - z_c))))
     ring = _annulus(model, f.face_inner * MM, f.face_outer * MM, (bottom - margin) * MM,
                     (f.tip_height + margin) * MM)
     out, _ = model.occ.intersect([(3, solid.volume)], ring)

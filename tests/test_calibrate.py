@@ -106,10 +106,11 @@ def test_case_ids_are_stable():
     assert c.id == "stage2_mesh_300rpm"
 
 
-def test_resume_key_covers_settings_and_version(monkeypatch):
-    # A stored result is reused only for the same case, settings and fe-impact
-    # version: each of them must change the key.
+def test_resume_key_covers_settings_version_and_mesh_format(monkeypatch):
+    # A stored result is reused only for the same case, settings, fe-impact
+    # version and mesh format: each of them must change the key.
     from fe_impact.calibration import sweep as cal
+    from fe_impact.meshing import toothpair
 
     c = cal.ImpactCase(2, 68, "mesh", 0.0387, 300.0)
     key = cal.case_hash(c, cal.Settings(), "gear set")
@@ -118,6 +119,12 @@ def test_resume_key_covers_settings_and_version(monkeypatch):
                                 "gear set")
     assert key != cal.case_hash(c, cal.Settings(level="coarse"), "gear set")
     assert key != cal.case_hash(c, cal.Settings(), "another gear set")
+    monkeypatch.setattr(toothpair, "MESH_FORMAT", toothpair.MESH_FORMAT + 1)
+    assert key != cal.case_hash(c, cal.Settings(), "gear set")
+    position = cal.PositionCase(1, 56, 2.0, (50.0, 100.0))
+    moved = cal.case_hash(position, cal.Settings(), "gear set")
+    monkeypatch.undo()
+    assert moved != cal.case_hash(position, cal.Settings(), "gear set")
     monkeypatch.setattr(cal, "__version__", "0.0.0-other")
     assert key != cal.case_hash(c, cal.Settings(), "gear set")
 

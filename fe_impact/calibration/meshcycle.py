@@ -327,14 +327,13 @@ def plan_corner_positions(gearset, stages: list[int] | None = None,
 
 def case_hash(case: PositionCase, level: str, order: int, gearset_text: str,
               refinement: float = 1.0) -> str:
-    """Resume key of a position (case, mesh level and its refinement, gear set, schema,
-    version)."""
-    key = asdict(case)
-    if key["contact"] == "flank":   # the key of the positions before corner positions
-        del key["contact"]
-    mesh = level if refinement == 1.0 else [level, refinement]
-    blob = json.dumps([key, mesh, order, gearset_text, SCHEMA, __version__],
-                      sort_keys=True)
+    """Resume key of a position: the case, its mesh level, refinement and order, the
+    gear set, the record schema, the fe-impact version and the mesh format (a
+    result on meshes made otherwise is computed again)."""
+    from fe_impact.meshing.toothpair import MESH_FORMAT
+
+    blob = json.dumps([asdict(case), level, refinement, order, gearset_text, SCHEMA,
+                       __version__, MESH_FORMAT], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 

@@ -294,17 +294,15 @@ def check_scheduler_address(address: str) -> str:
 
 
 def case_hash(case: ImpactCase | PositionCase, settings: Settings, gearset_text: str) -> str:
-    """Resume key: the case, the run's settings, the gear set, the schema and the
-    fe-impact version (a result from another version is computed again)."""
+    """Resume key: the case, the run's settings, the gear set, the schema, the
+    fe-impact version and the mesh format (a result from another version or on
+    meshes made otherwise is computed again)."""
     if isinstance(case, PositionCase):
         return meshcycle.case_hash(case, settings.position_level, settings.order, gearset_text)
-    key = asdict(case)
-    if not key["basis"]:  # eq. 4/5 speeds: the key of the cases before switches had bases
-        del key["basis"]
-    if key["roll_angle_deg"] is None:   # the run's roll angle: the keys before it was a field
-        del key["roll_angle_deg"]
-    blob = json.dumps([key, settings.impact_key(), gearset_text, SCHEMA, __version__],
-                      sort_keys=True)
+    from fe_impact.meshing.toothpair import MESH_FORMAT
+
+    blob = json.dumps([asdict(case), settings.impact_key(), gearset_text, SCHEMA, __version__,
+                       MESH_FORMAT], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 

@@ -332,6 +332,37 @@ def test_residual_indentation_of_a_synthetic_unloading():
         assert impact_measurements(hist, 0.0, plastic=False)["residual_indentation"] == 0.0
 
 
+def test_a_touch_at_first_contact_is_not_a_separation():
+    # A force for one step while the approach is still just below zero (a node
+    # touching before the probe has closed), then none: the bodies have not been
+    # pressed together, so the run must not stop there. After a real contact
+    # (positive approach) they are apart once the approach is negative again for
+    # the given fraction of the contact's duration.
+    from fe_impact.solvers.measurements import SeparationWatch
+
+    watch = SeparationWatch(0.25)
+    assert not watch.apart(0.0, 5.0, -1e-9)
+    assert not watch.apart(1.0, 0.0, -5e-10)
+    assert not watch.apart(2.0, 0.0, 1e-9)
+    for t in range(3, 11):
+        assert not watch.apart(float(t), 100.0, 1e-6)
+    # contact from t = 0 to 10: apart 2.5 after the last step with a force
+    assert not watch.apart(11.0, 0.0, 1e-7)       # no force, but still pressed in
+    assert not watch.apart(12.0, 0.0, -1e-8)      # 2 < 0.25 x 10
+    assert watch.apart(12.5, 0.0, -1e-8)
+    assert not SeparationWatch(None).apart(1.0, 0.0, -1.0)
+
+
+def test_no_contact_has_no_time_of_peak_force():
+    from fe_impact.solvers.dynamic import impact_measurements
+
+    t = np.linspace(0.0, 1.0, 11)
+    hist = {"time": t, "contact_force": np.zeros_like(t), "approach": -1e-6 + 0 * t,
+            "normal_velocity": 0 * t, "total_energy": np.ones_like(t)}
+    m = impact_measurements(hist, 0.0)
+    assert m["peak_force"] == 0.0 and m["time_of_peak_force"] is None and m["contacts"] == 0
+
+
 def _newmark_sphere_impact(tmp_path):
     """The coarse sphere at 1 m/s on a 0.5 kg rigid mass, Newmark at t_c / 20: its
     case and mesh file (the factorisation tests below)."""

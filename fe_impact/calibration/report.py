@@ -678,7 +678,8 @@ def _titles(c: CalibrationRecord, summary: dict, w: _ContactWindow, t: float,
     """The three column headings of one impact's row."""
     side = _side_name(summary)
     t0 = summary.get("first_touch") or 0.0
-    t_peak = summary.get("time_of_peak_force", t)
+    t_peak = summary.get("time_of_peak_force")
+    t_peak = t if t_peak is None else t_peak
     return (f"{c.id}: v = {c.impact_speed:.3g} m/s, peak force {c.fe.peak_force:.4g} N at "
             f"{(t_peak - t0) * 1e6:.0f} us\n"
             f"frame at {(t - t0) * 1e6:.0f} us ({force:.4g} N); max von Mises near the "

@@ -125,14 +125,17 @@ class ImpactProbe:
 class SeparationWatch:
     """Tells when the bodies have been apart for ``fraction`` x the contact duration.
 
-    Apart means no contact force and a negative approach (they have moved
-    past the position of first touch), so a node chattering at first touch
-    does not count as a separation. ``fraction = None`` never stops.
+    Apart means no contact force and a negative approach after the bodies
+    have been pressed together (a positive approach while a force acted):
+    they have moved back past the position of first touch. A node chattering
+    at first touch, where the approach is still about zero, does not count
+    as a separation. ``fraction = None`` never stops.
     """
 
     fraction: float | None
     first_on: float | None = None   # time of the first step with a contact force (s)
     last_on: float | None = None    # time of the last one so far (s)
+    pressed: bool = False           # a step had a contact force and a positive approach
 
     def apart(self, t: float, force: float, approach: float) -> bool:
         if self.fraction is None:
@@ -141,8 +144,9 @@ class SeparationWatch:
             if self.first_on is None:
                 self.first_on = t
             self.last_on = t
+            self.pressed |= approach > 0.0
             return False
-        if self.last_on is None or approach >= 0.0:
+        if not self.pressed or approach >= 0.0:
             return False
         return t - self.last_on >= self.fraction * (self.last_on - self.first_on)
 
@@ -169,7 +173,8 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float,
     E = history["total_energy"]
     e0 = E[0] if len(E) else 0.0
     out = {"peak_force": float(F.max(initial=0.0)),
-           "time_of_peak_force": float(t[int(np.argmax(F))]) if len(F) else None,
+           "time_of_peak_force": float(t[int(np.argmax(F))]) if F.max(initial=0.0) > 0
+           else None,
            "max_approach": float(history["approach"].max(initial=-np.inf)) if len(F) else None,
            "energy_error": float(np.abs(E - e0).max() / e0) if e0 > 0 else None,
            "contact_duration": None, "first_touch": None, "separation": None,

@@ -50,6 +50,13 @@ def test_default_plan_is_three_stages_by_three_speeds():
     ({"stages": [4]}, r"--stages \[4\]: the gear set has stages 1..3"),
     ({"speeds_rpm": [100], "impact_speeds": [0.1]}, r"not both"),
     ({"impact_speeds": [-0.1]}, r"--impact-speeds \[-0.1\]: need positive"),
+    ({"stages": [1, 1]}, r"--stages \[1, 1\]: a value is repeated"),
+    ({"speeds_rpm": [100, 100]}, r"--speeds \[100, 100\]: a value is repeated"),
+    ({"impact_speeds": [0.01, 0.010000001]},
+     r"--impact-speeds: two speeds give the case stage1_mesh_10mms"),
+    ({"impact_speeds": [0.1], "switch": "eq5"}, r"--switch with --impact-speeds"),
+    ({"stages": [1], "switch": "both"}, r"--switch with --stages \[1\]: a switch goes into "
+                                        r"stage 2 or later"),
 ])
 def test_bad_plans(kwargs, pattern):
     with pytest.raises(CalibrationError, match=pattern):

@@ -235,6 +235,16 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
         if vals is not None and (not len(vals) or any(not v > 0 or not math.isfinite(v)
                                                       for v in vals)):
             raise CalibrationError(f"{name} {list(vals)}: need positive numbers")
+    for name, vals in (("--stages", stages), ("--speeds", speeds_rpm),
+                       ("--impact-speeds", impact_speeds)):
+        if vals is not None and len(set(vals)) != len(vals):
+            raise CalibrationError(f"{name} {list(vals)}: a value is repeated; give each once")
+    if switch and impact_speeds is not None:
+        raise CalibrationError("--switch with --impact-speeds: a switch's speed follows from "
+                               "the shaft speed; give --speeds (r/min) instead")
+    if switch and not any(s > 1 for s in stages):
+        raise CalibrationError(f"--switch with --stages {stages}: a switch goes into stage 2 "
+                               f"or later; add one of stages 2..{n} or drop --switch")
     pin = gearset.pinion
     alpha = math.radians(pin.pressure_angle_deg)
     base_radius = mesh_geometry(gearset).base_radius if switch in ("kinematic", "both") \
@@ -260,6 +270,12 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
                                          base_radius)
                     cases.append(ImpactCase(s, teeth, "switch", vk, float(rpm), "kinematic"))
     _check_impact_speeds(cases, impact_speeds is not None)
+    ids = [c.id for c in cases]
+    if len(set(ids)) != len(ids):
+        same = sorted({i for i in ids if ids.count(i) > 1})
+        option = "--impact-speeds" if impact_speeds is not None else "--speeds"
+        raise CalibrationError(f"{option}: two speeds give the case {same[0]} (ids keep four "
+                               "significant digits); give speeds that differ there")
     return cases
 
 

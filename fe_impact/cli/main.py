@@ -138,7 +138,8 @@ def _parser() -> argparse.ArgumentParser:
                    choices=("eq5", "kinematic", "both"),
                    help="also ratio-switch impacts into stages 2.., at each speed's seed "
                         "eq. 5 switching speed, its rigid-kinematics one, or both (the "
-                        "default when no value is given)")
+                        "default when no value is given); needs --speeds (not "
+                        "--impact-speeds) and a stage from 2 on")
     c.add_argument("--positions", type=_positions, default=None, metavar="N|DEG,...",
                    help="mesh cycle: quasi-static single-pair load-approach curves at N "
                         "positions along the path of contact (default 9, the ends 0.5%% of the "
@@ -171,12 +172,16 @@ def _parser() -> argparse.ArgumentParser:
                         "--switch cases strike where the presets' first contacts after a "
                         "switch touched; about 50 s the first time for a gear set, then "
                         "cached). Without it the switch cases strike at the pitch point")
-    c.add_argument("--level", default="default", help="mesh level: coarse, default or fine")
+    c.add_argument("--level", default="default",
+                   help="mesh level of the impacts: coarse, default or fine (default: default)")
     c.add_argument("--mesh-cycle-level", default=None, metavar="LEVEL",
                    help="mesh level of the mesh-cycle positions (default: one level below "
                         "--level, coarse at the least)")
-    c.add_argument("--integrator", default="newmark", help="newmark or explicit")
-    c.add_argument("--workers", type=int, help="local Dask workers (default: one per core)")
+    c.add_argument("--integrator", default="newmark",
+                   help="newmark or explicit (default: newmark)")
+    c.add_argument("--workers", type=int,
+                   help="local Dask workers (default: one per core, at most one per case; "
+                        "not used with --scheduler, whose workers run the cases)")
     c.add_argument("--scheduler", help="address of an existing dask.distributed scheduler")
     c.add_argument("--cache", type=Path, default=Path("cache"),
                    help="mesh cache folder (default: cache)")
@@ -277,13 +282,20 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         numba_folder,
         plan_cases,
     )
+    from fe_impact.defaults import LEVEL_NAMES
     from fe_impact.errors import CalibrationError
+    from fe_impact.fe.case import INTEGRATORS
     from fe_impact.gears import default_gearset, load_gearset
     from fe_impact.gears.gearset import _default_candidates
     from fe_impact.output.files import check_output_dir
 
     if args.workers is not None and args.workers < 1:
         raise CalibrationError(f"--workers {args.workers}: must be at least 1")
+    for option, value, allowed in (("--level", args.level, LEVEL_NAMES),
+                                   ("--mesh-cycle-level", args.mesh_cycle_level, LEVEL_NAMES),
+                                   ("--integrator", args.integrator, INTEGRATORS)):
+        if value is not None and value not in allowed:
+            raise CalibrationError(f"{option} {value!r}: pick one of {', '.join(allowed)}")
     if args.scheduler is not None:
         check_scheduler_address(args.scheduler)
     check_output_dir(args.out)

@@ -17,6 +17,7 @@ import fcntl
 import os
 import re
 import shutil
+import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -45,9 +46,10 @@ LOCK_NAME = ".lock"
 def check_output_dir(path: str | Path, option: str = "--out") -> Path:
     """``path`` if it is a folder or can be made one; else one line naming ``option``.
 
-    Nothing is created: this is meant to run before any computation, so that
-    a run is not lost to an output folder that turns out to be a file, to
-    lie under a file, or to be read-only.
+    Nothing is left behind (a probe folder is made and removed): this is meant
+    to run before any computation, so that a run is not lost to an output
+    folder that turns out to be a file, to lie under a file, or to be on a
+    file system that takes no folders (read-only, or virtual like /proc).
     """
     path = Path(path)
     if path.exists() and not path.is_dir():
@@ -61,6 +63,13 @@ def check_output_dir(path: str | Path, option: str = "--out") -> Path:
         raise FeImpactError(f"{option} {path}: cannot make the folder, {existing} is {what}")
     if not os.access(existing, os.W_OK | os.X_OK):
         raise FeImpactError(f"{option} {path}: {existing} is not writable")
+    # os.access says yes to root everywhere and knows nothing of read-only or
+    # virtual file systems (/proc): make a folder there and take it away again
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".fe-impact-probe-", dir=existing))
+    except OSError as exc:
+        raise FeImpactError(f"{option} {path}: cannot make a folder in {existing} "
+                            f"({exc.strerror or exc})") from None
     return path
 
 

@@ -143,3 +143,19 @@ def test_the_sweep_hands_out_impacts_stage_by_stage_then_positions():
     order = _sweep_order(plan_positions(gs, positions=3) + plan_cases(gs) + corners)
     assert [c.contact for c in order[:6]] == ["corner-approach"] * 3 + ["corner-recess"] * 3
     assert not any(getattr(c, "contact", "flank") != "flank" for c in order[6:])
+
+
+def test_checking_a_scheduler_address_keeps_the_distributed_loggers_level():
+    # Importing distributed sets its logger to INFO; the CLI sets WARNING before it
+    # checks --scheduler, and the run's workers would print at INFO if the check
+    # let the import reset it. A fresh interpreter: this one may have imported it.
+    import subprocess
+    import sys
+
+    code = ("import logging; logging.getLogger('distributed').setLevel(logging.WARNING); "
+            "from fe_impact.calibration.sweep import check_scheduler_address; "
+            "check_scheduler_address('tcp://127.0.0.1:8786'); "
+            "print(logging.getLogger('distributed').level)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120)
+    assert out.stdout.strip() == str(logging.WARNING)

@@ -296,8 +296,23 @@ def _check_impact_speeds(cases: list[ImpactCase], given: bool) -> None:
                            f"are (0, {MAX_IMPACT_SPEED:g}] m/s")
 
 
+def _import_distributed() -> None:
+    """Import dask.distributed, keeping the level of its logger.
+
+    Importing it sets that logger to INFO, which would print every worker's
+    start and, at shutdown, a closed-connection traceback; the level the
+    caller chose stays (the CLI: WARNING unless -vv).
+    """
+    log = logging.getLogger("distributed")
+    level = log.level
+    import dask.distributed  # noqa: F401
+
+    log.setLevel(level)
+
+
 def check_scheduler_address(address: str) -> str:
     """``address`` if it names a Dask scheduler (``[tcp://]host:port``), else a clear error."""
+    _import_distributed()
     from distributed.comm.addressing import parse_address, parse_host_port
 
     try:
@@ -775,15 +790,7 @@ class CaseStopped(CalibrationError):
 def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
               progress, finish: Callable[[Draw], Path] | None = None,
               numba: Path | None = None) -> Path | None:
-    log = logging.getLogger("distributed")
-    level = log.level
-    import dask.distributed  # noqa: F401
-
-    # Importing distributed sets its logger to INFO, which would print every
-    # worker's start and, at shutdown, a closed-connection traceback; keep the
-    # level the caller chose (the CLI: WARNING unless -vv).
-    log.setLevel(level)
-
+    _import_distributed()
     with contextlib.ExitStack() as stack:
         return _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
                               sweep, progress, stack, finish, numba)

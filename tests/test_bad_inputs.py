@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from fe_impact.cli.main import main
-from fe_impact.gears.gearset import _default_candidates
+from fe_impact.gears.gearset import default_gearset_path
 from validation.hertz_static import DISPLACEMENTS
 from validation.impact_cases import NU, RHO, E
 
@@ -118,7 +118,7 @@ component = "z"
 values = {values}
 """
 
-SEED = next(p for p in _default_candidates() if p.is_file()).read_text()
+SEED = default_gearset_path().read_text()
 STATIC = CASE_TEMPLATE.format(mesh=MESHES / "hertz_coarse.msh", values=list(DISPLACEMENTS))
 # The two-block SDOF (tests/test_dynamic.py): a 1 mm cube with 10 g on a 1e12 N/m
 # spring, 1 m/s; contact time pi sqrt(m/k) = 0.314 us.

@@ -20,11 +20,11 @@ import pytest
 from fe_impact.atomic import standard_json
 from fe_impact.cli.main import main
 from fe_impact.gears import default_gearset
-from fe_impact.gears.gearset import _default_candidates
+from fe_impact.gears.gearset import default_gearset_path
 from fe_impact.gears.report import ROLL_TOLERANCE, TOP_LAND_MIN, stage_geometry
 from fe_impact.physics import hertz
 
-SEED = next(p for p in _default_candidates() if p.is_file())
+SEED = default_gearset_path()
 
 
 @pytest.fixture(scope="module")

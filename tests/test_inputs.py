@@ -15,11 +15,11 @@ import pytest
 from fe_impact.errors import CalibrationError, CaseError, FeImpactError, GeometryError
 from fe_impact.fe.case import load_case
 from fe_impact.gears import load_gearset
-from fe_impact.gears.gearset import _default_candidates
+from fe_impact.gears.gearset import default_gearset_path
 from fe_impact.inputs import Reader, check_choice, check_integer, check_number, read_document
 from fe_impact.switching import load_calibration
 
-SEED = next(p for p in _default_candidates() if p.is_file())
+SEED = default_gearset_path()
 
 
 # -- files ------------------------------------------------------------------------------

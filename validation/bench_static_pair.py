@@ -56,9 +56,9 @@ def run(quick: bool, out: Path | None = None) -> dict:
     """Mesh and solve the case; its figures (``out`` is not written: :func:`main` does)."""
     from fe_impact.calibration import meshcycle as mc
     from fe_impact.gears import default_gearset
-    from fe_impact.gears.gearset import _default_candidates
+    from fe_impact.gears.gearset import default_gearset_path
 
-    text = next(p for p in _default_candidates() if p.is_file()).read_text()
+    text = default_gearset_path().read_text()
     gs = default_gearset()
     level = "coarse" if quick else "default"
     case = mc.PositionCase(1, gs.stages[0].teeth, 0.0, FORCES, "")

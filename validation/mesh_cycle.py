@@ -229,9 +229,9 @@ NOMINAL_TOLERANCE = 0.05
 def seed_gearset() -> tuple[object, str]:
     """The seed gear set and its TOML text (the text enters the cache keys)."""
     from fe_impact.gears import default_gearset
-    from fe_impact.gears.gearset import _default_candidates
+    from fe_impact.gears.gearset import default_gearset_path
 
-    text = next(p for p in _default_candidates() if p.is_file()).read_text(
+    text = default_gearset_path().read_text(
         encoding="utf-8-sig")
     return default_gearset(), text
 

@@ -81,7 +81,7 @@ from fe_impact.calibration.meshcycle import PAIR_GAP, PositionCase, pair_force, 
 from fe_impact.fe.linalg import limit_threads
 from fe_impact.fe.mesh import load_mesh
 from fe_impact.gears import gearset_from_dict
-from fe_impact.gears.gearset import _default_candidates
+from fe_impact.gears.gearset import default_gearset_path
 from fe_impact.meshing.twopair import build_two_pair, two_pair_static_case, two_pair_zone
 from fe_impact.output.files import write_json
 from fe_impact.solvers.static import StaticSolver
@@ -119,10 +119,7 @@ class Curve:
 
 def _gearset_text() -> str:
     """The seed gear set's TOML text (what run_position is given)."""
-    for path in _default_candidates():
-        if path.is_file():
-            return path.read_text()
-    raise FileNotFoundError("seed.toml not found next to fe_impact.gears nor in geometry/")
+    return default_gearset_path().read_text(encoding="utf-8-sig")
 
 
 def positions(gearset, fractions=ZONE_FRACTIONS) -> list[float]:

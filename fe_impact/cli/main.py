@@ -285,8 +285,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from fe_impact.defaults import LEVEL_NAMES
     from fe_impact.errors import CalibrationError
     from fe_impact.fe.case import INTEGRATORS
-    from fe_impact.gears import default_gearset, load_gearset
-    from fe_impact.gears.gearset import _default_candidates
+    from fe_impact.gears import default_gearset_path, load_gearset
     from fe_impact.output.files import check_output_dir
 
     if args.workers is not None and args.workers < 1:
@@ -305,13 +304,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         # pass compiles the switching kernel into them, which the studies reuse
         numba = (None if args.scheduler is not None
                  else stack.enter_context(numba_folder(args.cache)))
-        if args.gearset is not None:
-            gearset = load_gearset(args.gearset)
-            text = args.gearset.read_text(encoding="utf-8-sig")
-        else:
-            gearset = default_gearset()
-            text = next(p for p in _default_candidates() if p.is_file()).read_text(
-                encoding="utf-8-sig")
+        path = args.gearset if args.gearset is not None else default_gearset_path()
+        gearset = load_gearset(path)
+        text = path.read_text(encoding="utf-8-sig")
         settings = Settings(level=args.level, integrator=args.integrator,
                             cycle_level=args.mesh_cycle_level)
         cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)

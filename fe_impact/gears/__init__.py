@@ -26,6 +26,7 @@ from fe_impact.gears.gearset import (
     Material,
     Pinion,
     default_gearset,
+    default_gearset_path,
     gearset_from_dict,
     load_gearset,
 )
@@ -65,6 +66,7 @@ __all__ = [
     "analyse_pair",
     "contact_ellipse",
     "default_gearset",
+    "default_gearset_path",
     "face_gear_limits",
     "gearset_from_dict",
     "hertz_impact_estimate",

@@ -92,6 +92,7 @@ __all__ = [
     "Material",
     "Pinion",
     "default_gearset",
+    "default_gearset_path",
     "gearset_from_dict",
     "load_gearset",
 ]
@@ -836,11 +837,9 @@ def _default_candidates() -> list[Path]:
     return [here / "seed.toml", here.parents[1] / "geometry" / "seed.toml"]
 
 
-def default_gearset() -> GearSet:
-    """The seed study's gear set (``geometry/seed.toml``), m = 3 for all gears.
-
-    Looks for ``seed.toml`` next to this module (a packaged copy) and then
-    in the source tree's ``geometry/`` directory.
+def default_gearset_path() -> Path:
+    """The file of the seed study's gear set: ``seed.toml`` next to this module (a
+    packaged copy), else in the source tree's ``geometry/`` directory.
 
     Raises
     ------
@@ -850,6 +849,11 @@ def default_gearset() -> GearSet:
     candidates = _default_candidates()
     for path in candidates:
         if path.is_file():
-            return load_gearset(path)
+            return path
     tried = ", ".join(str(p) for p in candidates)
     raise GeometryError(f"default gear set not found; looked for {tried}")
+
+
+def default_gearset() -> GearSet:
+    """The seed study's gear set (:func:`default_gearset_path`), m = 3 for all gears."""
+    return load_gearset(default_gearset_path())

@@ -74,8 +74,8 @@ def test_bad_settings(kwargs, pattern):
 
 
 @pytest.mark.parametrize("argv,pattern", [
-    (["--level", "huge"], "level = 'huge'"),
-    (["--mesh-cycle-level", "huge"], "mesh-cycle level = 'huge'"),
+    (["--level", "huge"], "--level 'huge': pick one of coarse, default, fine"),
+    (["--mesh-cycle-level", "huge"], "--mesh-cycle-level 'huge': pick one of coarse"),
     (["--stages", "0"], r"--stages \[0\]"),
     (["--workers", "0"], "--workers 0: must be at least 1"),
 ])

@@ -330,6 +330,10 @@ def test_calibration_interpolates_in_log_speed_and_clamps(tmp_path, caplog):
     # a stage with only "mesh" cases uses them for "switch" too (and says so)
     assert laws_set.law(2, 0.1, kind="switch").k == pytest.approx(2e10, rel=1e-12)
     assert any("switch" in note for note in laws_set.notes)
+    # and the reports' list of sources says it, not only the file's name
+    switch = laws_set.table(2, "switch")
+    assert switch.kind == "switch" and switch.source.endswith("its mesh cases (no switch case)")
+    assert laws_set.table(2, "mesh").source == "calibration.json"
     with caplog.at_level(logging.WARNING, logger="fe_impact.switching.calibration"):
         assert laws_set.law(1, 10.0).k == 3e10  # clamped to the fastest case
     assert "outside the calibrated range" in caplog.text

@@ -54,7 +54,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -529,7 +529,10 @@ def load_calibration(path: str | Path, gearset: GearSet,
                          "used")
         for kind in FLANK_KINDS:
             if (stage, kind) not in tables:
-                tables[(stage, kind)] = tables[(stage, present[0])]
+                other = tables[(stage, present[0])]
+                tables[(stage, kind)] = replace(
+                    other, kind=kind,
+                    source=f"{other.source}, its {present[0]} cases (no {kind} case)")
                 notes.append(f"stage {stage}: no {kind!r} case, {present[0]!r} cases used")
         for kind in CORNER_KINDS.values():
             if (stage, kind) in tables:

@@ -384,6 +384,8 @@ CALIBRATE = [
     ("--positions within one pitch", calibrate("--positions", "0,5"),
      ["--positions 0,5", "less than one angular pitch (18.947 deg)"]),
     ("--positions 1", calibrate("--positions", "1"), ["--positions 1", "need at least 2"]),
+    ("--positions one angle", calibrate("--positions", "3.5"),
+     ["--positions", "'3.5': one roll angle", "a count of positions"]),
     ("--positions a", calibrate("--positions", "a"), ["--positions", "comma-separated numbers"]),
     ("--positions and --no-mesh-cycle", calibrate("--positions", "3", "--no-mesh-cycle"),
      ["--positions and --no-mesh-cycle: give one or the other"]),

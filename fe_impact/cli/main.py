@@ -263,13 +263,19 @@ def _list_of(cast, plural: str, singular: str):
 _int_list = _list_of(int, "integers", "integer")
 
 
+_float_list = _list_of(float, "numbers", "number")
+
+
 def _positions(text: str) -> int | list[float]:
     """``--positions``: a count (an integer) or roll angles (comma-separated numbers)."""
     if "," not in text and text.strip().lstrip("+").isdigit():
         return int(text)
-    return _float_list(text)
-
-_float_list = _list_of(float, "numbers", "number")
+    angles = _float_list(text)
+    if len(angles) == 1:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: one roll angle; give a count of positions (an integer, e.g. 9) or "
+            "two or more roll angles in degrees, comma-separated")
+    return angles
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:

@@ -56,23 +56,8 @@ SLOW_TESTS: dict[str, tuple[str, ...]] = {
 }
 
 
-#: The files that take longest, longest first (seconds of their tests summed, from
-#: ``--durations`` of the whole suite on two cores, 2026-11-28: 182, 105, 95, 95, 93,
-#: 71, 53); the suite runs them first, then the other files with the most slow
-#: tests first.
-LONG_FILES = ("test_calibrate_e2e.py", "test_validation_quick.py", "test_mesh_retry.py",
-              "test_validation_mesh_cycle.py", "test_interrupts.py",
-              "test_two_pair_sector.py", "test_toothmesh.py")
-
-
 def pytest_collection_modifyitems(config, items):
-    """Mark the tests of :data:`SLOW_TESTS`; warn about entries that match nothing;
-    put the files with the most slow tests first.
-
-    ``make test`` hands whole files to two workers in collection order, each
-    taking the next file when it is free: a long file collected last (the
-    alphabet puts the validation studies there) would run alone at the end.
-    """
+    """Mark the tests of :data:`SLOW_TESTS`; warn about entries that match nothing."""
     used: set[tuple[str, str]] = set()
     files = set()
     for item in items:
@@ -90,14 +75,6 @@ def pytest_collection_modifyitems(config, items):
         warnings.warn(pytest.PytestWarning(
             f"tests/conftest.py SLOW_TESTS entries match no collected test: {stale}"),
             stacklevel=1)
-    slow: dict[Path, int] = {}
-    for item in items:
-        slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
-    first = {path: i for i, path in enumerate(dict.fromkeys(item.path for item in items))}
-    rank = {name: i for i, name in enumerate(LONG_FILES)}
-    # stable: a file's tests keep their order, files of equal weight theirs
-    items.sort(key=lambda item: (rank.get(item.path.name, len(rank)), -slow[item.path],
-                                 first[item.path]))
 
 
 def hertz_case(folder: Path, committed: str, h_contact: float, order: int = 2) -> Path:

@@ -58,7 +58,7 @@ def run(quick: bool, out: Path | None = None) -> dict:
     from fe_impact.gears import default_gearset
     from fe_impact.gears.gearset import default_gearset_path
 
-    text = default_gearset_path().read_text()
+    text = default_gearset_path().read_text(encoding="utf-8-sig")
     gs = default_gearset()
     level = "coarse" if quick else "default"
     case = mc.PositionCase(1, gs.stages[0].teeth, 0.0, FORCES, "")

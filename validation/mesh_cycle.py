@@ -231,8 +231,7 @@ def seed_gearset() -> tuple[object, str]:
     from fe_impact.gears import default_gearset
     from fe_impact.gears.gearset import default_gearset_path
 
-    text = default_gearset_path().read_text(
-        encoding="utf-8-sig")
+    text = default_gearset_path().read_text(encoding="utf-8-sig")
     return default_gearset(), text
 
 

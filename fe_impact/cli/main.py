@@ -261,8 +261,6 @@ def _list_of(cast, plural: str, singular: str):
 
 
 _int_list = _list_of(int, "integers", "integer")
-
-
 _float_list = _list_of(float, "numbers", "number")
 
 

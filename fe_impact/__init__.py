@@ -5,4 +5,4 @@ surfaces -> mesh -> assembly -> contact -> time integration -> calibration
 -> lumped model -> results.
 """
 
-__version__ = "0.3.0"
+__version__ = "0.3.1"

@@ -222,6 +222,50 @@ def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeyp
     assert json.loads((tmp_path / "summary.json").read_text())["switching"] == "stopped"
 
 
+def test_report_names_the_fits_that_stopped_at_a_bound_or_did_not_converge():
+    # fit_impact_law's message is the optimiser's status, then one remark per
+    # parameter at a bound; a fit without remarks that converged is not listed.
+    from types import SimpleNamespace
+
+    from fe_impact.calibration.report import _fit_remarks
+
+    def case(cid, success, message):
+        return SimpleNamespace(id=cid, fit_quality=SimpleNamespace(success=success,
+                                                                   message=message))
+
+    clean = case("clean", True, "`ftol` termination condition is satisfied.")
+    bound = case("stage1_mesh_100rpm", True, "`ftol` termination condition is satisfied.; "
+                 "d at its upper bound")
+    lost = case("stage3_mesh_100rpm", False, "The maximum number of function evaluations "
+                "is exceeded.")
+    assert _fit_remarks([clean, SimpleNamespace(id="old", fit_quality=None)]) == []
+    lines = _fit_remarks([clean, bound, lost])
+    assert lines[1].startswith("Fits to read with care")
+    assert lines[-2:] == ["- stage1_mesh_100rpm: d at its upper bound",
+                          "- stage3_mesh_100rpm: not converged (The maximum number of "
+                          "function evaluations is exceeded.)"]
+
+
+def test_terminal_summary_gives_each_kind_of_impact_its_own_line():
+    # A tip edge's law spans other K and exponents than the flanks'; beside each
+    # kind's span stands that kind's own closed form.
+    from fe_impact.calibration.report import terminal_summary
+
+    def case(kind, speed, k, closed_k):
+        return {"stage": 1, "kind": kind, "impact_speed": speed,
+                "impact": {"k": k, "exponent": 1.4, "cmax": 2.0},
+                "closed_form": {"k": closed_k, "exponent": 1.5}}
+
+    doc = {"cases": [case("mesh", 0.0125, 1.2e10, 1.9e10), case("mesh", 0.125, 1.3e10, 1.9e10),
+                     case("corner-approach", 0.048, 4.3e9, 6.6e10)]}
+    lines = terminal_summary(doc)
+    assert len(lines) == 2
+    assert lines[0].startswith("stage 1: 2 FE impacts at 12.5-125 mm/s: K 1.2e+10-1.3e+10")
+    assert "closed form 1.9e+10" in lines[0]
+    assert lines[1].startswith("         1 FE approach-corner impact at 48 mm/s: K 4.3e+09 ")
+    assert "closed form 6.6e+10" in lines[1]
+
+
 def test_report_names_the_impacts_whose_damping_the_history_leaves_open():
     from types import SimpleNamespace
 

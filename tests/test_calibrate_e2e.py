@@ -107,13 +107,14 @@ def test_calibration_outputs(calibrated):
     models = case["restitution_models"]
     assert models["v_y_eq15"] == pytest.approx(0.0866, rel=1e-3)
     assert models["seed_eq14"] == 1.0
-    # The tooth's own yield-onset speed: its Hertz impact there (effective mass,
-    # equivalent radius) loads the TCA ellipse to p0 = 1.6 Y.
+    # The tooth's own yield-onset speed: its Hertz impact there (the record's
+    # effective mass, the one its fit and closed form take; the equivalent radius)
+    # loads the TCA ellipse to p0 = 1.6 Y.
     tca = analyse_pair(default_gearset(), PairSpec(stage=1, level="coarse",
                                                    gap=case["initial_gap"],
                                                    impact_speed=case["impact_speed"]))
     e_star = tca.effective_modulus
-    hit = hertz.impact(tca.masses.effective_mass, models["v_y_tooth"], tca.equivalent_radius,
+    hit = hertz.impact(tca_mass, models["v_y_tooth"], tca.equivalent_radius,
                        e_star)
     rx, ry = tca.contact.relative.radii
     p0 = hertz.ellipse_contact(hit.force_max, rx, ry, e_star).p0

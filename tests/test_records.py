@@ -123,10 +123,15 @@ def test_calibration_file_round_trip(tmp_path):
     assert read_calibration(path) == cal
 
 
-def test_nan_in_a_required_field_is_written_null_and_refused_on_reading(tmp_path):
-    rec = _record(impact=ImpactParameters(math.nan, 1.5, 1.0, 1e-6))
-    path = write_record(tmp_path / "result.json", rec)
-    assert _strict(path.read_text())["impact"]["k"] is None
+def test_nan_in_a_required_field_is_refused_when_built_and_when_read(tmp_path):
+    # A record is not built with a value it could not read back: null is written
+    # for a value that is not finite, and reading refuses null where it is required.
+    with pytest.raises(CalibrationError, match=r"ImpactParameters\.k = nan: must be a finite"):
+        ImpactParameters(math.nan, 1.5, 1.0, 1e-6)
+    data = _record().to_dict()
+    data["impact"]["k"] = None
+    path = tmp_path / "result.json"
+    path.write_text(json.dumps(data))
     with pytest.raises(CalibrationError, match=r"result\.json: \[impact\] k = None: must be"):
         read_record(path)
 

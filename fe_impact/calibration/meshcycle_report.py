@@ -75,7 +75,8 @@ def position_law(records: list[PositionRecord],
                 "roll_angle_deg": r.roll_angle_deg, "k": r.stiffness, "exponent": r.exponent,
                 "fit_error": r.fit_error, "nominal_stiffness": r.nominal_stiffness,
                 "edge": r.edge, "n_dofs": r.n_dofs, "forces": r.forces,
-                "approaches": r.approaches, "hertz_approaches": r.hertz_approaches}
+                "approaches": r.approaches, "hertz_approaches": r.hertz_approaches,
+                "resolved": r.resolved}
     return law
 
 
@@ -181,12 +182,17 @@ def _corner_lines(section: dict) -> list[str]:
              "rounding in the corner laws (restitution and damping stay closed forms). "
              "Beside it, the Hertz approach of the rounding's ellipse alone (no bending), "
              "the closed form's premise: a smaller FE approach means the contact does not "
-             "stay on the rounding (it spreads onto the flank beside it).", "",
+             "stay on the rounding (it spreads onto the flank beside it). Marked *: a force "
+             "whose Hertz patch is narrower than one element, where the approach is modelled "
+             "as on the positions (Hertz plus the FE's compliance beyond it), so its ratio "
+             "says nothing of where the contact lies.", "",
              "| stage | edge | roll (deg) | K | exponent | fit error | DOFs | FE / Hertz "
              "approach at the forces (N) |", "|---|---|---|---|---|---|---|---|"]
     for stage, side, c in rows:
-        ratios = ", ".join(f"{a / h:.2f} ({f:.0f})" for f, a, h in zip(
-            c.get("forces", []), c.get("approaches", []), c.get("hertz_approaches", []),
+        forces = c.get("forces", [])
+        resolved = c.get("resolved") or [True] * len(forces)   # older files: no marks
+        ratios = ", ".join(f"{a / h:.2f}{'' if ok else '*'} ({f:.0f})" for f, a, h, ok in zip(
+            forces, c.get("approaches", []), c.get("hertz_approaches", []), resolved,
             strict=True) if h > 0)
         lines.append(f"| {stage} | {side} | {c['roll_angle_deg']:+.3f} | {c['k']:.4g} | "
                      f"{c['exponent']:.3f} | {c['fit_error']:.1%} | {c.get('n_dofs', '-')} | "

@@ -139,11 +139,15 @@ class _Record:
 
     def __post_init__(self) -> None:
         # Plain Python numbers (numpy scalars come from the fits); a value that
-        # is not finite where null is allowed is stored as None, as it is written.
+        # is not finite where null is allowed is stored as None, as it is written,
+        # and refused where it is not (it would be written as null, which reading refuses).
         for f in fields(self):
             v, kind = getattr(self, f.name), _spec(f).kind
             if kind == "number" and isinstance(v, numbers.Real) and not isinstance(v, bool):
-                v = None if _spec(f).optional and not math.isfinite(v) else float(v)
+                if not math.isfinite(v) and not _spec(f).optional:
+                    raise CalibrationError(f"{type(self).__name__}.{f.name} = {v}: must be a "
+                                           "finite number")
+                v = None if not math.isfinite(v) else float(v)
             elif kind == "integer" and isinstance(v, numbers.Integral) and not isinstance(v, bool):
                 v = int(v)
             elif kind == "numbers" and v is not None:

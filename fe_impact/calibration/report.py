@@ -71,6 +71,35 @@ def _undetermined_damping(cases) -> list[str]:
             "impacts lose too little energy for the history to tell cmax from d.", "", *wide]
 
 
+def _fit_remarks(cases) -> list[str]:
+    """Lines on the fits to read with care: those the optimiser did not see converge,
+    those with a parameter stopped at its search bound, and those whose figures come
+    from the fast model (:func:`~fe_impact.calibration.impact_fit.fit_impact_law`'s
+    ``message``: the optimiser's status, then each such remark)."""
+    rows = []
+    for c in cases:
+        q = c.fit_quality
+        if q is None:
+            continue
+        status, *remarks = q.message.split("; ") if q.message else [""]
+        if not q.success:
+            remarks.insert(0, f"not converged ({status or 'no status'})")
+        if remarks:
+            rows.append(f"- {c.id}: {'; '.join(remarks)}")
+    if not rows:
+        return []
+    return ["", "Fits to read with care. A parameter at a bound of its search range (the "
+            "exponent's, or d's against the largest approach) stopped there: the history "
+            "would take it further, outside the range the law is fitted in, and the table "
+            "gives the bound. A fit not converged gives the optimiser's last point.", "",
+            *rows]
+
+
+#: The terminal summary's words for the kinds of FE impact other than the flanks' in mesh.
+_KIND_WORDS = {"switch": "ratio-switch", "corner-approach": "approach-corner",
+               "corner-recess": "recess-corner"}
+
+
 def terminal_summary(doc: dict) -> list[str]:
     """A few lines per stage of a calibration.json document, for the terminal: what
     the FE impacts fitted against the closed form, and the mesh cycle's single-pair
@@ -81,12 +110,15 @@ def terminal_summary(doc: dict) -> list[str]:
     for stage in sorted({int(c["stage"]) for c in cases} | {int(s) for s in cycle}):
         mine = [c for c in cases if int(c["stage"]) == stage]
         head = f"stage {stage}:"
-        if mine:
-            law = [c["impact"] for c in mine]
-            closed = mine[0]["closed_form"]
-            speeds = [1e3 * c["impact_speed"] for c in mine]
+        # a line per kind of contact: a flank's law beside a tip edge's would span both
+        for kind in dict.fromkeys(c.get("kind", "mesh") for c in mine):
+            group = [c for c in mine if c.get("kind", "mesh") == kind]
+            law = [c["impact"] for c in group]
+            closed = group[0]["closed_form"]
+            speeds = [1e3 * c["impact_speed"] for c in group]
+            what = "" if kind == "mesh" else f"{_KIND_WORDS.get(kind, kind)} "
             lines.append(
-                f"{head} {len(mine)} FE impact{'s' * (len(mine) > 1)} at "
+                f"{head} {len(group)} FE {what}impact{'s' * (len(group) > 1)} at "
                 f"{_span(speeds)} mm/s: K {_span([v['k'] for v in law])} N/m^e, exponent "
                 f"{_span([v['exponent'] for v in law])} (closed form {closed['k']:.3g}, "
                 f"{closed['exponent']:.3g}), cmax {_span([v['cmax'] for v in law])} N s/m")
@@ -151,6 +183,7 @@ def write_calibration_report(out: Path, calibration: Calibration,
                      f"{_fmt(i.d, '.4g', 1e6)} | {_fmt(cf.d, '.4g', 1e6)} | "
                      f"{_fmt(q.residual_force_rms, '.2%')} | "
                      f"{_fmt(q.restitution_error, '.2e')} |")
+    lines += _fit_remarks(cases)
     lines += _undetermined_damping(cases)
     with_models = [c for c in cases if c.restitution_models is not None]
     if with_models:

@@ -526,6 +526,8 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
         logger.info("case %s: %s", case.id, exc)
         fe["mesh_stiffness"] = fe["mesh_stiffness_power_law"] = None
     fit = fitting.fit_impact_law(h["time"], h["contact_force"], h["approach"], mass, speed, e)
+    if not fit.success:    # kept (the report lists it), but said now
+        logger.warning("case %s: the impact-law fit did not converge: %s", case.id, fit.message)
     tca = pair.analysis
     # Elliptical Hertz contact: F = k delta^1.5 exactly, k from the TCA ellipse.
     ell = tca.ellipses[-1]
@@ -551,15 +553,17 @@ def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -
 
     ``v_y_eq15`` is the seed's eq. 15 (a solid sphere of the gear steel,
     independent of size and mass). ``v_y_tooth`` is the speed at which this
-    tooth pair's Hertz impact (TCA ellipse, effective mass) reaches the
-    yield-onset pressure ``p0 = 1.6 Y`` (`fe_impact.physics.hertz.ellipse_yield_speed`).
+    tooth pair's Hertz impact (TCA ellipse, the record's effective ``mass``: the
+    rotors with the sectors they carry, as the fit and the closed form take it)
+    reaches the yield-onset pressure ``p0 = 1.6 Y``
+    (`fe_impact.physics.hertz.ellipse_yield_speed`).
     """
     from fe_impact.physics import hertz
 
     vy15 = hertz.yield_onset_speed(material.yield_strength, material.density,
                                    tca.effective_modulus)
     relative = tca.contact.relative
-    vyt = hertz.ellipse_yield_speed(tca.masses.effective_mass, 1.0 / relative.lambda_max,
+    vyt = hertz.ellipse_yield_speed(mass, 1.0 / relative.lambda_max,
                                     1.0 / relative.lambda_min, tca.effective_modulus,
                                     material.yield_strength)
     return {"v_y_eq15": vy15, "v_y_tooth": vyt,

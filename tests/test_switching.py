@@ -830,6 +830,14 @@ def test_report_tables_the_clamped_look_ups_and_the_yield_onset():
     assert below + above == len(ev) > 0
     assert np.all((ev.speed < 0.05) == (ev.clamped < 0))
     assert f"| 1 | mesh (test) | 50-50 | {below} (" in text
+    # the damped law loses more the faster it closes, so the smallest restitution
+    # below the table, the one "at least" quotes, is that of its fastest impact there
+    fastest = float(np.max(ev.speed[ev.clamped < 0]))
+    e_min = laws.simulate_impact(tables[(1, "mesh")].law(0.05), model.effective_mass(1),
+                                 fastest).restitution
+    assert laws.simulate_impact(tables[(1, "mesh")].law(0.05), model.effective_mass(1),
+                                float(np.min(ev.speed))).restitution > e_min
+    assert f"a restitution of at least {e_min:.4f}" in text
 
 
 def test_an_events_clamp_flag_is_that_of_its_recorded_speed():
@@ -910,3 +918,99 @@ def test_a_study_gives_the_pitch_point_only_laws_beside(tmp_path):
             assert float(r["baseline_impacts"]) == pytest.approx(want, rel=1e-12)
     assert "## Beside the pitch-point-only laws and the seed" in \
         (tmp_path / "report.md").read_text()
+
+
+@pytest.mark.parametrize("n_rows", [1, 2])
+def test_a_law_table_flags_a_speed_outside_it_whatever_its_rows(n_rows):
+    # A stage calibrated at one speed (one switch case, say) has a one-row table: a
+    # look-up above it is clamped like one above a longer table's last row (it
+    # read as inside), below it like one below its first, at it as inside.
+    from fe_impact.switching._kernel import law_lookup
+
+    speeds = [0.1, 0.2][:n_rows]
+    tab = np.zeros((1, 1, 2, 5))
+    for i, v in enumerate(speeds):
+        tab[0, 0, i] = [math.log(v), 1e10 * (i + 1), 1.5, 10.0, 1e-6]
+    ntab = np.array([[n_rows]], dtype=np.int64)
+    flags = [law_lookup(tab, ntab, 0, 0, v)[1] for v in (0.05, speeds[0], speeds[-1], 1.0)]
+    assert flags == [-1, 0, 0, 1]
+    assert law_lookup(tab, ntab, 0, 0, 1.0)[0][0] == tab[0, 0, n_rows - 1, 1]
+
+
+def test_the_coast_pairs_stand_where_the_symmetric_teeth_put_them():
+    # Independent truth: the seed pinion's standard involute teeth, each flank found
+    # where it crosses its line of action (a root of polar angle of the line's point
+    # against the flank's polar angle at that radius), s from each line's base-circle
+    # tangency. The drive flanks' s plus the coast flanks' s is the same at every
+    # pinion angle and equals 2 s_pitch + p_b / 2 (mod p_b), which the kernel's
+    # numbering must reproduce. It used s_start + s_end + p_b / 2, 2.02 mm apart on
+    # the seed set, whose path is not centred on the pitch point.
+    from fe_impact.switching._kernel import PARAMS, flank_roll
+
+    def _involute(a: float) -> float:
+        return math.tan(a) - a
+
+    model = DriveModel()
+    geo = model.geometry
+    pin = model.gearset.pinion
+    z, alpha = pin.teeth, math.radians(pin.pressure_angle_deg)
+    rb, pb = geo.base_radius, geo.base_pitch
+    half = math.pi / (2 * z) + _involute(alpha)      # half a tooth at the base circle
+    reach = math.sqrt((pin.pitch_radius + pin.addendum_coeff * pin.module) ** 2 - rb**2)
+
+    def crossings(turn: float, coast: bool) -> list[float]:
+        side = -1.0 if coast else 1.0
+        start = np.array([side * rb * math.sin(alpha), rb * math.cos(alpha)])
+        along = np.array([-side * math.cos(alpha), math.sin(alpha)])
+        found = []
+        for j in range(z):
+            centre = math.pi / 2 + turn + 2 * math.pi * j / z
+            flank = centre + side * half           # the base point of the flank facing it
+
+            def f(s, flank=flank):
+                x, y = start + s * along
+                rho = math.hypot(x, y)
+                polar = flank - side * _involute(math.acos(min(rb / rho, 1.0)))
+                return (math.atan2(y, x) - polar + math.pi) % (2 * math.pi) - math.pi
+
+            grid = np.linspace(1e-6, reach, 200)
+            values = [f(s) for s in grid]
+            found += [brentq(f, a, b) for a, b, fa, fb in zip(grid, grid[1:], values,
+                                                                values[1:], strict=False)
+                      if fa * fb < 0 and abs(fa - fb) < 1.0]
+        return found
+
+    p = np.zeros(1, dtype=PARAMS)[0]
+    p["s_start"], p["s_end"], p["s_pitch"], p["base_pitch"] = (geo.s_start, geo.s_end,
+                                                                 geo.s_pitch, pb)
+    p["u0"] = 0.37 * pb
+    kernel = (2 * geo.s_start + flank_roll(0, 1.3e-3, p) + flank_roll(1, 1.3e-3, p)) % pb
+    for turn in (0.0, 0.0123, 0.071):
+        sums = {round(((d + c) % pb) / pb, 9) % 1.0 for d in crossings(turn, False)
+                for c in crossings(turn, True)}
+        # one sum over all pairs (to the root finder's 1e-9 of a pitch)
+        assert len(sums) == 1
+        assert sums.pop() == pytest.approx(((2 * geo.s_pitch + pb / 2) % pb) / pb, abs=1e-8)
+    assert kernel / pb == pytest.approx(((2 * geo.s_pitch + pb / 2) % pb) / pb, abs=1e-12)
+
+
+def test_a_loaded_start_is_static_on_the_position_law():
+    # The run starts with the mesh deflected to carry the load statically. The
+    # deflection must come from the law the kernel gives the pairs (the mesh cycle's
+    # position law here, three times softer than the impact law): the first sample's
+    # drive force is then load / (pinions r_b), as the static balance says. On the
+    # impact law's stiffness it started at 0.31 of it and rang.
+    base = _law_set(6.5e10, 0.0, 1e-6)
+    rolls = np.array([-15.0, 0.0, 19.0])
+    soft = {s: (rolls, np.full(3, 2.0e10), np.full(3, 1.5)) for s in (1, 2, 3)}
+    laws_ = dataclasses.replace(base, positions=soft)
+    model = DriveModel(laws=laws_, **QUIET, **TIGHT)
+    load = 1.0
+    run = simulate(model, StageSchedule((Segment(0.002, 1, 10.0, load),)),
+                   sample_interval=1e-5)
+    static = load / (model.pinions * model.base_levers[0])
+    # The bisection and the integrator's tolerances are far below 0.1%; the force in
+    # the first 0.1 ms stays at it (no start-up transient) to 1%.
+    assert run.series["drive_force_N"][0] == pytest.approx(static, rel=1e-3)
+    early = run.series["drive_force_N"][:10]
+    assert np.ptp(early) < 0.01 * static

@@ -40,6 +40,7 @@ PARAMS = np.dtype([
     ("base_pitch", np.float64),  # base pitch p_b [m]
     ("s_start", np.float64),  # start of the active path [m]
     ("s_end", np.float64),  # end of the active path [m]
+    ("s_pitch", np.float64),  # pitch point on the path [m]
     ("pinions", np.float64),  # pinions (identical meshes in phase)
     ("te_amplitude", np.float64),  # transmission-error amplitude [m]
     ("mu_static", np.float64),  # static friction coefficient
@@ -261,10 +262,10 @@ def law_lookup(tab, ntab, stage, kind, speed):
     rows = tab[stage, kind]
     x = math.log(max(speed, 1e-300))
     out = np.empty(4)
-    if n == 1 or x <= rows[0, 0]:
+    if x <= rows[0, 0]:
         out[:] = rows[0, 1:5]
         return out, (-1 if (x < rows[0, 0]) else 0)
-    if x >= rows[n - 1, 0]:
+    if x >= rows[n - 1, 0]:     # a one-row table above its speed too
         out[:] = rows[n - 1, 1:5]
         return out, (1 if x > rows[n - 1, 0] else 0)
     i = 0
@@ -318,6 +319,20 @@ def pair_law(s, p, postab, k, n, k_in, n_in, k_out, n_out):
 
 
 @njit(cache=True)
+def flank_roll(fl, u, p):
+    """Roll of the tooth-pair numbering on flank ``fl`` (0 drive, 1 coast) when the
+    pinion has rolled ``u`` [m]: pair ``k`` stands at ``s_start + roll - k p_b``.
+
+    A tooth's two flanks are symmetric about its centre line, so its pairs on the
+    two lines of action stand at ``s_d + s_c = 2 s_pitch + p_b / 2`` (mod ``p_b``);
+    the coast pairs move back along their line as the pinion rolls on.
+    """
+    if fl == 0:
+        return u + p.u0
+    return 2.0 * (p.s_pitch - p.s_start) + 0.5 * p.base_pitch - (u + p.u0)
+
+
+@njit(cache=True)
 def slot_of(k):
     return k - NSLOT * (k // NSLOT)
 
@@ -352,7 +367,7 @@ def rhs(t, y, dy, p, stages, aoff, corners, postab, sch, slots, pairs, npairs, a
     ncontact = 0
     for fl in range(2):
         sg = 1.0 if fl == 0 else -1.0
-        roll = u + p.u0 if fl == 0 else length + 0.5 * pb - (u + p.u0)
+        roll = flank_roll(fl, u, p)
         srate = sg * rbp * wp
         lo = math.ceil((roll - length - stages[eng].corner_out) / pb)
         hi = math.floor((roll + stages[eng].corner_in) / pb)

@@ -244,7 +244,7 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     params = np.zeros(1, dtype=K.PARAMS)
     p = params[0]
     p["base_radius"], p["base_pitch"] = geo.base_radius, geo.base_pitch
-    p["s_start"], p["s_end"] = geo.s_start, geo.s_end
+    p["s_start"], p["s_end"], p["s_pitch"] = geo.s_start, geo.s_end, geo.s_pitch
     p["pinions"] = model.pinions
     p["te_amplitude"] = model.transmission_error
     fr = model.friction
@@ -301,27 +301,32 @@ def _check_schedule(model: DriveModel, schedule: StageSchedule) -> None:
                             f"ramp_time = {model.ramp_time!r} s")
 
 
-def _static_offset(model: DriveModel, stage: int, load: float, roll: float) -> float:
+def _static_offset(model: DriveModel, pk: _Packed, stage: int, load: float,
+                   roll: float) -> float:
     """Mesh coordinate that carries ``load`` statically at pinion roll ``roll``.
 
-    Drive flank, elastic part of the quasi-static law; bisection on the
-    total force of the pairs on the active path and near its ends.
+    Drive flank, elastic part of the laws the kernel gives each pair before its
+    first onset (``pk.p``'s, set for ``stage``: the position law on the path, a
+    tip edge's corner law beyond it; :func:`~fe_impact.switching._kernel.pair_law`);
+    bisection on the total force of the pairs on the active path and near its ends.
     """
     i = stage - 1
     half = 0.5 * model.backlashes[i]
     target = load / (model.pinions * model.base_levers[i])
     if target <= 0.0:
         return model.engage_position * half
-    law = model.law_set.table(stage).law(model.law_set.table(stage).speed_range[0])
+    p = pk.p
     geo = model.stage_geometry(stage)
     phase = (roll + model.mesh_phase * geo.base_pitch) % geo.base_pitch
     s = geo.s_start + phase + geo.base_pitch * np.arange(-2, 4)
     g, _ = geo.gap(s)
+    kn = np.array([K.pair_law(float(x), p, pk.postab[i], p["law_k"], p["law_n"], p["law_k_in"],
+                              p["law_n_in"], p["law_k_out"], p["law_n_out"]) for x in s])
     te = model.transmission_error * math.sin(2.0 * math.pi * roll / geo.base_pitch)
 
     def force(x: float) -> float:
         h = np.maximum(x - half - g - te, 0.0)
-        return float(np.sum(law.k * h**law.exponent)) - target
+        return float(np.sum(kn[:, 0] * h ** kn[:, 1])) - target
 
     upper = half + te + 1e-6
     while force(upper) < 0.0:
@@ -356,12 +361,6 @@ def _start_segment(model: DriveModel, pk: _Packed, seg: Segment, t: float, y: np
             y[2 * j] = 0.0
             y[2 * j + 1] += (old_c - new_c) * psid
         p["ratio"] = new_c
-    roll = geo.base_radius * (y[0] + psi + pk.aoff[0])
-    if first:
-        p["x0"] = _static_offset(model, seg.stage, seg.load + model.drag_torque, roll)
-    else:
-        p["x0"] = model.engage_position * 0.5 * model.backlashes[i]
-        p["x0"] -= geo.base_radius * y[0]  # x = x0 at the switch, whatever q_p is
     p["engaged"] = i
     p["half_backlash"] = 0.5 * model.backlashes[i]
     p["friction_lever"] = model.pitch_radii[i] * math.sin(geo.pressure_angle)
@@ -373,6 +372,12 @@ def _start_segment(model: DriveModel, pk: _Packed, seg: Segment, t: float, y: np
         corner = (laws.table(seg.stage, kind).as_rows()[0] if laws.has(seg.stage, kind)
                   else np.full(5, np.nan))
         p[f"law_k_{side}"], p[f"law_n_{side}"] = corner[1:3]
+    roll = geo.base_radius * (y[0] + psi + pk.aoff[0])
+    if first:   # on the laws just set
+        p["x0"] = _static_offset(model, pk, seg.stage, seg.load + model.drag_torque, roll)
+    else:
+        p["x0"] = model.engage_position * 0.5 * model.backlashes[i]
+        p["x0"] -= geo.base_radius * y[0]  # x = x0 at the switch, whatever q_p is
 
 
 def _grow(ev: np.ndarray, nev: int) -> np.ndarray:

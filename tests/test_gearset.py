@@ -145,6 +145,11 @@ INVALID = {
         [_set(("material", "density_kg_m3"), None)],
         ["missing key(s) ['density_kg_m3'] in [material]"],
     ),
+    "missing pinion module": (
+        # the face gear's module may be left out (it is the pinion's); the pinion's not
+        [_set(("pinion", "module_mm"), None)],
+        ["missing key(s) ['module_mm'] in [pinion]"],
+    ),
     "crowning in mm by mistake": (
         [_set(("pinion", "lengthwise_crowning_um"), 10000.0)],
         ["pinion.lengthwise_crowning = 10000", "[0, 300] um"],

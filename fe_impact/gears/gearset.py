@@ -751,8 +751,11 @@ _STAGE_KEYS = {
     "inertia_kg_m2": ("inertia", _si(1.0)),
     "force_shaper": ("force_shaper", _flag),
 }
-_OPTIONAL = {"notes", "n_pinions", "force_shaper", "inner_limit", "module_mm",
-             "tip_edge_radius_mm"}
+# the keys each table may leave out (their fields have defaults)
+_TOP_OPTIONAL = {"notes", "n_pinions"}
+_PINION_OPTIONAL = {"tip_edge_radius_mm"}
+_FACE_GEAR_OPTIONAL = {"inner_limit", "module_mm", "tip_edge_radius_mm"}
+_STAGE_OPTIONAL = {"force_shaper"}
 _READER = Reader(error=GeometryError, syntax="toml")
 
 
@@ -779,7 +782,7 @@ def _convert(
 
 def _stage_from_dict(data: Mapping[str, Any], number: int) -> FaceGearStage:
     where = f"face_gear.stages {number}"
-    fields = _convert(data, _STAGE_KEYS, where, _OPTIONAL)
+    fields = _convert(data, _STAGE_KEYS, where, _STAGE_OPTIONAL)
     try:
         return FaceGearStage(**fields)
     except GeometryError as exc:
@@ -796,12 +799,13 @@ def gearset_from_dict(data: Mapping[str, Any]) -> GearSet:
         names the key or field, the value and what is allowed.
     """
     r = _READER
-    top = _convert(data, _TOP_KEYS, "", _OPTIONAL, more=("material", "pinion", "face_gear"))
+    top = _convert(data, _TOP_KEYS, "", _TOP_OPTIONAL, more=("material", "pinion", "face_gear"))
     material = Material(**_convert(r.table(data, "", "material"), _MATERIAL_KEYS, "material"))
     pinion = Pinion(**_convert(r.table(data, "", "pinion"), _PINION_KEYS, "pinion",
-                               _OPTIONAL))
+                               _PINION_OPTIONAL))
     face_data = r.table(data, "", "face_gear")
-    face = _convert(face_data, _FACE_GEAR_KEYS, "face_gear", _OPTIONAL, more=("stages",))
+    face = _convert(face_data, _FACE_GEAR_KEYS, "face_gear", _FACE_GEAR_OPTIONAL,
+                    more=("stages",))
     raw_stages = r.array(face_data, "face_gear", "stages", required=True)
     stages = tuple(_stage_from_dict(s, i) for i, s in enumerate(raw_stages, start=1))
     return GearSet(pinion=pinion, stages=stages, material=material, **top, **face)

@@ -296,6 +296,9 @@ MESH = [
     ("--face-teeth", mesh("--face-teeth", "4"), ["--face-teeth 4", "1, 2 or 3"]),
     ("--neighbour-teeth", mesh("--neighbour-teeth", "3"), ["--neighbour-teeth 3", "0, 1 or 2"]),
     ("--roll-angle", mesh("--roll-angle", "90"), ["--roll-angle 90 deg", "-60 .. 60 deg"]),
+    # Used to leave an empty --out folder behind.
+    ("--roll-angle off the flanks", mesh("--roll-angle", "19", "--no-picture"),
+     ["roll angle = 19 deg puts the contact off the working flanks"]),
     ("--stage", mesh("--stage", "4"), ["--stage 4", "has stages 1..3"]),
     ("--stage not a number", mesh("--stage", "x"), ["--stage", "invalid int value: 'x'"]),
     # Used to name fillet_radius_coeff with the empty range (0, -0.5677].
@@ -384,6 +387,9 @@ CALIBRATE = [
     ("--positions within one pitch", calibrate("--positions", "0,5"),
      ["--positions 0,5", "less than one angular pitch (18.947 deg)"]),
     ("--positions 1", calibrate("--positions", "1"), ["--positions 1", "need at least 2"]),
+    # Used to plan two cases of one id (one folder, one point of the cycle).
+    ("--positions repeated", calibrate("--positions=5,-14,5.0001"),
+     ["--positions 5,-14,5.0001", "the angle +5.000 deg is given twice"]),
     ("--positions one angle", calibrate("--positions", "3.5"),
      ["--positions", "'3.5': one roll angle", "a count of positions"]),
     ("--positions a", calibrate("--positions", "a"), ["--positions", "comma-separated numbers"]),
@@ -418,6 +424,13 @@ SWITCHING = [
     # Used to run and be compared with the seed's tables.
     ("--sample-interval longer than the run", switching("--sample-interval", "2"),
      ["--sample-interval = 2 s: longer than the run (1 s)"]),
+    # Used to end in a traceback: 1.5 TiB of samples could not be allocated.
+    ("--sample-interval 1e-12", switching("--sample-interval", "1e-12"),
+     ["--sample-interval = 1e-12 s", "1e+12 time-series samples of a 1 s case; at most 2e+06",
+      "5e-07 s or more"]),
+    # Used to run without end.
+    ("--duration 1e300", switching("--duration", "1e300"),
+     ["--duration = 1e+300 s", "time-series samples", "shorter --duration"]),
     ("--duration 1e-9", switching("--duration", "1e-9"),
      ["--duration = 1e-09 s: shorter than the time series' sample interval (0.0002 s"]),
     ("--calibration missing", lambda d: switching("--calibration", str(d / "no.json"))(d),

@@ -59,8 +59,8 @@ def test_static_solve_stopped_keeps_the_steps_done(coarse_hertz_case, tmp_path, 
     out = tmp_path / "out"
     assert main(["solve", str(coarse_hertz_case), "--out", str(out)]) == 143
     err = capsys.readouterr().err
-    assert err.strip().splitlines()[-1] == ("fe-impact: interrupted (SIGTERM); finished results "
-                                            "are kept, rerun to continue")
+    assert err.strip().splitlines()[-1] == ("fe-impact: interrupted (SIGTERM); what was written "
+                                            "is kept, marked stopped; a rerun starts again")
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "stopped" and summary["error"] == "interrupted (SIGTERM)"
     assert [s["value"] for s in summary["steps"]] == [-5e-6, -1e-5]

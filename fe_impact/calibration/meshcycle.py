@@ -277,6 +277,12 @@ def plan_positions(gearset, stages: list[int] | None = None, positions: int | li
                 raise CalibrationError(
                     f"--positions {bad[0]:g}: stage {s}'s path of contact runs from "
                     f"{first:.3f} to {last:.3f} deg of pinion roll (ends excluded)")
+            same = sorted({f"{r:+.3f}" for r in rolls if sum(
+                f"{q:+.3f}" == f"{r:+.3f}" for q in rolls) > 1})
+            if same:    # one case id, one folder and one point of the cycle for both
+                raise CalibrationError(
+                    f"--positions {','.join(f'{r:g}' for r in rolls)}: the angle {same[0]} "
+                    "deg is given twice (angles are kept to 0.001 deg); give each once")
             if max(rolls) - min(rolls) < pitch:
                 raise CalibrationError(
                     f"--positions {','.join(f'{r:g}' for r in rolls)}: span "

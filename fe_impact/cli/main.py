@@ -64,9 +64,14 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as exc:
         if args.debug:
             raise
-        print(f"fe-impact: interrupted ({getattr(exc, 'name', 'SIGINT')}); finished results "
-              "are kept, rerun to continue", file=sys.stderr)
+        print(f"fe-impact: interrupted ({getattr(exc, 'name', 'SIGINT')}); "
+              f"{INTERRUPTED[getattr(args, 'resumes', False)]}", file=sys.stderr)
         return exit_status(exc)
+
+
+#: What an interrupt leaves, by whether the command resumes (calibrate) or not.
+INTERRUPTED = {True: "finished results are kept, rerun to continue",
+               False: "what was written is kept, marked stopped; a rerun starts again"}
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -138,8 +143,8 @@ def _parser() -> argparse.ArgumentParser:
                    choices=("eq5", "kinematic", "both"),
                    help="also ratio-switch impacts into stages 2.., at each speed's seed "
                         "eq. 5 switching speed, its rigid-kinematics one, or both (the "
-                        "default when no value is given); needs --speeds (not "
-                        "--impact-speeds) and a stage from 2 on")
+                        "default when no value is given); with the operating speeds (--speeds "
+                        "or their default), not with --impact-speeds, and a stage from 2 on")
     c.add_argument("--positions", type=_positions, default=None, metavar="N|DEG,...",
                    help="mesh cycle: quasi-static single-pair load-approach curves at N "
                         "positions along the path of contact (default 9, the ends 0.5%% of the "
@@ -159,8 +164,8 @@ def _parser() -> argparse.ArgumentParser:
                         "corner laws) at the median and the largest closing speed the seed's "
                         "presets produce there with the closed-form laws (the first pass, "
                         "cached once per gear set): up to four a stage; at coarse, stage 1, "
-                        "a recess impact takes a minute, an approach impact about half an "
-                        "hour and 8 GB")
+                        "a recess impact takes a minute, an approach impact about 14 minutes "
+                        "and 7.5-9.7 GB on one core")
     c.add_argument("--no-switching", action="store_true",
                    help="do not end with the seed's switching studies (Tables 1-4 and the two "
                         "switching runs, about 20 s on two workers) on the calibration")
@@ -185,7 +190,7 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--scheduler", help="address of an existing dask.distributed scheduler")
     c.add_argument("--cache", type=Path, default=Path("cache"),
                    help="mesh cache folder (default: cache)")
-    c.set_defaults(func=_cmd_calibrate)
+    c.set_defaults(func=_cmd_calibrate, resumes=True)
     for module in _COMMAND_MODULES:
         importlib.import_module(module).register(sub)
     return p

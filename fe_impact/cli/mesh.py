@@ -119,10 +119,17 @@ def run(args: argparse.Namespace) -> int:
           f"{'' if args.refinement == 1.0 else f' / {args.refinement:g}'}, P{args.order}",
           flush=True)
     print("  tooth contact analysis, geometry and mesh ...", flush=True)
-    pair = build_pair(gearset, args.stage, args.roll_angle, args.level, args.order,
-                      args.gap * 1e-6, args.impact_speed, args.out, reuse=args.reuse,
-                      n_face_teeth=args.face_teeth, neighbour_teeth=args.neighbour_teeth,
-                      contact=args.contact, refinement=args.refinement)
+    out = Path(args.out)
+    made = not out.exists()
+    try:
+        pair = build_pair(gearset, args.stage, args.roll_angle, args.level, args.order,
+                          args.gap * 1e-6, args.impact_speed, out, reuse=args.reuse,
+                          n_face_teeth=args.face_teeth, neighbour_teeth=args.neighbour_teeth,
+                          contact=args.contact, refinement=args.refinement)
+    except BaseException:
+        if made and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()     # a pair that could not be made leaves no empty --out behind
+        raise
     c, e, s = pair.contact, pair.ellipse, pair.stats
     print(f"  contact point {np.round(c.point * 1e3, 4).tolist()} mm, normal "
           f"{np.round(c.normal, 5).tolist()}", flush=True)

@@ -31,6 +31,10 @@ logger = logging.getLogger(__name__)
 #: seed's 5 s segments hold 158 cycles at 100 r/min.
 MIN_MESH_CYCLES = 20
 
+#: Most time-series samples of one case: 2e6 rows of the series' 22 columns are
+#: 350 MB (the seed's longest preset, 15 s at the default interval, takes 75,000).
+MAX_SAMPLES = 2_000_000
+
 _DESCRIPTION = (
     "Lumped torsional model of the multistage face-gear drive (pinions, three rings, output) "
     "with backlash, the calibrated IMPACT law per tooth pair and ratio switching. Runs one "
@@ -108,6 +112,15 @@ def _check_preset(args: argparse.Namespace, preset, pinion_teeth: int) -> list[s
                             f"sample interval ({SAMPLE_INTERVAL:g} s, --sample-interval)")
         raise CaseError(f"--sample-interval = {args.sample_interval:g} s: longer than the run "
                         f"({shortest:g} s); give at most the duration")
+    longest = max(c.schedule.duration for c in preset.cases)
+    if longest / args.sample_interval > MAX_SAMPLES:
+        option, value = (("--duration", f"{args.duration:g} s") if args.duration is not None
+                         and args.sample_interval == SAMPLE_INTERVAL
+                         else ("--sample-interval", f"{args.sample_interval:g} s"))
+        raise CaseError(f"{option} = {value}: {longest / args.sample_interval:.3g} time-series "
+                        f"samples of a {longest:g} s case; at most {MAX_SAMPLES:g}: give a "
+                        f"--sample-interval of {longest / MAX_SAMPLES:.3g} s or more, or a "
+                        "shorter --duration")
     notes, needed = [], 0.0
     for case in preset.cases:
         total = case.schedule.duration

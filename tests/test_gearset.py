@@ -105,6 +105,12 @@ INVALID = {
         ],
         ["stage 2 (68 teeth) and stage 3 (80 teeth) overlap radially by 1.500 mm"],
     ),
+    # Used to be accepted, then refused by the contact analysis at roll 0 deg.
+    "face beside the pitch radius": (
+        [_set((*STAGE1, "inner_radius_mm"), 86.0)],
+        ["stage 1 (56 teeth): the face 86.000 to 96.000 mm does not hold the pitch radius "
+         "84.000 mm", "allowed inner_radius < 84.000 mm < outer_radius"],
+    ),
     "zero face width": (
         [_set(("pinion", "face_width_mm"), 0.0)],
         ["pinion.face_width = 0 mm", "> 0"],
@@ -173,6 +179,11 @@ INVALID = {
     "pinion tip-edge roundings wider than the land": (
         [_set(("pinion", "tip_edge_radius_mm"), 2.0)],
         ["pinion.tip_edge_radius = 2 mm", "leave no tip land", "allowed below 1.705 mm"],
+    ),
+    # Used to say "allowed below 0 mm": the bisection spanned 0 to 1e30 mm.
+    "pinion tip-edge radius 1e30 mm": (
+        [_set(("pinion", "tip_edge_radius_mm"), 1e30)],
+        ["pinion.tip_edge_radius = 1e+30 mm", "allowed below 1.705 mm"],
     ),
     "face-gear tip-edge roundings wider than the land": (
         [_set(("face_gear", "tip_edge_radius_mm"), 0.25)],
@@ -325,21 +336,30 @@ def test_shaper_never_fewer_teeth_than_the_pinion(seed_data):
 
 
 def test_pinion_face_limit_is_where_neighbouring_pinions_touch():
-    """At the limit the pinion cylinders (tip radius) of neighbouring pinions touch:
-    the closest points of the two axis segments, found on a grid, are 2 r_a apart."""
+    """Brute force in the plane of two neighbouring pinion axes, where the tip cylinders
+    are widest: each pinion a rectangle ``2 r_a`` wide along its radial axis from
+    ``r_2 - b/2`` to ``r_2 + b/2``. Sampled points of one rectangle inside the other:
+    none at 0.999 of the limit, some at 1.001 of it."""
     gs = default_gearset()
     limit = gs.pinion_face_limit()
     r_a = gs.pinion.pitch_radius + gs.pinion.addendum_coeff * gs.pinion.module
     r_2 = 0.5 * gs.module * min(s.teeth for s in gs.stages)
     theta = 2 * np.pi / gs.n_pinions
-    s = np.linspace(r_2 - limit / 2, r_2 + limit / 2, 2001)
-    a = np.stack([s, 0 * s], axis=1)
-    b = np.stack([s * np.cos(theta), s * np.sin(theta)], axis=1)
-    closest = np.sqrt(((a[:, None, :] - b[None, :, :]) ** 2).sum(-1)).min()
-    assert closest == pytest.approx(2 * r_a, rel=1e-9)
-    assert limit * 1e3 == pytest.approx(78.90, abs=0.01)
+
+    def overlap(b: float) -> bool:
+        axial, lateral = np.meshgrid(np.linspace(r_2 - b / 2, r_2 + b / 2, 801),
+                                     np.linspace(-r_a, r_a, 401))
+        x, y = axial.ravel(), lateral.ravel()              # pinion A along the x axis
+        along = x * np.cos(theta) + y * np.sin(theta)     # in pinion B's frame
+        across = -x * np.sin(theta) + y * np.cos(theta)
+        return bool(np.any((np.abs(across) < r_a) & (along > r_2 - b / 2)
+                           & (along < r_2 + b / 2)))
+
+    assert not overlap(0.999 * limit) and overlap(1.001 * limit)
+    # four pinions: r_a cot 45 deg = r_a from the axis, 2 (84 - 31.5) mm
+    assert limit * 1e3 == pytest.approx(105.0, abs=1e-9)
     assert gs.pinion.face_width < limit           # the seed's 24 mm
-    with pytest.raises(GeometryError, match=r"pinion.face_width = 300 mm: .* at most 78.9 mm"):
+    with pytest.raises(GeometryError, match=r"pinion.face_width = 300 mm: .* at most 105 mm"):
         GearSet(gs.name, _replace(gs.pinion, face_width=0.3), gs.stages, gs.material)
 
 
@@ -347,3 +367,18 @@ def _replace(record, **change):
     import dataclasses
 
     return dataclasses.replace(record, **change)
+
+
+def test_a_pointed_shaper_is_refused(seed_data):
+    # 26 pinion teeth with ha* = 1.4: the 27-tooth shaper reaches (1.4 + 0.25) m above
+    # its pitch circle, where its involute tooth has closed: half angle pi / (2 N_s) +
+    # inv(20 deg) - inv(alpha_a) < 0, a land of -0.127 mm at 45.45 mm. Accepted before,
+    # with a shaper tip that cut no physical root.
+    data = copy.deepcopy(seed_data)
+    data["pinion"].update(teeth=26, addendum_coeff=1.4, fillet_radius_coeff=0.26)
+    data["face_gear"]["stages"] = [dict(data["face_gear"]["stages"][0], teeth=80,
+                                        shaper_teeth=27)]
+    with pytest.raises(GeometryError, match=r"stage 1 \(80 teeth\): the 27-tooth shaper is "
+                                            r"pointed at its tip radius 45\.450 mm .* tip land "
+                                            r"would be -0\.127 mm"):
+        gearset_from_dict(data)

@@ -138,7 +138,10 @@ class FaceGearLimits:
         Where the limiting line of singular points meets the shaper tip edge.
     inner_conjugate : float
         Where the face-gear tip meets the shaper's base circle; below it the
-        tip corner is not conjugate (trimmed by a few micrometres). Stricter.
+        tip corner is not conjugate (trimmed by a few micrometres). Stricter
+        than the undercut limit except on small face gears (21 shaper teeth: at
+        40 face-gear teeth and fewer), which is why the ``"conjugate"`` rule of
+        :meth:`inner` takes the larger of the two.
     outer_pointing : float
         Where the two flanks meet on the top land.
     inner_undercut_u, inner_conjugate_u : float
@@ -153,9 +156,10 @@ class FaceGearLimits:
     inner_conjugate_u: float
 
     def inner(self, rule: str = "conjugate") -> float:
-        """Inner limit [m] by ``rule``: ``"conjugate"`` (default, stricter) or ``"undercut"``."""
+        """Inner limit [m] by ``rule``: ``"conjugate"`` (default: a conjugate tip and no
+        undercut, the larger of the two limits) or ``"undercut"``."""
         if rule == "conjugate":
-            return self.inner_conjugate
+            return max(self.inner_conjugate, self.inner_undercut)
         if rule == "undercut":
             return self.inner_undercut
         raise GeometryError(f"inner limit rule {rule!r} unknown; pick one of {INNER_LIMIT_RULES}")
@@ -311,8 +315,8 @@ class FaceGearTooth:
 
     @property
     def face_inner(self) -> float:
-        """Inner radius of the face [m] (given, or the conjugate limit)."""
-        return self.limits().inner_conjugate if self.inner_radius is None else self.inner_radius
+        """Inner radius of the face [m] (given, or the conjugate rule's limit)."""
+        return self.limits().inner() if self.inner_radius is None else self.inner_radius
 
     @property
     def face_outer(self) -> float:
@@ -522,7 +526,14 @@ class FaceGearTooth:
             p = self._fixed_point(np.asarray(theta), np.asarray(gamma))
             return float(np.hypot(p[0], p[2]) - radius)
 
-        gamma = brentq(mismatch, 1e-6, 0.5 * np.pi - 1e-3, xtol=1e-15)
+        try:
+            gamma = brentq(mismatch, 1e-6, 0.5 * np.pi - 1e-3, xtol=1e-15)
+        except ValueError as exc:   # no flank point of that roll at that radius
+            raise GeometryError(
+                f"face gear with {self.teeth} teeth: no flank point of shaper roll "
+                f"{theta:.4g} rad at radius {radius * 1e3:.3f} mm: the face there lies outside "
+                f"the generated flank (usable {self.limits().inner() * 1e3:.3f} to "
+                f"{self.limits().outer_pointing * 1e3:.3f} mm)") from exc
         p = self._fixed_point(np.asarray(theta), np.asarray(gamma))
         return float(p[1] + self.shaper_pitch_radius)
 
@@ -668,10 +679,10 @@ def face_gear_limits(
         inner_undercut_u=float(undercut.u_s),
         inner_conjugate_u=float(conjugate.u_s),
     )
-    if limits.inner_conjugate >= limits.outer_pointing:
+    if limits.inner() >= limits.outer_pointing:
         raise GeometryError(
             f"face gear with {teeth} teeth and a {shaper_teeth}-tooth shaper has no usable "
-            f"face width: inner limit {limits.inner_conjugate * 1e3:.3f} mm >= outer limit "
+            f"face width: inner limit {limits.inner() * 1e3:.3f} mm >= outer limit "
             f"{limits.outer_pointing * 1e3:.3f} mm"
         )
     logger.debug("face-gear limits N_2=%d N_s=%d: %s", teeth, shaper_teeth, limits)

@@ -277,9 +277,10 @@ class Pinion:
         alpha = math.radians(self.pressure_angle_deg)
         r_a = self.pitch_radius + self.addendum_coeff * self.module
         # the land shrinks as the radius grows
+        # a rounding leaving a land is narrower than the land, below a module
         low = _largest(lambda rho: pinion_tip_rounding(self.teeth, alpha, self.pitch_radius,
                                                        r_a, rho)[1] > 0.0,
-                       self.tip_edge_radius)
+                       min(self.tip_edge_radius, self.module))
         raise GeometryError(
             f"pinion.tip_edge_radius = {self.tip_edge_radius * 1e3:g} mm: the two tip-edge "
             f"roundings leave no tip land (sharp, the land is {self.tip_land() * 1e3:.3g} mm); "
@@ -536,6 +537,7 @@ class GearSet:
                 f"{label}: shaper_teeth = {stage.shaper_teeth} must be < teeth = {stage.teeth}"
             )
         _crowning(f"{label}: lengthwise_crowning", stage.lengthwise_crowning, self.pinion.module)
+        self._check_shaper_tip(label, stage.shaper_teeth)
         limits = self.stage_limits(number - 1)
         inner = limits.inner(self.inner_limit)
         other = "undercut" if self.inner_limit == "conjugate" else "conjugate"
@@ -554,20 +556,51 @@ class GearSet:
                 f"{label}: outer_radius = {stage.outer_radius * 1e3:.3f} mm is beyond the "
                 f"pointing limit; {usable}"
             )
+        r_2 = limits.pitch_radius
+        if not stage.inner_radius < r_2 < stage.outer_radius:
+            raise GeometryError(
+                f"{label}: the face {stage.inner_radius * 1e3:.3f} to "
+                f"{stage.outer_radius * 1e3:.3f} mm does not hold the pitch radius "
+                f"{r_2 * 1e3:.3f} mm, where the pinion's mid-face meshes (the contact "
+                f"analysis' design point): allowed inner_radius < {r_2 * 1e3:.3f} mm < "
+                "outer_radius"
+            )
+
+    def _check_shaper_tip(self, label: str, shaper_teeth: int) -> None:
+        """The shaper cuts the face gear's root with its tip, ``(ha* + c*) m`` above its
+        pitch circle (deeper than the pinion's addendum): it must keep a tip land there.
+        Its tooth's half angle at radius ``r`` is ``pi / (2 N_s) + inv(alpha0) -
+        inv(alpha_r)``, ``cos(alpha_r) = r_bs / r``."""
+        p = self.pinion
+        alpha = math.radians(p.pressure_angle_deg)
+        r_ps = 0.5 * p.module * shaper_teeth
+        r_as = r_ps + (p.addendum_coeff + p.clearance_coeff) * p.module
+        alpha_a = math.acos(r_ps * math.cos(alpha) / r_as)
+        half = (math.pi / (2 * shaper_teeth) + math.tan(alpha) - alpha
+                - (math.tan(alpha_a) - alpha_a))
+        if half <= 0.0:
+            raise GeometryError(
+                f"{label}: the {shaper_teeth}-tooth shaper is pointed at its tip radius "
+                f"{r_as * 1e3:.3f} mm ((pinion.addendum_coeff + clearance_coeff) m above its "
+                f"pitch circle; its tip land would be {2 * r_as * half * 1e3:.3f} mm): lower "
+                "addendum_coeff or clearance_coeff, or give the shaper more teeth"
+            )
 
     def pinion_face_limit(self) -> float:
         """Widest pinion face [m] that keeps the pinions clear of each other.
 
         The pinion's mid-face sits at the engaged ring's pitch radius ``r_2``
         (:attr:`fe_impact.gears.tca.GearPair.z0`), so its inner end is at
-        ``r_2 - b/2``. Pinions ``2 pi / n`` apart, each a cylinder of its tip
-        radius ``r_a`` about its axis, touch where their axes are ``2 r_a``
-        apart, at ``r_a / sin(pi / n)`` from the face-gear axis (``r_a`` for
-        one or two pinions: clear of the axis). The innermost ring binds.
+        ``r_2 - b/2``. Pinions ``2 pi / n`` apart are each a cylinder of its tip
+        radius ``r_a`` about its axis, their axes radial in one plane: the
+        cylinders' facing sides cross on the bisector of two axes, ``r_a cot(pi / n)``
+        from the face-gear axis along each, and the cylinders clash when they
+        reach inside it (their flat inner ends pass each other outside it). For
+        one or two pinions: ``r_a``, clear of the axis. The innermost ring binds.
         """
         p = self.pinion
         r_a = p.pitch_radius + p.addendum_coeff * p.module
-        clear = r_a / math.sin(math.pi / max(self.n_pinions, 2))
+        clear = r_a / math.tan(math.pi / self.n_pinions) if self.n_pinions > 2 else r_a
         r_2 = min(0.5 * p.module * s.teeth for s in self.stages)
         return 2.0 * (r_2 - clear)
 

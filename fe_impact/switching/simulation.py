@@ -95,7 +95,8 @@ class ImpactEvents:
         Peak approach [m], force per mesh [N], elastic energy per mesh [J].
     end_time, separation_speed : ndarray
         When the contact ended [s] and the opening speed then [m/s]; NaN if
-        it had not ended by the end of the run.
+        it had not ended by the end of the run, or by the ratio switch that
+        cut it (the new ring's segment starts with no contact open).
     clamped : ndarray of int
         -1/+1 if the impact speed was below/above the law table, else 0.
     contact : ndarray of int

@@ -411,6 +411,9 @@ CALIBRATE = [
 
 SWITCHING = [
     ("no --preset", lambda d: ["switching", "--out", "OUT"], ["--preset is required"]),
+    ("gear set missing", lambda d: ["switching", str(d / "none.toml"), "--preset",
+                                    "table1-100rpm", "--duration", "1", "--out", "OUT"],
+     ["none.toml"]),
     ("unknown preset", switching(preset="nope"), ["--preset = 'nope' is not a preset"]),
     ("no --out", lambda d: ["switching", "--preset", "table1-100rpm"], ["--out is required"]),
     ("--out is a file", lambda d: ["switching", "--preset", "table1", "--out", a_file(d)],

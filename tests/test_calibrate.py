@@ -283,3 +283,24 @@ def test_report_names_the_impacts_whose_damping_the_history_leaves_open():
     lines = _undetermined_damping([tight, wide, old])
     assert lines[1].startswith("The history does not determine the damping")
     assert lines[-1] == "- stage2_mesh_100rpm (e = 0.99979): cmax 0.5-2.9 N s/m, d 0.12-1.7 um"
+
+
+def test_a_run_that_fails_before_any_case_leaves_no_output_folder(tmp_path, monkeypatch):
+    # A scheduler that never answers fails after its 10 s timeout, before any file is
+    # written (here the failure is raised in its place): the --out the run made goes
+    # with it, as a mistaken option leaves none. A folder that was there stays.
+    from fe_impact.calibration import sweep as cal
+
+    def no_scheduler(*args, **kwargs):
+        raise CalibrationError("--scheduler tcp://127.0.0.1:1: cannot connect (timed out)")
+
+    monkeypatch.setattr(cal, "_run_dask", no_scheduler)
+    cases = plan_cases(default_gearset(), stages=[1], speeds_rpm=[300])
+    for existed in (False, True):
+        out = tmp_path / f"out{existed}"
+        if existed:
+            out.mkdir()
+        with pytest.raises(CalibrationError, match="cannot connect"):
+            cal.calibrate("", cases, Settings(), out, tmp_path / "cache", workers=1,
+                          scheduler="tcp://127.0.0.1:1")
+        assert out.exists() == existed

@@ -63,3 +63,17 @@ def test_array_csv_keeps_ten_significant_digits_and_reads_back(tmp_path):
                        atol=0.0)
     empty = write_array_csv(tmp_path / "e.csv", ["a", "b"], np.zeros((0, 2)))
     assert empty.read_text().splitlines() == ["a,b"]
+
+
+def test_a_rerun_into_the_same_folder_leaves_none_of_the_earlier_files(tmp_path):
+    # An earlier run wrote more frames (or other cases) than this one: they go, the
+    # files this run keeps and every other file of the folder stay.
+    from fe_impact.output.files import remove_stale
+
+    for name in ("frame_0000.vtu", "frame_0001.vtu", "frame_0002.vtu", "impact.pvd",
+                 "notes.txt"):
+        (tmp_path / name).write_text("x")
+    gone = remove_stale(tmp_path, "frame_*.vtu", ["frame_0000.vtu"])
+    assert sorted(p.name for p in gone) == ["frame_0001.vtu", "frame_0002.vtu"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["frame_0000.vtu", "impact.pvd",
+                                                           "notes.txt"]

@@ -637,7 +637,21 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     is raised again.
     """
     out = Path(out)
+    made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
+    try:
+        return _calibrate(gearset_text, cases, settings, out, cache, workers, scheduler,
+                          progress, studies, numba)
+    except BaseException:
+        if made and not any(out.iterdir()):   # e.g. a scheduler that never answered
+            out.rmdir()
+        raise
+
+
+def _calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,
+               cache, workers, scheduler, progress, studies: Sequence[str],
+               numba: Path | None) -> Path:
+    """:func:`calibrate` in its ``out`` folder."""
     t0 = time.perf_counter()
     sweep = load_finished(out, cases, settings, gearset_text)
     if sweep.done:

@@ -3,7 +3,7 @@
 ::
 
     fe-impact switching --list
-    fe-impact switching --preset NAME [--calibration FILE] [--duration S] --out DIR
+    fe-impact switching [GEARSET] --preset NAME [--calibration FILE] [--duration S] --out DIR
 
 `register` adds the subcommand to the CLI's subparsers; the handler returns
 an exit status and raises `fe_impact.errors.FeImpactError` subclasses for bad
@@ -48,6 +48,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add the ``switching`` subcommand to ``subparsers``; returns its parser."""
     p = subparsers.add_parser("switching", help="ratio-switching runs of the seed's conditions",
                               description=_DESCRIPTION)
+    p.add_argument("gearset", nargs="?", type=Path,
+                   help="gear-set TOML (default: the built-in seed set); the calibration "
+                        "must be of it")
     p.add_argument("--list", action="store_true", help="list the presets and exit")
     p.add_argument("--preset", metavar="NAME", help="preset to run (see --list)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
@@ -145,14 +148,14 @@ def run(args: argparse.Namespace) -> int:
     if args.list:
         return _list_presets()
     _check(args)
-    from fe_impact.gears import default_gearset
+    from fe_impact.gears import default_gearset, load_gearset
     from fe_impact.switching.presets import get_preset
     from fe_impact.switching.study import run_study
 
     preset = get_preset(args.preset)
     if args.duration is not None:
         preset = preset.scaled(args.duration)
-    gearset = default_gearset()
+    gearset = default_gearset() if args.gearset is None else load_gearset(args.gearset)
     notes = _check_preset(args, preset, gearset.pinion.teeth)
     print(f"{preset.name}: {len(preset.cases)} case(s), {preset.duration:g} s simulated",
           flush=True)

@@ -101,6 +101,16 @@ def remove_temporaries(folder: str | Path, recursive: bool = True) -> list[Path]
     return removed
 
 
+def remove_stale(folder: str | Path, pattern: str, keep: Sequence[str] = ()) -> list[Path]:
+    """Remove the files of ``folder`` matching ``pattern`` whose names are not in
+    ``keep``: what an earlier run into the same folder wrote and this one does not
+    (more frames, other cases), which would sit beside its results. Returns them."""
+    gone = [p for p in Path(folder).glob(pattern) if p.is_file() and p.name not in set(keep)]
+    for p in gone:
+        p.unlink(missing_ok=True)
+    return gone
+
+
 @contextlib.contextmanager
 def folder_lock(folder: str | Path, wait: bool = True) -> Iterator[bool]:
     """Hold an exclusive lock on ``folder`` (``flock`` on its ``.lock`` file).

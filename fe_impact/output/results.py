@@ -8,7 +8,7 @@ import numpy as np
 
 from fe_impact import __version__
 from fe_impact.fe.case import Case
-from fe_impact.output.files import write_array_csv, write_json, write_pvd, write_vtu
+from fe_impact.output.files import remove_stale, write_array_csv, write_json, write_pvd, write_vtu
 from fe_impact.solvers.static import StaticResult, StepResult
 
 SUMMARY_SCHEMA = "fe-impact/static-summary/1"
@@ -55,6 +55,7 @@ def write_static_results(out: str | Path, case: Case, result: StaticResult,
                              "material": result.model.material})
         frames.append((float(i + 1), name))
     write_pvd(out / "static.pvd", frames)
+    remove_stale(out, "step_*.vtu", [name for _, name in frames])   # an earlier run's steps
     summary = {
         "schema": SUMMARY_SCHEMA,
         "fe_impact_version": __version__,
@@ -97,6 +98,7 @@ class DynamicWriter:
     def __init__(self, out: str | Path, case: Case, mesh, material) -> None:
         self.out = Path(out)
         self.out.mkdir(parents=True, exist_ok=True)
+        remove_stale(self.out, "frame_*.vtu")    # an earlier run's frames
         self.case, self.mesh, self.material = case, mesh, material
         self.frames: list[tuple[float, str]] = []
 

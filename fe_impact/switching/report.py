@@ -29,7 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from fe_impact.output.files import atomic_path, write_array_csv, write_csv, write_json
+from fe_impact.output.files import (
+    atomic_path,
+    remove_stale,
+    write_array_csv,
+    write_csv,
+    write_json,
+)
 from fe_impact.switching.geometry import seed_switching_speed, switching_speed
 from fe_impact.switching.model import DriveModel
 from fe_impact.switching.presets import Preset
@@ -716,6 +722,8 @@ def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun]
         written.append(write_array_csv(out / f"{name}_series.csv", columns, data))
         written.append(write_csv(out / f"{name}_impacts.csv", _IMPACT_COLUMNS,
                                  _impact_rows(run)))
+    for pattern in ("*_series.csv", "*_impacts.csv"):   # an earlier study's cases
+        remove_stale(out, pattern, [p.name for p in written])
     rows = comparison_rows(preset, runs)
     header = ["condition", "quantity", "statistic", "unit", "model_series", "model_impacts",
               "seed"]

@@ -299,6 +299,10 @@ MESH = [
     # Used to leave an empty --out folder behind.
     ("--roll-angle off the flanks", mesh("--roll-angle", "19", "--no-picture"),
      ["roll angle = 19 deg puts the contact off the working flanks"]),
+    # Used to fail after 15-18 s in the mesh builder ("face of piece 'hub_left' not found").
+    ("--roll-angle far past the corner", mesh("--contact", "corner-approach", "--roll-angle",
+                                              "60", "--no-picture"),
+     ["roll angle 60.0000 deg has no approach corner contact", "allowed roll angles ("]),
     ("--stage", mesh("--stage", "4"), ["--stage 4", "has stages 1..3"]),
     ("--stage not a number", mesh("--stage", "x"), ["--stage", "invalid int value: 'x'"]),
     # Used to name fillet_radius_coeff with the empty range (0, -0.5677].

@@ -104,9 +104,14 @@ def test_rounding_curvature_along_a_circular_edge_is_the_torus_formula():
 def test_roll_angles_inside_the_path_and_unknown_sides_are_refused():
     edge = face_edge_rounding(PAIR, 1e-4, n=21)
     end = math.degrees(_roll("approach", 0.0))
+    far = end + 180.0 / PAIR.pinion.teeth           # half an angular pitch past the end
+    allowed = rf"allowed roll angles \({end:.4f}, {far:.4f}\] deg"
     with pytest.raises(GeometryError, match=rf"roll angle 0.0000 deg has no approach corner "
-                                            rf"contact.*allowed roll angles > {end:.4f} deg"):
+                                            rf"contact.*{allowed}"):
         corner_contact(PAIR, edge, "approach", 0.0)
+    # far past the end (it used to fail in the mesh builder's loft, 15 s later)
+    with pytest.raises(GeometryError, match=rf"roll angle 30.0000 deg .*{allowed}"):
+        corner_contact(PAIR, edge, "approach", math.radians(30.0))
     with pytest.raises(GeometryError, match=r"corner side = 'tip'.*approach.*recess"):
         corner_contact(PAIR, edge, "tip", 0.3)
 

@@ -504,19 +504,25 @@ def corner_contact(pair: GearPair, edge: EdgeRounding, side: str, roll_angle: fl
     ------
     GeometryError
         For an unknown side, a roll angle on the flank side of
-        :func:`flank_end_roll` (no corner contact there), or when the edge
-        already overlaps the flank there.
+        :func:`flank_end_roll` (no corner contact there) or more than half an
+        angular pitch past it, or when the edge already overlaps the flank there.
     """
     if side not in CORNER_SIDES:
         raise GeometryError(f"corner side = {side!r}: pick one of {list(CORNER_SIDES)}")
     end = flank_end_roll(pair, edge.radius, side)
-    beyond = roll_angle > end if side == "approach" else roll_angle < end
+    # half an angular pitch past the flank's end the next pair has long taken over (the
+    # lumped model's corner-gap tables end 6.4 / 8.6 deg past it on the seed set)
+    reach = math.pi / pair.pinion.teeth
+    far = end + reach if side == "approach" else end - reach
+    beyond = end < roll_angle <= far if side == "approach" else far <= roll_angle < end
     if not beyond:
-        allowed = ">" if side == "approach" else "<"
+        lo, hi = sorted((end, far))
         raise GeometryError(
             f"roll angle {math.degrees(roll_angle):.4f} deg has no {side} corner contact: the "
             f"flank contact runs to {math.degrees(end):.4f} deg there; allowed roll angles "
-            f"{allowed} {math.degrees(end):.4f} deg")
+            f"{'(' if side == 'approach' else '['}{math.degrees(lo):.4f}, "
+            f"{math.degrees(hi):.4f}{']' if side == 'approach' else ')'} deg (up to half an "
+            "angular pitch past the flank's end)")
     c, turns, _, k, least, (where, at_end) = _first_touch(pair, edge, side, [roll_angle])
     if least[0] <= 0.0:
         raise GeometryError(

@@ -213,6 +213,11 @@ SOLVE = [
     ("--max-frames 1", solve(sdof(), "--max-frames", "1"), ["--max-frames 1", "at least 2"]),
     ("[mesh] file is a directory", static(f'"{MESHES / "hertz_coarse.msh"}"', f'"{MESHES}"'),
      ["[mesh] file", "is a directory", "give a Gmsh .msh file"]),
+    # Used to end in a singular solve, a leaked LinAlgWarning and a hint at the penalty.
+    ("a body held by nothing", solve(STATIC.split("[[supports]]")[0]
+                                     + STATIC[STATIC.index("[[displacements]]"):]),
+     ["case.toml: volume 'block' is held by no [[supports]], [[displacements]] or "
+      "[[rigid_bodies]] surface"]),
     ("[mesh] file missing", static("hertz_coarse.msh", "nowhere.msh"),
      ["[mesh] file", "nowhere.msh", "no such file"]),
     ("[mesh] file empty", lambda d: static(f'"{MESHES / "hertz_coarse.msh"}"',
@@ -399,6 +404,10 @@ CALIBRATE = [
     ("--positions a", calibrate("--positions", "a"), ["--positions", "comma-separated numbers"]),
     ("--positions and --no-mesh-cycle", calibrate("--positions", "3", "--no-mesh-cycle"),
      ["--positions and --no-mesh-cycle: give one or the other"]),
+    # Used to be ignored in silence.
+    ("--mesh-cycle-level and --no-mesh-cycle",
+     calibrate("--mesh-cycle-level", "fine", "--no-mesh-cycle"),
+     ["--mesh-cycle-level and --no-mesh-cycle: give one or the other"]),
     ("--corners and --no-mesh-cycle", calibrate("--corners", "--no-mesh-cycle"),
      ["--corners and --no-mesh-cycle: the corner positions are part of the mesh cycle"]),
     ("--corner-impacts and --no-preset-speeds",

@@ -98,7 +98,8 @@ def _run(args: argparse.Namespace) -> int:
         if args.debug or not isinstance(exc, np.linalg.LinAlgError):
             raise
         print(f"fe-impact: error: a linear solve failed ({exc}); check the input values "
-              "(a penalty or modulus far out of scale?)", file=sys.stderr)
+              "(a body held in too few directions, or a penalty or modulus far out of "
+              "scale?)", file=sys.stderr)
         return 2
 
 
@@ -321,6 +322,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)
         if args.no_mesh_cycle and args.positions is not None:
             raise CalibrationError("--positions and --no-mesh-cycle: give one or the other")
+        if args.no_mesh_cycle and args.mesh_cycle_level is not None:
+            raise CalibrationError("--mesh-cycle-level and --no-mesh-cycle: give one or the "
+                                   "other")
         if args.no_mesh_cycle and args.corners:
             raise CalibrationError("--corners and --no-mesh-cycle: the corner positions are "
                                    "part of the mesh cycle; give one or the other")

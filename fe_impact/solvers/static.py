@@ -56,7 +56,7 @@ from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.linearised import ContactModel, zone_frames
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
 from fe_impact.contact.zone import ContactZone, contact_pairs, face_size
-from fe_impact.errors import ContactError
+from fe_impact.errors import CaseError, ContactError
 from fe_impact.fe.case import Case
 from fe_impact.fe.elasticity import ElasticModel, build_model, von_mises
 from fe_impact.fe.kinematics import Kinematics
@@ -159,6 +159,7 @@ class StaticSolver:
         self.model = build_model(self.mesh, case.materials)
         self.timings["assembly"] = time.perf_counter() - t
         self.dofs = Prescribed.build(case, self.mesh, self.model.n_dofs)
+        _check_held(case, self.mesh, self.dofs.fixed)
         free, fixed = self.dofs.free, self.dofs.fixed
         K = self.model.K
         self.K_ff = K[free][:, free].tocsr()
@@ -741,3 +742,35 @@ def _diagnosis(history: list[float], scale: float, face: float) -> str:
                 f"{2 * max(tail) / max(scale, 1e-30):.0e} or refine the contact faces")
     return ("raise [analysis] max_iterations, or apply the load in smaller steps "
             "(more [[displacements]] values or loads)")
+
+
+def _check_held(case: Case, mesh: FEMesh, fixed: np.ndarray) -> None:
+    """Refuse a body (a set of connected elements) without a prescribed DOF: no support,
+    prescribed displacement or rigid body holds it, so its stiffness is singular and
+    a static case cannot place it (contact alone does not hold a body before it
+    touches)."""
+    from scipy.sparse.csgraph import connected_components
+
+    cells = mesh.cells
+    n = len(mesh.points)
+    rows = np.repeat(np.arange(len(cells)), cells.shape[1])
+    graph = sp.csr_matrix((np.ones(rows.size), (rows, cells.ravel())),
+                          shape=(len(cells), n))
+    _, label = connected_components(graph @ graph.T, directed=False)
+    node_of_dof = np.full(3 * (int(mesh.point_dof.max()) + 1), -1)
+    used = np.flatnonzero(mesh.point_dof >= 0)
+    for c in range(3):
+        node_of_dof[3 * mesh.point_dof[used] + c] = used
+    held_nodes = np.zeros(n, dtype=bool)
+    held_nodes[node_of_dof[fixed]] = True
+    element_held = np.zeros(label.max() + 1, dtype=bool)
+    element_held[np.unique(label[np.flatnonzero(graph @ held_nodes)])] = True
+    loose = np.flatnonzero(~element_held)
+    if not loose.size:
+        return
+    names = sorted({name for name, elements in mesh.volumes.items()
+                    if np.isin(label[elements], loose).any()})
+    raise CaseError(f"{case.path.name}: volume {', '.join(map(repr, names))} is held by no "
+                    "[[supports]], [[displacements]] or [[rigid_bodies]] surface: a static "
+                    "case needs every body held (contact alone does not hold it before it "
+                    "touches)")

@@ -1014,3 +1014,21 @@ def test_a_loaded_start_is_static_on_the_position_law():
     assert run.series["drive_force_N"][0] == pytest.approx(static, rel=1e-3)
     early = run.series["drive_force_N"][:10]
     assert np.ptp(early) < 0.01 * static
+
+
+def test_the_python_corner_gap_is_the_kernels_inside_and_beyond_its_table():
+    # CornerGap.__call__ documents itself as the kernel's interpolant: the same gap
+    # and slope to rounding at nodes, between them, at the table's end and beyond it
+    # (where both hold the end's gap with zero slope: the pair is out of reach).
+    from fe_impact.switching._kernel import corner
+
+    geo = mesh_geometry(GEARSET)
+    for table in (geo.approach, geo.recess):
+        deltas = np.concatenate([np.linspace(0.0, table.delta_max, 97),
+                                 table.delta_max * np.array([1.0, 1.001, 1.5, 3.0])])
+        g, dg = table(deltas)
+        packed = np.stack([table.values, table.slopes])
+        for d, gi, si in zip(deltas, g, dg, strict=True):
+            gk, sk = corner(float(d), packed, table.delta_max)
+            assert gi == pytest.approx(gk, rel=1e-12, abs=1e-18)
+            assert si == pytest.approx(sk, rel=1e-9, abs=1e-15)

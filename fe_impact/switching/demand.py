@@ -85,7 +85,7 @@ class Demand:
                     for s, laws in data["stages"].items()})
 
 
-def _run_preset(gearset: GearSet, name: str) -> list[tuple[int, int, float, float]]:
+def _run_preset(gearset: GearSet, name: str) -> list[tuple[int, int, float, float, float]]:
     """(stage, law code, closing speed, peak force, position) of every impact of preset
     ``name`` on the closed-form laws."""
     from fe_impact.switching.model import DriveModel

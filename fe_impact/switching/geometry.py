@@ -291,8 +291,10 @@ class CornerGap:
         return brentq(lambda d: float(self(d)[0]) - gap, 1e-9, self.delta_max, xtol=1e-13)
 
     def __call__(self, delta: ArrayLike) -> tuple[NDArray, NDArray]:
-        """``g(delta)`` [m] and ``dg/d delta`` [-] (the kernel's interpolant)."""
-        delta = np.clip(np.asarray(delta, dtype=float), 0.0, self.delta_max)
+        """``g(delta)`` [m] and ``dg/d delta`` [-] (the kernel's interpolant; beyond the
+        table the end's gap with zero slope, as the kernel holds it)."""
+        raw = np.asarray(delta, dtype=float)
+        delta = np.clip(raw, 0.0, self.delta_max)
         xi = np.sqrt(delta / self.delta_max)
         n = self.values.size - 1
         i = np.minimum((xi * n).astype(int), n - 1)
@@ -306,7 +308,7 @@ class CornerGap:
                  + (3 * w**2 - 2 * w) * step * self.slopes[i + 1])
         with np.errstate(divide="ignore", invalid="ignore"):
             slope = np.where(xi > 0.0, dg_dw * n / (2.0 * self.delta_max * xi), 0.0)
-        return g, slope
+        return g, np.where(raw >= self.delta_max, 0.0, slope)
 
 
 @dataclass(frozen=True)

@@ -86,6 +86,22 @@ def test_cli_rejects_bad_options(tmp_path, capsys, argv, pattern):
     assert not (tmp_path / "o" / "calibration.json").exists()
 
 
+def test_more_workers_than_cores_get_a_warning(tmp_path, caplog, monkeypatch):
+    # Legal but surely unintended: eight workers on two cores share them and each
+    # holds its own case's memory. (The run then stops at the bad level.)
+    from fe_impact.calibration import sweep as cal
+
+    monkeypatch.setattr(cal, "_cores", lambda: 2)
+    with caplog.at_level("WARNING"):
+        assert main(["calibrate", "--out", str(tmp_path / "o"), "--workers", "8",
+                     "--level", "huge"]) == 2
+    assert "--workers 8 on 2 cores" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        main(["calibrate", "--out", str(tmp_path / "o"), "--workers", "2", "--level", "huge"])
+    assert "--workers" not in caplog.text
+
+
 def test_mesh_cycle_level_keys_the_positions_not_the_impacts():
     # The positions' mesh level enters their resume key (default: one level
     # below the impacts'); the impacts' keys do not depend on it.

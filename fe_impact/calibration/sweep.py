@@ -1196,6 +1196,6 @@ def _stop_watch(stop_name: str | None, case_id: str):
 
 
 def _cores() -> int:
-
+    """The cores this process may run on."""
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
         (os.cpu_count() or 1)

@@ -311,3 +311,25 @@ def test_the_stage_3_recess_face_gear_sector_lofts():
         assert len(groups["face_flank"]) == 1 and len(groups["face_hub"]) >= 1
     finally:
         gmsh.finalize()
+
+
+def test_the_recess_corner_of_a_face_cut_to_its_undercut_limit():
+    # inner_limit = "undercut" admits stage 1's face from 81.6 mm: the projection of
+    # the pinion's rounding onto the face gear then has feet in the root fillet, where
+    # no flank point exists. They used to stop it ("face-gear flank point not found
+    # at L = 82.0151 mm, h = -1.9131 mm"); they are off the flank, and the first
+    # touch is the one the conjugate-limit face gives (the touch is far from the
+    # inner end: the same gap within 1%).
+    import dataclasses
+
+    trimmed = dataclasses.replace(
+        GEARSET, inner_limit="undercut",
+        stages=(dataclasses.replace(GEARSET.stages[0], inner_radius=81.6e-3),
+                *GEARSET.stages[1:]))
+    roll = _roll("recess", 0.5e-3)
+    touches = []
+    for gs in (GEARSET, trimmed):
+        pair = GearPair.from_gearset(gs, 1)
+        edge = pinion_edge_rounding(pair, gs.pinion.tip_edge_radius, n=201)
+        touches.append(corner_contact(pair, edge, "recess", roll))
+    assert touches[1].gap == pytest.approx(touches[0].gap, rel=1e-2)

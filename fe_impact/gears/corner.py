@@ -270,12 +270,16 @@ def _face_distance(pair: GearPair, x: NDArray, start=None, iterations=_PROJECTIO
     dist = np.full(x.shape[:-1], np.inf)
     normal = np.zeros_like(x)
     if np.any(near):
+        def surface(radius, height):    # NaN where no flank point is (the root fillet)
+            s = face.flank(radius, height, side=1, strict=False)
+            return s.points, s.normals
+
         a[near], b[near], dist[near], normal[near] = _project(
-            pair._face_surface, x[near], a[near], b[near], (1e-3 * m, 1e-3 * m), iterations)
+            surface, x[near], a[near], b[near], (1e-3 * m, 1e-3 * m), iterations)
         # feet off the generated flank (the root fillet, beyond the face): +inf
-        real = face.flank(a[near], b[near], side=1).valid & (a[near] >= face.face_inner) \
-            & (a[near] <= face.face_outer)
-        dist[near] = np.where(real, dist[near], np.inf)
+        real = face.flank(a[near], b[near], side=1, strict=False).valid \
+            & (a[near] >= face.face_inner) & (a[near] <= face.face_outer)
+        dist[near] = np.where(real & np.isfinite(dist[near]), dist[near], np.inf)
     return a, b, dist, normal
 
 

@@ -369,6 +369,9 @@ class FaceGearTooth:
             Shaper roll angle and ``t0 + theta + phi_s`` [rad]; broadcast.
         side : {1, -1}
             Flank facing ``+x`` or its mirror.
+        strict : bool
+            False: a point with no flank point (:meth:`solve_parameters`) is
+            returned not ``valid``, with NaN coordinates, instead of the error.
 
         Returns
         -------
@@ -412,17 +415,21 @@ class FaceGearTooth:
         return _apply(rot, dp_dtheta + spin), _apply(rot, dp_dgamma - spin)
 
     # -- flank at given radius and height -----------------------------------------
-    def solve_parameters(self, radius: ArrayLike, height: ArrayLike) -> tuple[NDArray, NDArray]:
+    def solve_parameters(self, radius: ArrayLike, height: ArrayLike,
+                         strict: bool = True) -> tuple[NDArray, NDArray]:
         """Parameters ``(theta, gamma)`` of the flank point at radius ``L`` and height ``h``.
 
         The height fixes ``r_bs (cos g + theta sin g) = r_ps - h``, hence
         ``theta(g)``; Newton on ``g`` then matches ``x^2 + z^2 = L^2``,
         starting from the rack angle ``cos(alpha_L) = r_2 cos(alpha0) / L``.
+        With ``strict=False`` a point where Newton does not converge gets
+        ``theta = NaN`` (its sample is not ``valid``) instead of the error.
 
         Raises
         ------
         GeometryError
-            If Newton does not converge (a point far outside the tooth).
+            If Newton does not converge (a point far outside the tooth) and
+            ``strict``.
         """
         radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
         r_b, k = self.shaper_base_radius, self.ratio
@@ -443,6 +450,10 @@ class FaceGearTooth:
             if np.all(np.abs(step) < _NEWTON_TOL):
                 break
         else:
+            if not strict:    # no flank point there (the root fillet, say)
+                lost = ~(np.abs(step) < _NEWTON_TOL)
+                theta = (rho - np.cos(gamma)) / np.sin(gamma)
+                return np.where(lost, np.nan, theta), gamma
             worst = int(np.argmax(np.abs(step)))
             raise GeometryError(
                 f"face-gear flank point not found at L = {radius.flat[worst] * 1e3:.4f} mm, "
@@ -451,7 +462,8 @@ class FaceGearTooth:
         theta = (rho - np.cos(gamma)) / np.sin(gamma)
         return theta, gamma
 
-    def flank(self, radius: ArrayLike, height: ArrayLike, side: int = 1) -> FlankSample:
+    def flank(self, radius: ArrayLike, height: ArrayLike, side: int = 1,
+              strict: bool = True) -> FlankSample:
         """Face-gear flank point and normal at radius ``L`` and height ``h``.
 
         Parameters
@@ -479,7 +491,7 @@ class FaceGearTooth:
         >>> round(float(np.degrees(sample.gamma)), 9)  # alpha0 at the pitch point
         20.0
         """
-        theta, gamma = self.solve_parameters(radius, height)
+        theta, gamma = self.solve_parameters(radius, height, strict)
         sample = self.generate(theta, gamma)
         if self.lengthwise_crowning > 0.0:
             sample = self._crowned(sample)

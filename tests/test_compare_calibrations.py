@@ -32,3 +32,15 @@ def test_verdict(tmp_path, capsys):
     assert _run(tmp_path, _doc(), _doc(1.002), "--tolerance", "0.01") == 0
     assert _run(tmp_path, _doc(), _doc(ids=("a",))) == 1        # a case lost
     assert "[FAIL] b: missing" in capsys.readouterr().out
+
+
+def test_a_quantity_that_becomes_nan_or_goes_missing_fails(tmp_path):
+    # max(0.0, nan) is 0.0: a NaN used to read as no change, and a quantity None
+    # on one side only was skipped. Both are failures; None on both sides is not.
+    lost = _doc()
+    lost["cases"][0]["fe"]["restitution"] = None
+    assert _run(tmp_path, _doc(), lost) == 1
+    nan = _doc()
+    nan["cases"][0]["fe"]["peak_force"] = float("nan")
+    assert _run(tmp_path, _doc(), nan) == 1
+    assert _run(tmp_path, lost, lost) == 0

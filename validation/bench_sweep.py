@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import shutil
 import sys
 import time
@@ -80,6 +81,10 @@ def _largest_difference(a: Path, b: Path) -> float:
     for key, x in la.items():
         y = lb[key]
         if isinstance(x, float) and isinstance(y, float):
+            if not (math.isfinite(x) and math.isfinite(y)):   # max() would drop a NaN
+                if not x == y:
+                    return float("inf")
+                continue
             worst = max(worst, abs(x - y) / max(abs(x), abs(y), 1e-300))
         elif x != y and not key.endswith(("version", "settings.cache")):
             return float("inf")

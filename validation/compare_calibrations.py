@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -40,7 +41,11 @@ def changes(old: dict, new: dict) -> tuple[dict[str, dict[str, float]], list[str
         for group, keys in (("fe", FE_KEYS), ("impact", LAW_KEYS)):
             for k in keys:
                 x, y = a[group].get(k), b[group].get(k)
-                if x is None or y is None:
+                if x is None and y is None:
+                    continue
+                if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)):
+                    # gone, come, or not a number: no agreement (max() would drop a NaN)
+                    row[f"{group}.{k}"] = math.inf
                     continue
                 row[f"{group}.{k}"] = (y - x) / abs(x) if x else float(y != x)
         out[cid] = row

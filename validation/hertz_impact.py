@@ -77,13 +77,16 @@ C0 = math.sqrt(E / RHO)
 #: period by ~0.1%. 1% leaves room for the contact switches and catches a
 #: solver error of a few per cent.
 SPECIMEN_TOLERANCE = 0.01
-#: FE against Hertz (two half-spaces): the finite specimen is stiffer. The
-#: share of the approach that is not Hertz's grows with the load to about 3%
-#: at 3 m/s (the far-field share hertz_static measures), which raises the
-#: force at a given energy by up to 1.5 times that (F ~ delta^1.5): 4.5%;
-#: with the 1% allowed for the solver, 6%. The specimen check above is the
-#: sharp one.
+#: FE against Hertz (two half-spaces): the finite specimen is stiffer, and its
+#: own quasi-static impact (the specimen reference above, from the static
+#: solver's curve) departs from Hertz's by +4.2% in peak force at 3 m/s, the
+#: fastest case; with the 1% allowed for the solver, 6% (rounded up). The
+#: specimen check above is the sharp one.
 HERTZ_TOLERANCE = 0.06
+#: The free sphere at 1 m/s against Hertz: the same specimen's departure at 1 m/s
+#: (the rigid-mass case there: +3.1% against Hertz, +0.4% against the specimen,
+#: so about +2.7% for the specimen) and the 1% for the solver, rounded up: 5%.
+FREE_HERTZ_TOLERANCE = 0.05
 #: Energy of the Newmark runs (average acceleration conserves it up to the
 #: contact switches) and of the explicit run (central differences conserve a
 #: shadow energy within O(omega^2 dt^2) of it).
@@ -283,9 +286,9 @@ def check(result: dict) -> list[ck.Check]:
     for r in result["free_sphere"]:
         i = r["integrator"]
         out.append(ck.within(f"free {i}: peak force vs Hertz", r["peak_force"],
-                             r["peak_force_hertz"], HERTZ_TOLERANCE))
+                             r["peak_force_hertz"], FREE_HERTZ_TOLERANCE))
         out.append(ck.within(f"free {i}: contact time vs Hertz", r["contact_time"],
-                             r["contact_time_hertz"], HERTZ_TOLERANCE))
+                             r["contact_time_hertz"], FREE_HERTZ_TOLERANCE))
         out.append(ck.at_most(f"free {i}: energy error", r["energy_error"], ENERGY_TOLERANCE))
         out.append(ck.within(f"free {i}: restitution", r["restitution"], 1.0,
                              FREE_TOLERANCE))

@@ -218,6 +218,28 @@ SOLVE = [
                                      + STATIC[STATIC.index("[[displacements]]"):]),
      ["case.toml: volume 'block' is held by no [[supports]], [[displacements]] or "
       "[[rigid_bodies]] surface"]),
+    # Used to end in numpy's "cannot reshape array of size 0" traceback.
+    ("bodies that never touch", solve(f"""\
+[mesh]
+file = "{MESHES / 'spring_column.msh'}"
+unit = "m"
+
+""" + _MATERIAL.format(volumes='["column", "stop"]') + """
+[[contacts]]
+slave = "stop_bottom"
+master = "column_top"
+penalty = "auto"
+
+[[supports]]
+surface = "column_bottom"
+fix = ["x", "y", "z"]
+
+[[displacements]]
+surface = "stop_all"
+component = "z"
+values = [-1e-6]
+"""), ["case.toml: [[contacts]] stop_bottom on column_top: no slave node comes within "
+       "the search distance", "the closest is 0.0001 m away"]),
     ("[mesh] file missing", static("hertz_coarse.msh", "nowhere.msh"),
      ["[mesh] file", "nowhere.msh", "no such file"]),
     ("[mesh] file empty", lambda d: static(f'"{MESHES / "hertz_coarse.msh"}"',

@@ -133,14 +133,15 @@ def _add_size_field(model, spec: SphereBlockSpec) -> None:
 
 
 def build_two_blocks(path: str | Path, size: float = 1e-3, gap: float = 1e-6,
-                     order: int = 1) -> Path:
+                     order: int = 1, lower_element: float | None = None) -> Path:
     """Two stacked cubes of edge ``size`` (m), the upper ``gap`` above the lower.
 
     Meshed with one element size equal to the edge, so a P1 mesh has only the
     cube corners as nodes: tying every boundary face of the upper cube to a
     rigid body and fixing the lower one leaves a single degree of freedom on
     a linear penalty spring (``eps * size^2``), an impact with a closed-form
-    half-sine solution. Groups: volumes ``upper``, ``lower``; surfaces
+    half-sine solution. ``lower_element``: a finer element size (m) for the
+    lower cube instead. Groups: volumes ``upper``, ``lower``; surfaces
     ``upper_all`` and ``lower_all`` (whole boundaries), ``upper_bottom`` and
     ``lower_top`` (the facing squares).
     """
@@ -161,8 +162,14 @@ def build_two_blocks(path: str | Path, size: float = 1e-3, gap: float = 1e-6,
                       and abs(model.getBoundingBox(2, t)[5] - face_z) < 1e-3 * size]
             model.addPhysicalGroup(2, facing, name=f"{name}_bottom" if name == "upper"
                                    else f"{name}_top")
-        gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+        fine = size if lower_element is None else lower_element
+        gmsh.option.setNumber("Mesh.MeshSizeMin", min(size, fine))
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        if lower_element is not None:
+            for vol, h in ((upper, size), (lower, lower_element)):
+                corners = model.getBoundary([(3, vol)], combined=False, oriented=False,
+                                            recursive=True)
+                model.mesh.setSize([c for c in corners if c[0] == 0], h)
         model.mesh.generate(3)
         if order == 2:
             model.mesh.setOrder(2)

@@ -104,8 +104,14 @@ class ContactZone:
             s = max(dist, 1e-3 * face_size(mesh, pair.slave))
             near = all_s[face_min_gap(pair, st, all_s) < s]
             slave_faces.append(near)
+            # the slave's nodes sample its faces only at their corners: a master face
+            # under the middle of a larger slave face lies up to that face's
+            # circumradius from them
+            x = mesh.points[pair.slave.faces[near][:, :3]]
+            spread = (float(np.linalg.norm(x - x.mean(axis=1)[:, None, :], axis=2).max())
+                      if len(near) else 0.0)
             master_faces.append(master_near(mesh, pair, mesh.points[
-                np.unique(pair.slave.faces[near])], s))
+                np.unique(pair.slave.faces[near])], s + spread))
         return cls(pairs, slave_faces, master_faces)
 
     def points(self) -> np.ndarray:

@@ -16,6 +16,7 @@ zone of the faces within a search distance of the master surface:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -172,4 +173,13 @@ class ContactSetup:
         states = reference_states(mesh, pairs)
         reach = [spec.search_distance if spec.search_distance is not None else rule(pair, st)
                  for spec, pair, st in zip(case.contacts, pairs, states, strict=True)]
-        return cls(pairs, states, reach, ContactZone.initial(mesh, pairs, reach, states))
+        zone = ContactZone.initial(mesh, pairs, reach, states)
+        if not any(len(f) for f in zone.slave_faces):
+            spec, st, r = case.contacts[0], states[0], reach[0]
+            closest = float(np.min(st.gap)) if len(st.gap) else math.inf
+            raise CaseError(
+                f"{case.path.name}: [[contacts]] {spec.slave} on {spec.master}: no slave node "
+                f"comes within the search distance {r:.4g} m of the master (the closest is "
+                f"{closest:.4g} m away): the bodies do not touch in this case; bring them "
+                "closer, load them further or set the contact's search_distance")
+        return cls(pairs, states, reach, zone)

@@ -198,7 +198,7 @@ def corner(delta, table, delta_max):
     ``table[0]`` holds the nodal values, ``table[1]`` the nodal slopes.
     """
     values = table[0]
-    if delta >= delta_max:
+    if delta > delta_max:      # beyond the table: out of reach, the end's gap held
         return values[values.shape[0] - 1], 0.0
     if delta <= 0.0:
         return 0.0, 0.0

@@ -308,7 +308,7 @@ class CornerGap:
                  + (3 * w**2 - 2 * w) * step * self.slopes[i + 1])
         with np.errstate(divide="ignore", invalid="ignore"):
             slope = np.where(xi > 0.0, dg_dw * n / (2.0 * self.delta_max * xi), 0.0)
-        return g, np.where(raw >= self.delta_max, 0.0, slope)
+        return g, np.where(raw > self.delta_max, 0.0, slope)
 
 
 @dataclass(frozen=True)

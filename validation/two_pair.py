@@ -103,7 +103,10 @@ STEP = 0.1
 #: sizes of every mesh (the design force), single or two-pair.
 CURVE_FORCES = (50.0, 100.0, 150.0, 200.0, 300.0, 400.0, 500.0, 700.0, 1000.0, 1300.0,
                 1600.0, 2000.0)
-#: Agreement asked of the superposition: load shares and stiffnesses within 5%.
+#: Agreement asked of the superposition: load shares and stiffnesses within 5%. It is
+#: the requirement the mesh cycle was built to (its issue's figure), not a budget
+#: of known errors: of these, the pairs' coupling through the rim, which the
+#: superposition leaves out, measured 1.0-2.6% stiff (docs/tolerances.md).
 TOLERANCE = 0.05
 LEVEL, QUICK_LEVEL = "default", "coarse"
 ORDER = 2

@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -833,15 +834,40 @@ def gearset_from_dict(data: Mapping[str, Any]) -> GearSet:
     """
     r = _READER
     top = _convert(data, _TOP_KEYS, "", _TOP_OPTIONAL, more=("material", "pinion", "face_gear"))
-    material = Material(**_convert(r.table(data, "", "material"), _MATERIAL_KEYS, "material"))
-    pinion = Pinion(**_convert(r.table(data, "", "pinion"), _PINION_KEYS, "pinion",
-                               _PINION_OPTIONAL))
-    face_data = r.table(data, "", "face_gear")
-    face = _convert(face_data, _FACE_GEAR_KEYS, "face_gear", _FACE_GEAR_OPTIONAL,
-                    more=("stages",))
-    raw_stages = r.array(face_data, "face_gear", "stages", required=True)
-    stages = tuple(_stage_from_dict(s, i) for i, s in enumerate(raw_stages, start=1))
-    return GearSet(pinion=pinion, stages=stages, material=material, **top, **face)
+    try:
+        material = Material(**_convert(r.table(data, "", "material"), _MATERIAL_KEYS,
+                                       "material"))
+        pinion = Pinion(**_convert(r.table(data, "", "pinion"), _PINION_KEYS, "pinion",
+                                   _PINION_OPTIONAL))
+        face_data = r.table(data, "", "face_gear")
+        face = _convert(face_data, _FACE_GEAR_KEYS, "face_gear", _FACE_GEAR_OPTIONAL,
+                        more=("stages",))
+        raw_stages = r.array(face_data, "face_gear", "stages", required=True)
+        stages = tuple(_stage_from_dict(s, i) for i, s in enumerate(raw_stages, start=1))
+        return GearSet(pinion=pinion, stages=stages, material=material, **top, **face)
+    except GeometryError as exc:
+        raise GeometryError(_file_keys(str(exc))) from exc
+
+
+def _file_keys(message: str) -> str:
+    """A record's message in the file's words: ``pinion.module = -3 mm`` becomes
+    ``[pinion] module_mm = -3 mm``, a stage's ``inner_radius = ...`` becomes
+    ``inner_radius_mm = ...`` (the values are already in the keys' units)."""
+    for table, keys in (("pinion", _PINION_KEYS), ("material", _MATERIAL_KEYS),
+                        ("face_gear", _FACE_GEAR_KEYS)):
+        for key, (name, _) in keys.items():
+            if table == "face_gear":   # its messages say face_gear.module for face_gear_module
+                name = name.removeprefix("face_gear_").removeprefix("face_")
+            message = re.sub(rf"(?<![\w.\[]){table}\.{name}\b", f"[{table}] {key}", message)
+    for key, (name, _) in _STAGE_KEYS.items():
+        message = re.sub(rf"\bface_gear\.stages\.{name}\b", f"[[face_gear.stages]] {key}",
+                         message)
+        if key != name and message.startswith("stage "):
+            # a stage's own field where its message names it: an identifier
+            # (inner_radius) anywhere, a plain word (inertia) before its value
+            where = rf"(?<![\w.\]]){name}\b" if "_" in name else rf"(?<=: ){name}(?= = )"
+            message = re.sub(where, key, message)
+    return message
 
 
 def load_gearset(path: str | Path) -> GearSet:

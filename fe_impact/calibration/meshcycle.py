@@ -48,6 +48,7 @@ SI units throughout; roll angles in degrees where named so.
 
 from __future__ import annotations
 
+import collections
 import functools
 import hashlib
 import json
@@ -277,8 +278,8 @@ def plan_positions(gearset, stages: list[int] | None = None, positions: int | li
                 raise CalibrationError(
                     f"--positions {bad[0]:g}: stage {s}'s path of contact runs from "
                     f"{first:.3f} to {last:.3f} deg of pinion roll (ends excluded)")
-            same = sorted({f"{r:+.3f}" for r in rolls if sum(
-                f"{q:+.3f}" == f"{r:+.3f}" for q in rolls) > 1})
+            given = collections.Counter(f"{r:+.3f}" for r in rolls)
+            same = sorted(angle for angle, n in given.items() if n > 1)
             if same:    # one case id, one folder and one point of the cycle for both
                 raise CalibrationError(
                     f"--positions {','.join(f'{r:g}' for r in rolls)}: the angle {same[0]} "

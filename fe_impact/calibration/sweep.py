@@ -84,7 +84,7 @@ from fe_impact.gears.pairanalysis import LEVEL_NAMES
 from fe_impact.inputs import Reader, read_document
 from fe_impact.interrupts import Interrupted, handle_signals, ignore_signals
 from fe_impact.output.drawing import Draw, draw_here, draw_on
-from fe_impact.output.files import folder_lock, remove_temporaries
+from fe_impact.output.files import folder_lock, remove_temporaries, removed_if_left_empty
 
 if TYPE_CHECKING:
     from fe_impact.fe.case import Case
@@ -636,16 +636,11 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     complete calibration.json from an earlier run stays), and the interrupt
     is raised again.
     """
-    out = Path(out)
-    made = not out.exists()
-    out.mkdir(parents=True, exist_ok=True)
-    try:
+    # a run that fails before writing anything (a scheduler that never answered)
+    # leaves no empty --out
+    with removed_if_left_empty(out) as out:
         return _calibrate(gearset_text, cases, settings, out, cache, workers, scheduler,
                           progress, studies, numba)
-    except BaseException:
-        if made and not any(out.iterdir()):   # e.g. a scheduler that never answered
-            out.rmdir()
-        raise
 
 
 def _calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,

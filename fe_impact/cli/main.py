@@ -303,10 +303,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     if args.workers is not None and args.scheduler is None:
         from fe_impact.calibration.sweep import _cores
 
-        if args.workers > _cores():
+        cores = _cores()
+        if args.workers > cores:
             logger.warning("--workers %d on %d cores: the workers share the cores (no faster) "
                            "and each holds its case's memory (up to 3 GB at the default "
-                           "level, 10 GB for a corner impact)", args.workers, _cores())
+                           "level, 10 GB for a corner impact)", args.workers, cores)
     for option, value, allowed in (("--level", args.level, LEVEL_NAMES),
                                    ("--mesh-cycle-level", args.mesh_cycle_level, LEVEL_NAMES),
                                    ("--integrator", args.integrator, INTEGRATORS)):

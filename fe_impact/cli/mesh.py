@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     from fe_impact.errors import GeometryError
     from fe_impact.gears import default_gearset, load_gearset
     from fe_impact.meshing.toothpair import build_pair
-    from fe_impact.output.files import check_output_dir
+    from fe_impact.output.files import check_output_dir, removed_if_left_empty
 
     _check_options(args)
     check_output_dir(args.out)
@@ -119,17 +119,11 @@ def run(args: argparse.Namespace) -> int:
           f"{'' if args.refinement == 1.0 else f' / {args.refinement:g}'}, P{args.order}",
           flush=True)
     print("  tooth contact analysis, geometry and mesh ...", flush=True)
-    out = Path(args.out)
-    made = not out.exists()
-    try:
+    with removed_if_left_empty(args.out) as out:    # a pair not made leaves no empty --out
         pair = build_pair(gearset, args.stage, args.roll_angle, args.level, args.order,
                           args.gap * 1e-6, args.impact_speed, out, reuse=args.reuse,
                           n_face_teeth=args.face_teeth, neighbour_teeth=args.neighbour_teeth,
                           contact=args.contact, refinement=args.refinement)
-    except BaseException:
-        if made and out.is_dir() and not any(out.iterdir()):
-            out.rmdir()     # a pair that could not be made leaves no empty --out behind
-        raise
     c, e, s = pair.contact, pair.ellipse, pair.stats
     print(f"  contact point {np.round(c.point * 1e3, 4).tolist()} mm, normal "
           f"{np.round(c.normal, 5).tolist()}", flush=True)

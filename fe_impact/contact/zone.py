@@ -107,9 +107,7 @@ class ContactZone:
             # the slave's nodes sample its faces only at their corners: a master face
             # under the middle of a larger slave face lies up to that face's
             # circumradius from them
-            x = mesh.points[pair.slave.faces[near][:, :3]]
-            spread = (float(np.linalg.norm(x - x.mean(axis=1)[:, None, :], axis=2).max())
-                      if len(near) else 0.0)
+            spread = float(_reach(mesh, pair.slave.faces[near]).max(initial=0.0))
             master_faces.append(master_near(mesh, pair, mesh.points[
                 np.unique(pair.slave.faces[near])], s + spread))
         return cls(pairs, slave_faces, master_faces)
@@ -175,11 +173,15 @@ def master_near(mesh: FEMesh, pair: ContactPair, points: np.ndarray, s: float) -
     """
     if len(points) == 0:
         return np.zeros(0, dtype=np.int64)
-    x = mesh.points[pair.master.faces[:, :3]]
-    cent = x.mean(axis=1)
-    reach = np.linalg.norm(x - cent[:, None, :], axis=2).max(axis=1)
-    dist, _ = cKDTree(points).query(cent)
-    return np.flatnonzero(dist <= s + 1.5 * reach)
+    faces = pair.master.faces
+    dist, _ = cKDTree(points).query(mesh.points[faces[:, :3]].mean(axis=1))
+    return np.flatnonzero(dist <= s + 1.5 * _reach(mesh, faces))
+
+
+def _reach(mesh: FEMesh, faces: np.ndarray) -> np.ndarray:
+    """Each face's largest distance from its centroid to a corner."""
+    x = mesh.points[faces[:, :3]]
+    return np.linalg.norm(x - x.mean(axis=1)[:, None, :], axis=2).max(axis=1)
 
 
 def face_size(mesh: FEMesh, surface: ContactSurface, stat=np.median,

@@ -541,11 +541,12 @@ class FaceGearTooth:
         try:
             gamma = brentq(mismatch, 1e-6, 0.5 * np.pi - 1e-3, xtol=1e-15)
         except ValueError as exc:   # no flank point of that roll at that radius
+            limits = self.limits()
             raise GeometryError(
                 f"face gear with {self.teeth} teeth: no flank point of shaper roll "
                 f"{theta:.4g} rad at radius {radius * 1e3:.3f} mm: the face there lies outside "
-                f"the generated flank (usable {self.limits().inner() * 1e3:.3f} to "
-                f"{self.limits().outer_pointing * 1e3:.3f} mm)") from exc
+                f"the generated flank (usable {limits.inner() * 1e3:.3f} to "
+                f"{limits.outer_pointing * 1e3:.3f} mm)") from exc
         p = self._fixed_point(np.asarray(theta), np.asarray(gamma))
         return float(p[1] + self.shaper_pitch_radius)
 

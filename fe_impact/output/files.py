@@ -101,6 +101,21 @@ def remove_temporaries(folder: str | Path, recursive: bool = True) -> list[Path]
     return removed
 
 
+@contextlib.contextmanager
+def removed_if_left_empty(folder: str | Path) -> Iterator[Path]:
+    """Make ``folder`` if need be; if the block fails and leaves a folder made here
+    empty, remove it (a run that wrote nothing leaves no empty output folder)."""
+    folder = Path(folder)
+    made = not folder.exists()
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        yield folder
+    except BaseException:
+        if made and folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
+        raise
+
+
 def remove_stale(folder: str | Path, pattern: str, keep: Sequence[str] = ()) -> list[Path]:
     """Remove the files of ``folder`` matching ``pattern`` whose names are not in
     ``keep``: what an earlier run into the same folder wrote and this one does not

@@ -757,12 +757,11 @@ def _check_held(case: Case, mesh: FEMesh, fixed: np.ndarray) -> None:
     graph = sp.csr_matrix((np.ones(rows.size), (rows, cells.ravel())),
                           shape=(len(cells), n))
     _, label = connected_components(graph @ graph.T, directed=False)
-    node_of_dof = np.full(3 * (int(mesh.point_dof.max()) + 1), -1)
-    used = np.flatnonzero(mesh.point_dof >= 0)
-    for c in range(3):
-        node_of_dof[3 * mesh.point_dof[used] + c] = used
+    held = np.zeros(3 * (int(mesh.point_dof.max()) + 1), dtype=bool)
+    held[fixed] = True
+    used = mesh.point_dof >= 0
     held_nodes = np.zeros(n, dtype=bool)
-    held_nodes[node_of_dof[fixed]] = True
+    held_nodes[used] = held.reshape(-1, 3)[mesh.point_dof[used]].any(axis=1)
     element_held = np.zeros(label.max() + 1, dtype=bool)
     element_held[np.unique(label[np.flatnonzero(graph @ held_nodes)])] = True
     loose = np.flatnonzero(~element_held)

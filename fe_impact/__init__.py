@@ -3,6 +3,48 @@
 The package follows the data flow of a calibration: gear set -> tooth
 surfaces -> mesh -> assembly -> contact -> time integration -> calibration
 -> lumped model -> results.
+
+The public API is :mod:`fe_impact.api`, re-exported here: readers
+(:func:`read_gearset`, :func:`read_case`, :func:`read_calibration`), the
+main job (:func:`calibrate`), a case's solution (:func:`solve`), switching
+studies (:func:`run_switching`, :func:`simulate_switching`) and the gear
+set's checks (:func:`geometry_report`). Importing the package is cheap: each
+function imports the numerical modules it needs when called.
 """
 
 __version__ = "0.3.1"
+
+from fe_impact.api import (  # noqa: E402 (after the version, which the API's modules read)
+    calibrate,
+    calibration_summary,
+    default_gearset,
+    geometry_report,
+    mesh_pair,
+    pair_picture,
+    presets,
+    read_calibration,
+    read_case,
+    read_gearset,
+    run_switching,
+    seed_studies,
+    simulate_switching,
+    solve,
+)
+
+__all__ = [
+    "__version__",
+    "calibrate",
+    "calibration_summary",
+    "default_gearset",
+    "geometry_report",
+    "mesh_pair",
+    "pair_picture",
+    "presets",
+    "read_calibration",
+    "read_case",
+    "read_gearset",
+    "run_switching",
+    "seed_studies",
+    "simulate_switching",
+    "solve",
+]

@@ -4,43 +4,34 @@ User mistakes (bad case files, missing meshes, invalid options, an output
 folder that cannot be made) print one clear line and exit with status 2,
 before any computation starts; nothing else prints a traceback unless
 ``--debug`` is given. Settings that are legal but surely unintended get a
-warning saying why (a transient case with fewer than `MIN_STEPS_PER_CONTACT`
-time steps, more than `MAX_FRAMES` output frames).
+warning saying why (a transient case with fewer than
+`fe_impact.api.MIN_STEPS_PER_CONTACT` time steps, more than
+`fe_impact.api.MAX_FRAMES` output frames).
 
 SIGINT (Ctrl-C) and SIGTERM stop every command alike
 (:mod:`fe_impact.interrupts`): the summary is written with
 ``status: "stopped"``, no temporary file is left, one line is printed, and
 the exit status is 128 + the signal's number (130, 143).
+
+Each handler parses its options and calls one function of :mod:`fe_impact.api`
+(``solve``, ``calibrate``, ...), which does the work and says its progress
+through the ``echo`` and ``progress`` callbacks given here.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib
-import json
 import logging
 import os
 import sys
-import time
 from pathlib import Path
 
 from fe_impact import __version__
+from fe_impact.api import MAX_FRAMES, MIN_STEPS_PER_CONTACT  # noqa: F401 (importable here)
 from fe_impact.errors import FeImpactError
 
 logger = logging.getLogger("fe_impact")
-
-#: Most VTU frames ``solve`` writes for a transient case unless ``--max-frames``
-#: says otherwise; above it the output interval is widened (with a warning).
-#: A frame of a 100k-DOF tooth pair is some 10 MB and 0.3 s: an output interval
-#: of 1e-10 s over a 40 us impact asked for 400,000 frames and, with the
-#: automatic Newmark step, as many steps.
-MAX_FRAMES = 1000
-#: Fewer time steps than this over a transient run, or over its measured
-#: contact, get a warning: the peak force and the contact time are not resolved
-#: (the impact benchmark needs some 60 for 0.4 %).
-MIN_STEPS_PER_CONTACT = 20
-
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fe-impact`` command; returns the exit status."""
@@ -209,47 +200,53 @@ def _configure_logging(verbose: int) -> None:
             logging.getLogger(name).setLevel(logging.WARNING)
 
 
+class _Progress:
+    """A tqdm bar made at a run's first progress report and closed before the next
+    printed line (the ``progress`` and ``echo`` callbacks of :mod:`fe_impact.api`)."""
+
+    def __init__(self, **options) -> None:
+        self.options = options
+        self.bar = None
+
+    def echo(self, line: str) -> None:
+        self.close()
+        print(line, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+    def _bar(self, total: int):
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, **self.options)
+        return self.bar
+
+    def fraction(self, fraction: float) -> None:
+        """A transient run's progress, in thousandths."""
+        bar = self._bar(1000)
+        bar.update(int(1000 * fraction) - bar.n)
+
+    def cases(self, done: int, total: int, last: str) -> None:
+        """A calibration's finished cases, the last one's id beside the bar."""
+        bar = self._bar(total)
+        bar.update(done - bar.n)
+        if last:
+            bar.set_postfix_str(last)
+
+
 def _cmd_solve(args: argparse.Namespace) -> int:
-    from fe_impact.fe.case import load_case
-    from fe_impact.fe.mesh import load_mesh
-    from fe_impact.interrupts import ignore_signals
-    from fe_impact.output.files import check_output_dir
-    from fe_impact.output.results import write_static_results
-    from fe_impact.solvers.static import StaticResult, StaticSolver
+    from fe_impact.api import solve
 
-    if args.max_frames < 2:
-        raise FeImpactError(f"--max-frames {args.max_frames}: must be at least 2")
-    case = load_case(args.case)
-    check_output_dir(args.out)
-    if case.analysis.dynamic:
-        return _solve_dynamic(_checked_dynamic(case, args.max_frames), args.out)
-    t0 = time.perf_counter()
-    print(f"{case.path.name}: setting up (mesh, assembly, factorisation)", flush=True)
-    solver = StaticSolver(case, load_mesh(case.mesh_file, case.unit))
-    info = (f"{solver.model.n_dofs} DOFs, P{solver.mesh.order}, "
-            f"{solver.n_condensed} contact-zone coordinates")
-    print(f"  {info} ({time.perf_counter() - t0:.1f} s)", flush=True)
-
-    done = []
-
-    def progress(i: int, step) -> None:
-        done.append(step)
-        forces = ", ".join(f"{f:.4g}" for f in step.contact_force)
-        print(f"  step {i + 1}/{case.n_steps}: value {step.value:.4g} m, contact force "
-              f"{forces} N, max pressure {step.max_pressure / 1e6:.4g} MPa, "
-              f"{step.iterations} iterations", flush=True)
-
+    shown = _Progress(desc="  integrating", unit="permille", leave=False,
+                      bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}")
     try:
-        result = solver.run(step_hook=progress)
-    except KeyboardInterrupt as exc:
-        partial = StaticResult(done, solver.mesh, solver.model,
-                               [p.penalty for p in solver.pairs], dict(solver.timings), {})
-        with ignore_signals():
-            write_static_results(args.out, case, partial, status="stopped",
-                                 error=f"interrupted ({getattr(exc, 'name', 'SIGINT')})")
-        raise
-    out = write_static_results(args.out, case, result)
-    print(f"wrote {out} ({time.perf_counter() - t0:.1f} s)")
+        solve(args.case, args.out, max_frames=args.max_frames, echo=shown.echo,
+              progress=shown.fraction)
+    finally:
+        shown.close()
     return 0
 
 
@@ -283,272 +280,20 @@ def _positions(text: str) -> int | list[float]:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
+    from fe_impact.api import calibrate
 
-    from fe_impact.calibration.sweep import (
-        Settings,
-        calibrate,
-        check_scheduler_address,
-        numba_folder,
-        plan_cases,
-    )
-    from fe_impact.defaults import LEVEL_NAMES
-    from fe_impact.errors import CalibrationError
-    from fe_impact.fe.case import INTEGRATORS
-    from fe_impact.gears import default_gearset_path, load_gearset
-    from fe_impact.output.files import check_output_dir
-
-    if args.workers is not None and args.workers < 1:
-        raise CalibrationError(f"--workers {args.workers}: must be at least 1")
-    if args.workers is not None and args.scheduler is None:
-        from fe_impact.calibration.sweep import _cores
-
-        cores = _cores()
-        if args.workers > cores:
-            logger.warning("--workers %d on %d cores: the workers share the cores (no faster) "
-                           "and each holds its case's memory (up to 3 GB at the default "
-                           "level, 10 GB for a corner impact)", args.workers, cores)
-    for option, value, allowed in (("--level", args.level, LEVEL_NAMES),
-                                   ("--mesh-cycle-level", args.mesh_cycle_level, LEVEL_NAMES),
-                                   ("--integrator", args.integrator, INTEGRATORS)):
-        if value is not None and value not in allowed:
-            raise CalibrationError(f"{option} {value!r}: pick one of {', '.join(allowed)}")
-    if args.scheduler is not None:
-        check_scheduler_address(args.scheduler)
-    check_output_dir(args.out)
-    check_output_dir(args.cache, "--cache")
-    with contextlib.ExitStack() as stack:
-        # the local workers' compiled kernels, held for the run: the presets' first
-        # pass compiles the switching kernel into them, which the studies reuse
-        numba = (None if args.scheduler is not None
-                 else stack.enter_context(numba_folder(args.cache)))
-        path = args.gearset if args.gearset is not None else default_gearset_path()
-        gearset = load_gearset(path)
-        text = path.read_text(encoding="utf-8-sig")
-        settings = Settings(level=args.level, integrator=args.integrator,
-                            cycle_level=args.mesh_cycle_level)
-        cases = plan_cases(gearset, args.stages, args.speeds, args.impact_speeds, args.switch)
-        if args.no_mesh_cycle and args.positions is not None:
-            raise CalibrationError("--positions and --no-mesh-cycle: give one or the other")
-        if args.no_mesh_cycle and args.mesh_cycle_level is not None:
-            raise CalibrationError("--mesh-cycle-level and --no-mesh-cycle: give one or the "
-                                   "other")
-        if args.no_mesh_cycle and args.corners:
-            raise CalibrationError("--corners and --no-mesh-cycle: the corner positions are "
-                                   "part of the mesh cycle; give one or the other")
-
-        def positions(impacts: list) -> list:
-            if args.no_mesh_cycle:
-                return []
-            from fe_impact.calibration.meshcycle import DEFAULT_POSITIONS, plan_positions
-
-            # The curves reach the largest impact force the sweep expects (Hertz
-            # estimate at the pitch point, a quarter above for the bending).
-            from fe_impact.gears.pairanalysis import hertz_impact_estimate
-
-            top = max((1.25 * hertz_impact_estimate(gearset, c.stage, settings.roll_angle_deg,
-                                                    c.impact_speed).force_max for c in impacts),
-                      default=None)
-            flank = plan_positions(gearset, args.stages, args.positions if args.positions
-                                   is not None else DEFAULT_POSITIONS, top_force=top,
-                                   level=settings.position_level)
-            if not args.corners:
-                return flank
-            from fe_impact.calibration.meshcycle import plan_corner_positions
-
-            corners = plan_corner_positions(gearset, args.stages, top_force=top)
-            if not corners:
-                raise CalibrationError("--corners: the gear set's tip edges are sharp "
-                                       "(tip_edge_radius_mm = 0 on the pinion and the face "
-                                       "gears): there is no rounding to touch")
-            return flank + corners
-
-        cycle = positions(cases)    # checks the options before the presets run
-        presets = _seed_studies(gearset, args.stages)
-        if args.corner_impacts and not presets:
-            raise CalibrationError("--corner-impacts: none of the seed's switching presets "
-                                   "runs on these stages, so there are no corner closing "
-                                   "speeds to strike at; add stages or drop the option")
-        studies = () if args.no_switching else presets
-        demand = None
-        switches = any(c.kind == "switch" for c in cases)
-        if presets and not args.no_preset_speeds and (
-                switches or args.corner_impacts
-                or (studies and args.speeds is None and args.impact_speeds is None)):
-            demand = _first_pass(gearset, presets, args.out, numba)
-        if (demand is not None and studies and args.speeds is None
-                and args.impact_speeds is None):
-            covered = _cover(demand, cases, gearset)
-            if covered != cases:
-                cases = covered
-                cycle = positions(cases)
-        if demand is not None and switches:
-            from fe_impact.switching.demand import place_switches
-
-            cases, lines = place_switches(demand, cases, gearset)
-            for line in lines:
-                print(f"  {line}", flush=True)
-        if args.corner_impacts:
-            from fe_impact.switching.demand import corner_impacts
-
-            if demand is None:
-                raise CalibrationError("--corner-impacts and --no-preset-speeds: the corner "
-                                       "impacts' closing speeds come from the presets' first "
-                                       "pass; give one or the other")
-            extra, lines = corner_impacts(demand, gearset, sorted({c.stage for c in cases}))
-            for line in lines:
-                print(f"  {line}", flush=True)
-            if not extra:
-                raise CalibrationError("--corner-impacts: the presets struck no rounded tip "
-                                       "edge of these stages (or the edges are sharp)")
-            cases += extra
-        n_impacts = len(cases)
-        cases += cycle
-        levels = settings.level if settings.position_level == settings.level or \
-            len(cases) == n_impacts else f"{settings.level} / {settings.position_level}"
-        print(f"calibrating {n_impacts} impacts and {len(cases) - n_impacts} mesh-cycle positions "
-              f"({levels} meshes, {settings.integrator}) -> {args.out}", flush=True)
-        bar = tqdm(total=len(cases), desc="  cases", unit="case")
-
-        def progress(done: int, total: int, last: str) -> None:
-            bar.update(done - bar.n)
-            if last:
-                bar.set_postfix_str(last)
-
-        try:
-            path = calibrate(text, cases, settings, args.out, args.cache, args.workers,
-                             args.scheduler, progress, studies, numba)
-        finally:
-            bar.close()
-        print(f"wrote {path}, {args.out / 'calibration.csv'} and {args.out / 'report.md'}")
-        from fe_impact.calibration.report import terminal_summary
-
-        for line in terminal_summary(json.loads(Path(path).read_text(encoding="utf-8"))):
-            print(f"  {line}")
-        if studies:
-            print(f"switching studies {', '.join(studies)} on it: {args.out / 'switching'}")
-        return 0
-
-
-def _first_pass(gearset, presets, out: Path, numba: Path | None):
-    """The loop's first pass: the seed presets on the closed-form laws, their closing
-    speeds and places written to ``out/preset_demand.json``
-    (:func:`fe_impact.switching.demand.preset_demand`)."""
-    from fe_impact.output.files import write_json
-    from fe_impact.switching.demand import TOP_MARGIN, preset_demand
-
-    print(f"switching presets {', '.join(presets)} on the closed-form laws: their closing "
-          "speeds ...", flush=True)
-    demand = preset_demand(gearset, presets, numba=numba)
-    out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "preset_demand.json", {**demand.to_dict(), "top_margin": TOP_MARGIN,
-                                            "units": {"speed": "m/s", "force": "N",
-                                                      "position": "m"}})
-    return demand
-
-
-def _cover(demand, cases: list, gearset) -> list:
-    """The planned impacts adjusted to the presets' closing speeds
-    (:func:`fe_impact.switching.demand.cover`), each change printed."""
-    from fe_impact.switching.demand import cover
-
-    covered, lines = cover(demand, cases, gearset)
-    for line in lines:
-        print(f"  {line}", flush=True)
-    return covered
-
-
-def _seed_studies(gearset, stages) -> tuple[str, ...]:
-    """The seed's switching studies the calibration will have laws for: those engaging
-    only calibrated stages of a gear set that has them."""
-    from fe_impact.switching.presets import get_preset
-    from fe_impact.switching.study import SEED_STUDIES, study_stages
-
-    have = set(stages) if stages else set(range(1, len(gearset.stages) + 1))
-    return tuple(name for name in SEED_STUDIES if study_stages(get_preset(name)) <= have)
-
-
-def _checked_dynamic(case, max_frames: int):
-    """The transient case with at most ``max_frames`` output frames; warnings for
-    settings that are legal but surely unintended."""
-    import math
-    from dataclasses import replace
-
-    a = case.analysis
-    where = f"{case.path.name}: [analysis]"
-    if a.time_step is not None and a.duration / a.time_step < MIN_STEPS_PER_CONTACT:
-        logger.warning("%s time_step = %.4g s gives %d step(s) over the whole duration %.4g s, "
-                       "and fewer over the contact: an impact needs about %d or more over "
-                       "the contact", where, a.time_step, max(1, round(a.duration / a.time_step)),
-                       a.duration, MIN_STEPS_PER_CONTACT)
-    interval = a.output_step
-    frames = math.floor(a.duration / interval * (1 + 1e-9)) + 1
-    if frames <= max_frames:
-        return case
-    wider = a.duration / (max_frames - 1)
-    logger.warning("%s output_interval = %.4g s asks for %d frames, more than the cap of %d: "
-                   "writing every %.4g s instead (raise the cap with --max-frames)", where,
-                   interval, frames, max_frames, wider)
-    return replace(case, analysis=replace(a, output_interval=wider))
-
-
-def _solve_dynamic(case, out: Path) -> int:
-    from tqdm import tqdm
-
-    from fe_impact.errors import SolverError
-    from fe_impact.fe.mesh import load_mesh
-    from fe_impact.interrupts import ignore_signals
-    from fe_impact.output.results import DynamicWriter
-    from fe_impact.solvers.dynamic import DynamicSolver
-
-    t0 = time.perf_counter()
-    a = case.analysis
-    print(f"{case.path.name}: setting up (mesh, assembly, contact zone, "
-          f"{'stable step' if a.integrator == 'explicit' else 'factorisation'})", flush=True)
-    solver = DynamicSolver(case, load_mesh(case.mesh_file, case.unit))
-    n_steps = max(1, round(a.duration / solver.dt))
-    print(f"  {solver.model.n_dofs} DOFs, P{solver.mesh.order}, {a.integrator}, time step "
-          f"{solver.dt:.4g} s x {n_steps} steps ({time.perf_counter() - t0:.1f} s)", flush=True)
-    writer = DynamicWriter(out, case, solver.mesh, solver.model.material)
-    bar = tqdm(total=1000, desc="  integrating", unit="permille", leave=False,
-               bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}")
-
-    def progress(fraction: float) -> None:
-        bar.update(int(1000 * fraction) - bar.n)
-
+    shown = _Progress(desc="  cases", unit="case")
     try:
-        result = solver.run(frame_hook=writer.frame, progress=progress)
-    except (SolverError, KeyboardInterrupt) as exc:
-        bar.close()
-        with ignore_signals():   # a second Ctrl-C must not cut the summary short
-            partial = solver.result()
-            error = (f"interrupted ({getattr(exc, 'name', 'SIGINT')})"
-                     if isinstance(exc, KeyboardInterrupt) else str(exc))
-            writer.finish(partial, status="stopped", error=error)
-        raise
-    bar.close()
-    path = writer.finish(result)
-    m = result.measurements
-    t_c = m.get("contact_duration")
-    if t_c is not None and t_c / solver.dt < MIN_STEPS_PER_CONTACT:
-        logger.warning("the contact lasted %.4g s, only %.1f time steps of %.4g s (fewer than "
-                       "%d): peak force and contact time are not resolved; use [analysis] "
-                       "time_step = %.3g s or less", t_c, t_c / solver.dt, solver.dt,
-                       MIN_STEPS_PER_CONTACT, t_c / MIN_STEPS_PER_CONTACT)
-
-    def fmt(v, scale=1.0, spec=".4g"):
-        return "-" if v is None else format(v * scale, spec)
-
-    print(f"  peak force {fmt(m['peak_force'])} N, max approach "
-          f"{fmt(m['max_approach'], 1e6)} um, contact {fmt(m['contact_duration'], 1e6)} us, "
-          f"restitution {fmt(m['restitution'])}, "
-          f"energy error {fmt(m['energy_error'], 100, '.3f')}%")
-    pl = result.info.get("plasticity")
-    if pl:
-        print(f"  plastic work {fmt(pl['dissipation'])} J, max equivalent plastic strain "
-              f"{fmt(pl['max_equivalent_plastic_strain'], 100, '.3g')}%, residual "
-              f"indentation {fmt(m['residual_indentation'], 1e6)} um")
-    print(f"wrote {path} ({time.perf_counter() - t0:.1f} s)")
+        calibrate(args.gearset, out=args.out, stages=args.stages, speeds=args.speeds,
+                  impact_speeds=args.impact_speeds, switch=args.switch,
+                  positions=args.positions, mesh_cycle=not args.no_mesh_cycle,
+                  corners=args.corners, corner_impacts=args.corner_impacts,
+                  switching=not args.no_switching, preset_speeds=not args.no_preset_speeds,
+                  level=args.level, mesh_cycle_level=args.mesh_cycle_level,
+                  integrator=args.integrator, workers=args.workers, scheduler=args.scheduler,
+                  cache=args.cache, progress=shown.cases, echo=shown.echo)
+    finally:
+        shown.close()
     return 0
 
 

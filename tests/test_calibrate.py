@@ -89,9 +89,9 @@ def test_cli_rejects_bad_options(tmp_path, capsys, argv, pattern):
 def test_more_workers_than_cores_get_a_warning(tmp_path, caplog, monkeypatch):
     # Legal but surely unintended: eight workers on two cores share them and each
     # holds its own case's memory. (The run then stops at the bad level.)
-    from fe_impact.calibration import sweep as cal
+    from fe_impact.calibration import cluster
 
-    monkeypatch.setattr(cal, "_cores", lambda: 2)
+    monkeypatch.setattr(cluster, "cores", lambda: 2)
     with caplog.at_level("WARNING"):
         assert main(["calibrate", "--out", str(tmp_path / "o"), "--workers", "8",
                      "--level", "huge"]) == 2
@@ -148,14 +148,16 @@ def test_resume_key_covers_settings_version_and_mesh_format(monkeypatch):
     moved = cal.case_hash(position, cal.Settings(), "gear set")
     monkeypatch.undo()
     assert moved != cal.case_hash(position, cal.Settings(), "gear set")
-    monkeypatch.setattr(cal, "__version__", "0.0.0-other")
+    from fe_impact.calibration import planning
+
+    monkeypatch.setattr(planning, "__version__", "0.0.0-other")
     assert key != cal.case_hash(c, cal.Settings(), "gear set")
 
 
 def test_the_seed_studies_run_are_those_the_calibration_has_laws_for():
     # a study runs only on stages with laws: Table 1 engages stage 1, Tables 2 and 4
     # stage 2, Table 3 stage 3, the two switching runs all three
-    from fe_impact.cli.main import _seed_studies
+    from fe_impact.api import seed_studies as _seed_studies
     from fe_impact.gears import default_gearset
 
     gearset = default_gearset()
@@ -171,7 +173,7 @@ def test_an_interrupted_study_leaves_the_calibration_complete(tmp_path, monkeypa
     # the switching entry says "stopped", and the interrupt goes on to the CLI (130).
     import json
 
-    from fe_impact.calibration import sweep
+    from fe_impact.calibration import execution
     from fe_impact.output.drawing import draw_here
     from fe_impact.switching import study
 
@@ -188,8 +190,8 @@ def test_an_interrupted_study_leaves_the_calibration_complete(tmp_path, monkeypa
 
     monkeypatch.setattr(study, "seed_study_job", job)
     with pytest.raises(KeyboardInterrupt):
-        sweep._run_studies(tmp_path, tmp_path / "calibration.json", "", ("table1", "table2",
-                                                                          "table3"), draw_here)
+        execution._run_studies(tmp_path, tmp_path / "calibration.json", "",
+                               ("table1", "table2", "table3"), draw_here)
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary == {"status": "completed", "calibration": "calibration.json",
                        "switching": "stopped"}
@@ -204,7 +206,7 @@ def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeyp
     # them stopped and leaves the calibration complete.
     import json
 
-    from fe_impact.calibration import sweep
+    from fe_impact.calibration import execution
     from fe_impact.switching import study
 
     monkeypatch.setattr(study, "seed_study_job", lambda *args: {})
@@ -214,8 +216,8 @@ def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeyp
         queued.extend(jobs)
         return lambda: [name for name, fn, args in jobs if fn(*args) is not None]
 
-    finish = sweep._start_studies(tmp_path, tmp_path / "calibration.json", "",
-                                  ("table1", "table2"), later)
+    finish = execution._start_studies(tmp_path, tmp_path / "calibration.json", "",
+                                      ("table1", "table2"), later)
     assert [name for name, *_ in queued] == ["switching study table1",
                                              "switching study table2"]
     assert not (tmp_path / "summary.json").exists()
@@ -231,8 +233,8 @@ def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeyp
             raise KeyboardInterrupt
         return wait
 
-    finish = sweep._start_studies(tmp_path, tmp_path / "calibration.json", "", ("table3",),
-                                  interrupted)
+    finish = execution._start_studies(tmp_path, tmp_path / "calibration.json", "",
+                                      ("table3",), interrupted)
     with pytest.raises(KeyboardInterrupt):
         finish()
     assert json.loads((tmp_path / "summary.json").read_text())["switching"] == "stopped"
@@ -305,7 +307,7 @@ def test_a_run_that_fails_before_any_case_leaves_no_output_folder(tmp_path, monk
     # A scheduler that never answers fails after its 10 s timeout, before any file is
     # written (here the failure is raised in its place): the --out the run made goes
     # with it, as a mistaken option leaves none. A folder that was there stays.
-    from fe_impact.calibration import sweep as cal
+    from fe_impact.calibration import execution as cal
 
     def no_scheduler(*args, **kwargs):
         raise CalibrationError("--scheduler tcp://127.0.0.1:1: cannot connect (timed out)")

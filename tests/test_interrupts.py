@@ -205,7 +205,7 @@ def test_a_worker_drops_only_unretrieved_timeouts_from_asyncio(caplog):
     import gc
     import logging
 
-    from fe_impact.calibration import sweep
+    from fe_impact.calibration import cluster
 
     def unretrieved(exc: BaseException) -> None:
         loop = asyncio.new_event_loop()
@@ -218,8 +218,8 @@ def test_a_worker_drops_only_unretrieved_timeouts_from_asyncio(caplog):
     log = logging.getLogger("asyncio")
     before = list(log.filters)
     try:
-        sweep._quiet_asyncio()
-        sweep._quiet_asyncio()                      # once, however often a worker runs cases
+        cluster.quiet_asyncio()
+        cluster.quiet_asyncio()                      # once, however often a worker runs cases
         assert len(log.filters) == len(before) + 1
         with caplog.at_level(logging.ERROR, logger="asyncio"):
             unretrieved(TimeoutError("Timeout"))

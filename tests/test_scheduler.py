@@ -77,9 +77,9 @@ def test_local_workers_compile_into_caches_of_their_own(tmp_path):
     gets ``<cache>/numba/w<name>``, stable across runs."""
     import os
 
-    from fe_impact.calibration.sweep import _local_cluster
+    from fe_impact.calibration.cluster import local_cluster
 
-    cluster, client = _local_cluster(2, tmp_path / "numba")
+    cluster, client = local_cluster(2, tmp_path / "numba")
     try:
         dirs = client.run(lambda: os.environ.get("NUMBA_CACHE_DIR"))
     finally:
@@ -95,10 +95,10 @@ def test_a_single_local_worker_may_use_all_the_memory():
     half the machine (a stage-3 approach corner needs more)."""
     from distributed.system import MEMORY_LIMIT
 
-    from fe_impact.calibration.sweep import _local_cluster
+    from fe_impact.calibration.cluster import local_cluster
 
     for n in (1, 2):
-        cluster, client = _local_cluster(n)
+        cluster, client = local_cluster(n)
         try:
             limits = client.run(lambda dask_worker: dask_worker.memory_manager.memory_limit)
         finally:
@@ -125,12 +125,13 @@ def test_the_sweep_hands_out_impacts_stage_by_stage_then_positions():
     # Largest first (the slowest impact of each stage, stage 3's bigger face gear
     # first), the stages in turn so that two workers start on different stages'
     # solids; the quasi-static positions after every impact.
+    from fe_impact.calibration.execution import sweep_order
     from fe_impact.calibration.meshcycle import PositionCase, plan_positions
-    from fe_impact.calibration.sweep import _sweep_order, plan_cases
+    from fe_impact.calibration.planning import plan_cases
     from fe_impact.gears import default_gearset
 
     gs = default_gearset()
-    order = _sweep_order(plan_positions(gs, positions=3) + plan_cases(gs))
+    order = sweep_order(plan_positions(gs, positions=3) + plan_cases(gs))
     impacts = [c for c in order if not isinstance(c, PositionCase)]
     assert [c.stage for c in impacts] == [3, 2, 1] * 3
     assert [c.speed_rpm for c in impacts] == [100.0] * 3 + [300.0] * 3 + [1000.0] * 3
@@ -140,7 +141,7 @@ def test_the_sweep_hands_out_impacts_stage_by_stage_then_positions():
     from fe_impact.calibration.meshcycle import plan_corner_positions
 
     corners = plan_corner_positions(gs)
-    order = _sweep_order(plan_positions(gs, positions=3) + plan_cases(gs) + corners)
+    order = sweep_order(plan_positions(gs, positions=3) + plan_cases(gs) + corners)
     assert [c.contact for c in order[:6]] == ["corner-approach"] * 3 + ["corner-recess"] * 3
     assert not any(getattr(c, "contact", "flank") != "flank" for c in order[6:])
 

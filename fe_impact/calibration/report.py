@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fe_impact.calibration.measurement import GAP_FRACTION, MAX_GAP
 from fe_impact.calibration.records import Calibration, CalibrationRecord
 from fe_impact.errors import CalibrationError
 from fe_impact.inputs import read_document
@@ -30,8 +31,6 @@ def _impact_load(cases) -> str:
 
 def _gap(gap: float | None) -> str:
     if gap is None:
-        from fe_impact.calibration.sweep import GAP_FRACTION, MAX_GAP
-
         return (f"{GAP_FRACTION:g} x the Hertz approach, at most {MAX_GAP * 1e6:g} um "
                 "(per case in calibration.json)")
     return f"{gap * 1e6:g} um"
@@ -735,7 +734,7 @@ def _peak_frame(out: Path, case: CalibrationRecord,
     """The VTU frame of the largest contact force: (file, time s, force N).
 
     The fields are written at every few output times only
-    (sweep.VTU_FRAME_STRIDE): the force at each frame's time is read off the
+    (measurement.VTU_FRAME_STRIDE): the force at each frame's time is read off the
     history, and the frame with the largest one is taken.
     """
     frames = summary["fields"]["frames"]

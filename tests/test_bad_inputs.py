@@ -340,7 +340,8 @@ MESH = [
      ["clearance_coeff = 2", "their sum 3"]),
     ("addendum_coeff 1.2", gearset("addendum_coeff = 1.0", "addendum_coeff = 1.2"),
      ["fillet_radius_coeff = 0.38", "(0, 0.3679]", "addendum_coeff = 1.2"]),
-    ("pinion teeth 10", gearset("teeth = 19", "teeth = 10"), ["[pinion] teeth = 10", ">= 18"]),
+    ("pinion teeth 15", gearset("teeth = 19", "teeth = 15"), ["[pinion] teeth = 15", ">= 18",
+                                                              "pressure_angle_deg to >="]),
     # Used to fail in the contact analysis: "relative curvature is not positive definite".
     ("shaper fewer teeth than the pinion",
      gearset("shaper_teeth = 21   #", "force_shaper = true\nshaper_teeth = 15   #"),

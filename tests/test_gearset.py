@@ -3,7 +3,6 @@
 import copy
 import math
 import tomllib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,13 +14,14 @@ from fe_impact.gears import (
     GearSet,
     PinionTooth,
     default_gearset,
+    default_gearset_path,
     gearset_from_dict,
     load_gearset,
 )
 from fe_impact.gears.gearset import Pinion, pinion_tip_rounding
 from fe_impact.gears.pinion import involute_function
 
-SEED = Path(__file__).resolve().parents[1] / "geometry" / "seed.toml"
+SEED = default_gearset_path()
 
 
 @pytest.fixture
@@ -91,11 +91,14 @@ INVALID = {
     ),
     "inner radius below the conjugate limit": (
         [_set((*STAGE1, "inner_radius_mm"), 82.0)],
-        ["stage 1 (56 teeth)", "inner_radius_mm = 82.000 mm", "[82.371, 96.978] mm", "conjugate"],
+        ["stage 1 (56 teeth)", "inner_radius_mm = 82.000 mm", "raise it to at least 82.371 mm",
+         "[82.371, 96.978] mm", "conjugate-tip limit 82.371 mm governs",
+         "undercut limit 81.515 mm lies inside"],
     ),
     "outer radius beyond pointing": (
         [_set((*STAGE3, "outer_radius_mm"), 139.0)],
-        ["stage 3 (80 teeth)", "outer_radius_mm = 139.000 mm", "pointing", "138.390"],
+        ["stage 3 (80 teeth)", "outer_radius_mm = 139.000 mm", "pointing",
+         "lower it to at most 138.390 mm"],
     ),
     "rings overlap": (
         [
@@ -103,7 +106,9 @@ INVALID = {
             _set((*STAGE2, "outer_radius_mm"), 117.5),
             _set((*STAGE3, "inner_radius_mm"), 116.0),
         ],
-        ["stage 2 (68 teeth) and stage 3 (80 teeth) overlap radially by 1.500 mm"],
+        ["stage 2 (68 teeth) and stage 3 (80 teeth) overlap radially by 1.500 mm",
+         "lower stage 2's outer_radius_mm to at most 116.000 mm",
+         "raise stage 3's inner_radius_mm to at least 117.500 mm"],
     ),
     # Used to be accepted, then refused by the contact analysis at roll 0 deg.
     "face beside the pitch radius": (
@@ -117,7 +122,7 @@ INVALID = {
     ),
     "negative module": (
         [_set(("pinion", "module_mm"), -3.0), _set(("face_gear", "module_mm"), None)],
-        ["[pinion] module_mm = -3 mm", "> 0"],
+        ["[pinion] module_mm = -3 mm", "[1, 10] mm", "design range"],
     ),
     "negative inner radius": (
         [_set((*STAGE1, "inner_radius_mm"), -1.0)],
@@ -219,7 +224,7 @@ def test_force_shaper_accepts_a_shaper_outside_the_range(seed_data):
 def test_undercut_rule_admits_radii_between_the_two_inner_limits(seed_data):
     data = copy.deepcopy(seed_data)
     data["face_gear"]["stages"][0]["inner_radius_mm"] = 82.0  # 81.515 < 82.0 < 82.371
-    with pytest.raises(GeometryError, match="conjugate limit"):
+    with pytest.raises(GeometryError, match="conjugate-tip limit 82.371 mm governs"):
         gearset_from_dict(data)
     data["face_gear"]["inner_limit"] = "undercut"
     assert gearset_from_dict(data).stages[0].inner_radius == pytest.approx(0.082)

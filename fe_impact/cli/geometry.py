@@ -37,6 +37,7 @@ TABLE: dict[str, tuple[tuple[str, str, float, str], ...]] = {
         ("inner_undercut_limit_m", "inner limit: undercut [mm]", 1e3, ".3f"),
         ("inner_conjugate_limit_m", "inner limit: conjugate tip [mm]", 1e3, ".3f"),
         ("outer_pointing_limit_m", "outer limit: pointing [mm]", 1e3, ".3f"),
+        ("inner_limit_governing", "inner limit that governs", 1.0, "s"),
         ("inner_undercut_u_m", "undercut limit, shaper axis u_s [mm]", 1e3, ".3f"),
         ("inner_conjugate_u_m", "conjugate-tip limit, u_s [mm]", 1e3, ".3f"),
         ("radius_at_top_land_min_m", "radius of a 0.2 mm top land [mm]", 1e3, ".3f"),
@@ -74,6 +75,10 @@ TABLE: dict[str, tuple[tuple[str, str, float, str], ...]] = {
         ("b_m", "Hertz semi-axis b [mm]", 1e3, ".4g"),
         ("max_pressure_Pa", "max pressure p0 [MPa]", 1e-6, ".4g"),
         ("approach_m", "approach delta [um]", 1e6, ".4g"),
+        ("contact_stress_limit_Pa", "allowable sigma_Hlim (material) [MPa]", 1e-6, ".4g"),
+        ("contact_stress_ratio", "p0 / sigma_Hlim [-]", 1.0, ".3f"),
+        ("ellipse_nearest_edge", "ellipse: nearest edge", 1.0, "s"),
+        ("ellipse_past_edge_m", "  cut off past it (+) / short of it (-) [mm]", 1e3, "+.4g"),
     ),
     "masses": (
         ("pinion_inertia_kg_m2", "pinion inertia I_1 [kg m^2]", 1.0, ".4g"),
@@ -230,13 +235,17 @@ def run(args: argparse.Namespace) -> int:
     print(f"{gearset.name}: {len(rows)} stage(s), pinion {gearset.pinion.teeth} teeth, "
           f"module {gearset.module * 1e3:g} mm, {gearset.n_pinions} pinion(s)")
     print(format_table(rows))
-    inner = "conjugate-tip" if gearset.inner_limit == "conjugate" else "undercut"
-    print(f"\nInner radius margins use the {inner} limit (face_gear.inner_limit). Top land: "
-          f"arc width\nat the tip plane; the seed file takes the outer radii where it is "
+    print("\nInner limit, stage by stage: " + "; ".join(
+        f"{r['stage']}: {r['face_width']['inner_limit_reason']}" for r in rows))
+    print(f"Top land: arc width at the tip plane; the seed file takes the outer radii where "
+          "it is "
           f"{TOP_LAND_MIN * 1e3:g} mm.\nRoll angles: pinion rotation from the pitch-point "
           "position; first and last in the order\na driving pinion meets them.\n"
           f"Load: {torque:g} N m on the output, {source}: each of the "
           f"{gearset.n_pinions} meshes carries\nF = T / (n_pinions l_2).\n"
+          "Ellipse: how far the Hertz ellipse at the pitch point runs past the nearest edge of "
+          "the\nworking flanks (< 0: it fits; > 0: it is cut off, and the pressure at that edge "
+          "exceeds p0).\n"
           "First touch: 3-D gaps are how far the pinion (approach) or the face gear "
           "(recess)\nturns from the conjugate position to touch, times its base lever; "
           "'-' for a sharp edge.")

@@ -136,39 +136,80 @@ class FaceGearLimits:
         ``r_2 = m N_2 / 2``.
     inner_undercut : float
         Where the limiting line of singular points meets the shaper tip edge.
-    inner_conjugate : float
+    inner_conjugate : float or None
         Where the face-gear tip meets the shaper's base circle; below it the
-        tip corner is not conjugate (trimmed by a few micrometres). Stricter
-        than the undercut limit except on small face gears (21 shaper teeth: at
-        40 face-gear teeth and fewer), which is why the ``"conjugate"`` rule of
-        :meth:`inner` takes the larger of the two.
+        tip corner is not conjugate (trimmed by a few micrometres). None where
+        that never happens: when the circle ``r_ps - ha* m`` of the shaper,
+        which generates the face-gear tip at the smallest shaper radius,
+        lies outside the base circle (``1 - 2 ha*/N_s > cos(alpha0)``: e.g.
+        N_s >= 22 at 25 deg, N_s >= 34 at 20 deg), the tip is conjugate at
+        every radius and the undercut limit alone bounds the face inside.
+        Where it exists it is stricter than the undercut limit except on small
+        face gears (21 shaper teeth: at 40 face-gear teeth and fewer), which is
+        why the ``"conjugate"`` rule of :meth:`inner` takes the larger of the two.
     outer_pointing : float
         Where the two flanks meet on the top land.
-    inner_undercut_u, inner_conjugate_u : float
-        The same inner limits as shaper-axis coordinates ``u_s``.
+    inner_undercut_u : float
+        The undercut limit as the shaper-axis coordinate ``u_s``.
+    inner_conjugate_u : float or None
+        The conjugate-tip limit as ``u_s`` (None where it does not exist).
+    shaper_base_radius, tip_shaper_radius : float
+        ``r_bs`` and ``r_ps - ha* m`` [m]: the conjugate-tip limit exists when
+        the second is below the first (:meth:`inner_reason`).
     """
 
     pitch_radius: float
     inner_undercut: float
-    inner_conjugate: float
+    inner_conjugate: float | None
     outer_pointing: float
     inner_undercut_u: float
-    inner_conjugate_u: float
+    inner_conjugate_u: float | None
+    shaper_base_radius: float = float("nan")
+    tip_shaper_radius: float = float("nan")
 
     def inner(self, rule: str = "conjugate") -> float:
         """Inner limit [m] by ``rule``: ``"conjugate"`` (default: a conjugate tip and no
-        undercut, the larger of the two limits) or ``"undercut"``."""
+        undercut, the larger of the limits that exist) or ``"undercut"``."""
         if rule == "conjugate":
+            if self.inner_conjugate is None:
+                return self.inner_undercut
             return max(self.inner_conjugate, self.inner_undercut)
         if rule == "undercut":
             return self.inner_undercut
         raise GeometryError(f"inner limit rule {rule!r} unknown; pick one of {INNER_LIMIT_RULES}")
 
-    def fractions(self) -> dict[str, float]:
-        """The three limits as fractions of the pitch radius ``r_2``."""
+    def governing(self, rule: str = "conjugate") -> str:
+        """Which limit :meth:`inner` takes by ``rule``: ``"undercut"`` or ``"conjugate tip"``."""
+        inner = self.inner(rule)
+        return "undercut" if inner == self.inner_undercut else "conjugate tip"
+
+    def inner_reason(self, rule: str = "conjugate") -> str:
+        """One sentence: which inner limit governs by ``rule``, and why (lengths in mm)."""
+        undercut, conjugate = self.inner_undercut * 1e3, self.inner_conjugate
+        if rule == "undercut":
+            other = ("the conjugate-tip limit does not exist" if conjugate is None else
+                     f"the conjugate-tip limit {conjugate * 1e3:.3f} mm is not applied "
+                     "(face_gear.inner_limit = \"undercut\")")
+            return f"undercut limit {undercut:.3f} mm governs; {other}"
+        if conjugate is None:
+            return (f"undercut limit {undercut:.3f} mm governs: the conjugate-tip limit does "
+                    f"not exist (the shaper circle r_ps - ha* m = "
+                    f"{self.tip_shaper_radius * 1e3:.3f} mm that cuts the face-gear tip lies "
+                    f"outside its base circle {self.shaper_base_radius * 1e3:.3f} mm, so the "
+                    "tip is conjugate at every radius)")
+        if self.governing(rule) == "undercut":
+            return (f"undercut limit {undercut:.3f} mm governs: it lies outside the "
+                    f"conjugate-tip limit {conjugate * 1e3:.3f} mm")
+        return (f"conjugate-tip limit {conjugate * 1e3:.3f} mm governs: inside it the shaper "
+                f"cuts the face-gear tip below its base circle; the undercut limit "
+                f"{undercut:.3f} mm lies inside it")
+
+    def fractions(self) -> dict[str, float | None]:
+        """The three limits as fractions of the pitch radius ``r_2`` (None: no such limit)."""
+        conjugate = self.inner_conjugate
         return {
             "inner_undercut": self.inner_undercut / self.pitch_radius,
-            "inner_conjugate": self.inner_conjugate / self.pitch_radius,
+            "inner_conjugate": None if conjugate is None else conjugate / self.pitch_radius,
             "outer_pointing": self.outer_pointing / self.pitch_radius,
         }
 
@@ -550,9 +591,11 @@ class FaceGearTooth:
         p = self._fixed_point(np.asarray(theta), np.asarray(gamma))
         return float(p[1] + self.shaper_pitch_radius)
 
-    def top_land_half_angle(self, radius: ArrayLike) -> NDArray:
-        """Half angle [rad] of the top land at radius ``L`` (0 where the tooth points)."""
-        sample = self.generate(*self.solve_parameters(radius, self.tip_height))
+    def top_land_half_angle(self, radius: ArrayLike, strict: bool = True) -> NDArray:
+        """Half angle [rad] of the top land at radius ``L`` (0 where the tooth points;
+        with ``strict=False`` NaN where the tip has no flank point,
+        :meth:`solve_parameters`)."""
+        sample = self.generate(*self.solve_parameters(radius, self.tip_height, strict))
         return np.arctan2(sample.points[..., 0], sample.points[..., 2])
 
     # -- crowning -----------------------------------------------------------------
@@ -611,6 +654,13 @@ class FaceGearTooth:
         return _apply(rot, spin), _apply(rot, dn_f - spin)
 
 
+#: Radii [in pitch radii] at which the pointing limit is bracketed, in turn: the
+#: top land is still positive at the inner limit and vanishes below one of them
+#: (1.12-1.19 r_2 over the checked ranges; the tooth always points, since the
+#: local rack angle alpha_L tends to 90 deg as L grows).
+_POINTING_BRACKETS = (1.3, 1.6, 2.0, 3.0)
+
+
 @functools.lru_cache(maxsize=256)
 def face_gear_limits(
     teeth: int,
@@ -628,8 +678,10 @@ def face_gear_limits(
     - Conjugate tip: the face-gear tip (height ``ha* m``) meets the shaper
       base circle (``theta = 0``): ``cos g = (r_ps - ha* m) / r_bs``, i.e.
       ``u_s = r_2 cos^2(alpha0) / (1 - 2 ha* / N_s)``; its radius is
-      ``sqrt(u_s^2 + (r_bs sin g)^2)``.
-    - Pointing: the top-land half angle at height ``ha* m`` vanishes.
+      ``sqrt(u_s^2 + (r_bs sin g)^2)``. It does not exist (None) when
+      ``r_ps - ha* m >= r_bs``: the tip is then conjugate at every radius.
+    - Pointing: the top-land half angle at height ``ha* m`` vanishes, searched
+      outward from the inner limit.
 
     Parameters
     ----------
@@ -650,7 +702,8 @@ def face_gear_limits(
     Raises
     ------
     GeometryError
-        If the usable width is empty or a limit cannot be bracketed.
+        If the usable width is empty (the message says the limits and that
+        more face-gear teeth widen it) or a limit cannot be bracketed.
     """
     tooth = FaceGearTooth(
         teeth,
@@ -671,32 +724,53 @@ def face_gear_limits(
             f"{shaper_teeth}-tooth shaper"
         ) from exc
     undercut = tooth.generate(theta_tip, gamma_u)
-    cos_c = (tooth.shaper_pitch_radius - tooth.tip_height) / tooth.shaper_base_radius
-    if not 0.0 < cos_c < 1.0:
-        raise GeometryError(
-            f"the face-gear tip never reaches the shaper base circle (N_s = {shaper_teeth})"
-        )
-    conjugate = tooth.generate(0.0, np.arccos(cos_c))
     r_2 = tooth.pitch_radius
-    try:
-        outer = brentq(lambda r: float(tooth.top_land_half_angle(r)), r_2, 1.5 * r_2, xtol=1e-13)
-    except ValueError as exc:
-        raise GeometryError(
-            f"no pointing limit found below 1.5 r_2 for a face gear with {teeth} teeth"
-        ) from exc
+    r_bs = tooth.shaper_base_radius
+    tip_circle = tooth.shaper_pitch_radius - tooth.tip_height
+    conjugate = conjugate_u = None
+    if tip_circle < r_bs:     # the face-gear tip reaches the shaper's base circle
+        point = tooth.generate(0.0, np.arccos(tip_circle / r_bs))
+        conjugate = float(np.hypot(point.points[0], point.points[2]))
+        conjugate_u = float(point.u_s)
+    inner_undercut = float(np.hypot(undercut.points[0], undercut.points[2]))
+    inner = max(inner_undercut, conjugate or 0.0)
+    outer = _pointing_radius(tooth, inner)
     limits = FaceGearLimits(
         pitch_radius=r_2,
-        inner_undercut=float(np.hypot(undercut.points[0], undercut.points[2])),
-        inner_conjugate=float(np.hypot(conjugate.points[0], conjugate.points[2])),
-        outer_pointing=float(outer),
+        inner_undercut=inner_undercut,
+        inner_conjugate=conjugate,
+        outer_pointing=outer,
         inner_undercut_u=float(undercut.u_s),
-        inner_conjugate_u=float(conjugate.u_s),
+        inner_conjugate_u=conjugate_u,
+        shaper_base_radius=float(r_bs),
+        tip_shaper_radius=float(tip_circle),
     )
-    if limits.inner() >= limits.outer_pointing:
-        raise GeometryError(
-            f"face gear with {teeth} teeth and a {shaper_teeth}-tooth shaper has no usable "
-            f"face width: inner limit {limits.inner() * 1e3:.3f} mm >= outer limit "
-            f"{limits.outer_pointing * 1e3:.3f} mm"
-        )
     logger.debug("face-gear limits N_2=%d N_s=%d: %s", teeth, shaper_teeth, limits)
     return limits
+
+
+def _pointing_radius(tooth: FaceGearTooth, inner: float) -> float:
+    """Radius [m] outside ``inner`` where the top land vanishes (the pointing limit).
+
+    Raises
+    ------
+    GeometryError
+        If the tooth is pointed already at ``inner`` (no usable width), or the
+        top land is not seen to vanish (:data:`_POINTING_BRACKETS`).
+    """
+    def land(radius: float) -> float:
+        return float(tooth.top_land_half_angle(radius, strict=False))
+
+    r_2 = tooth.pitch_radius
+    if not land(inner) > 0.0:
+        raise GeometryError(
+            f"face gear with {tooth.teeth} teeth and a {tooth.shaper_teeth}-tooth shaper has "
+            f"no usable face width: its tooth is pointed already at its inner limit "
+            f"{inner * 1e3:.3f} mm; more face-gear teeth widen it")
+    for factor in _POINTING_BRACKETS:
+        high = factor * r_2
+        if high > inner and land(high) < 0.0:
+            return float(brentq(land, inner, high, xtol=1e-13))
+    raise GeometryError(
+        f"no pointing limit found below {_POINTING_BRACKETS[-1]:g} r_2 for a face gear with "
+        f"{tooth.teeth} teeth and a {tooth.shaper_teeth}-tooth shaper")

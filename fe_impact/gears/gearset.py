@@ -17,6 +17,7 @@ of the records is the key without its suffix)::
     poisson_ratio = 0.289
     density_kg_m3 = 7860.0
     yield_strength_pa = 835e6
+    contact_stress_limit_pa = 1500e6   # optional: ISO 6336-5 sigma_Hlim
 
     [pinion]
     teeth = 19
@@ -103,6 +104,23 @@ __all__ = [
 #: contact, sensitive to misalignment; a larger difference shrinks the contact).
 SHAPER_TEETH_EXCESS = (1, 3)
 
+#: The design ranges a gear set must lie in, the ranges the face-gear geometry is
+#: checked over (tests/test_drives.py, validation/face_gear_limits.py): pressure
+#: angle [deg], module [m], pinion teeth, face-gear stages and pinions (each
+#: inclusive). Inside them a set is refused only by the geometry's own conditions
+#: (undercut, pointing, rings that overlap, ...), each message saying what to change.
+PRESSURE_ANGLE_RANGE_DEG = (18.0, 30.0)
+MODULE_RANGE = (1e-3, 10e-3)
+PINION_TEETH_RANGE = (12, 40)
+STAGES_RANGE = (1, 5)
+PINIONS_RANGE = (1, 4)
+#: ``sigma_Hlim`` [Pa] when a gear set gives none: ISO 6336-5:2016, case-hardened
+#: (carburised) wrought steels, material quality MQ, 1500 MPa (ML 1300, ME 1650);
+#: the seed's 20CrMnTi, carburised and quenched to 58-62 HRC, is such a steel
+#: (GB/T 3480.5, the Chinese adoption of ISO 6336-5, gives the same chart).
+DEFAULT_CONTACT_STRESS_LIMIT = 1500e6
+_RANGE_HINT = "(the design range fe-impact's face-gear geometry is checked over)"
+
 #: Crowning above this fraction of the module is taken for a unit mistake
 #: (micrometres entered as millimetres).
 MAX_CROWNING_PER_MODULE = 0.1
@@ -168,12 +186,17 @@ class Material:
         rho [kg/m^3].
     yield_strength : float
         Y [Pa] (uniaxial; an input, used for plasticity and yield-onset speed).
+    contact_stress_limit : float
+        Allowable contact stress [Pa] the Hertz peak pressure is compared with:
+        the endurance limit for contact stress ``sigma_Hlim`` of ISO 6336-5.
+        Default :data:`DEFAULT_CONTACT_STRESS_LIMIT` (case-carburised steel).
     """
 
     youngs_modulus: float
     poisson_ratio: float
     density: float
     yield_strength: float
+    contact_stress_limit: float = DEFAULT_CONTACT_STRESS_LIMIT
 
     def __post_init__(self) -> None:
         check_number("material.youngs_modulus", self.youngs_modulus, low=0.0, low_open=True,
@@ -185,6 +208,9 @@ class Material:
                      hint="(below the Young's modulus)", error=GeometryError)
         check_number("material.poisson_ratio", self.poisson_ratio, low=-1, high=0.5,
                      low_open=True, high_open=True, error=GeometryError)
+        check_number("material.contact_stress_limit", self.contact_stress_limit, low=0.0,
+                     low_open=True, high=self.youngs_modulus, high_open=True, unit="MPa",
+                     scale=1e-6, hint="(below the Young's modulus)", error=GeometryError)
 
 
 @dataclass(frozen=True)
@@ -228,14 +254,17 @@ class Pinion:
     tip_edge_radius: float = DEFAULT_PINION_TIP_EDGE_RADIUS
 
     def __post_init__(self) -> None:
-        _positive("pinion.module", self.module)
+        check_number("pinion.module", self.module, low=MODULE_RANGE[0], high=MODULE_RANGE[1],
+                     unit="mm", scale=1e3, hint=_RANGE_HINT, error=GeometryError)
         _positive("pinion.face_width", self.face_width)
         _positive("pinion.addendum_coeff", self.addendum_coeff, "", 1.0)
         _positive("pinion.clearance_coeff", self.clearance_coeff, "", 1.0)
         _positive("pinion.inertia", self.inertia, "kg m^2", 1.0)
-        check_number("pinion.pressure_angle_deg", self.pressure_angle_deg, low=0, high=45,
-                     low_open=True, high_open=True, unit="deg", error=GeometryError)
-        _integer("pinion.teeth", self.teeth, 1)
+        check_number("pinion.pressure_angle_deg", self.pressure_angle_deg,
+                     low=PRESSURE_ANGLE_RANGE_DEG[0], high=PRESSURE_ANGLE_RANGE_DEG[1],
+                     unit="deg", hint=_RANGE_HINT, error=GeometryError)
+        check_integer("pinion.teeth", self.teeth, low=PINION_TEETH_RANGE[0],
+                      high=PINION_TEETH_RANGE[1], error=GeometryError)
         self._check_rack()
         rho_max = max_fillet_radius_coeff(
             self.pressure_angle_deg, self.addendum_coeff, self.clearance_coeff
@@ -255,12 +284,35 @@ class Pinion:
         if self.teeth < z_min:
             raise GeometryError(
                 f"pinion.teeth = {self.teeth} must be >= {math.ceil(z_min)} "
-                f"(bound {z_min:.2f}): fewer teeth are undercut by the rack"
+                f"(bound {z_min:.2f}): fewer teeth are undercut by the rack; raise it, "
+                f"{self._undercut_remedy()}"
             )
         self._check_tip_land()
         _crowning("pinion.lengthwise_crowning", self.lengthwise_crowning, self.module)
         _crowning("pinion.profile_crowning", self.profile_crowning, self.module)
         self._check_tip_edge()
+
+    def _undercut_remedy(self) -> str:
+        """What else frees this tooth count of undercut: the pressure angle at which it is
+        (the bound falls as the angle grows), if one inside the range does."""
+        high = PRESSURE_ANGLE_RANGE_DEG[1]
+
+        def free(angle: float) -> bool:
+            bound = min_teeth_without_undercut(angle, self.addendum_coeff,
+                                               self.clearance_coeff,
+                                               min(self.fillet_radius_coeff,
+                                                   max_fillet_radius_coeff(
+                                                       angle, self.addendum_coeff,
+                                                       self.clearance_coeff)))
+            return self.teeth >= bound
+
+        if not free(high):
+            return f"or lower addendum_coeff (even at {high:g} deg {self.teeth} teeth are)"
+        low = self.pressure_angle_deg
+        for _ in range(50):    # bisection to 1e-14 of the bracket
+            mid = 0.5 * (low + high)
+            low, high = (low, mid) if free(mid) else (mid, high)
+        return f"or raise pressure_angle_deg to >= {math.ceil(high * 10) / 10:g} deg"
 
     def tip_edge_rounding(self) -> tuple[float, float]:
         """Where the tip-edge rounding leaves the involute, and what it leaves of the land:
@@ -478,9 +530,14 @@ class GearSet:
         object.__setattr__(self, "stages", tuple(self.stages))
         if not isinstance(self.name, str) or not self.name:
             raise invalid("name", self.name, "must be a non-empty string", GeometryError)
-        _integer("n_pinions", self.n_pinions, 1)
+        check_integer("n_pinions", self.n_pinions, low=PINIONS_RANGE[0], high=PINIONS_RANGE[1],
+                      error=GeometryError)
         if not self.stages:
             raise GeometryError("face_gear.stages is empty: give at least one stage")
+        if len(self.stages) > STAGES_RANGE[1]:
+            raise GeometryError(
+                f"face_gear.stages: {len(self.stages)} stages given, at most "
+                f"{STAGES_RANGE[1]} allowed {_RANGE_HINT}")
         check_choice("face_gear.inner_limit", self.inner_limit, INNER_LIMIT_RULES, GeometryError)
         self._check_module()
         for number, stage in enumerate(self.stages, start=1):
@@ -499,7 +556,7 @@ class GearSet:
             raise GeometryError(
                 f"face_gear.module = {module * 1e3:g} mm differs from pinion.module = "
                 f"{self.pinion.module * 1e3:g} mm: a face gear meshes only with a pinion of "
-                "the same module"
+                "the same module; give both the same value (or leave face_gear.module out)"
             )
 
     def _label(self, number: int) -> str:
@@ -508,9 +565,11 @@ class GearSet:
     def _check_stage(self, number: int, stage: FaceGearStage) -> None:
         label = self._label(number)
         if stage.teeth % self.n_pinions:
+            below = stage.teeth - stage.teeth % self.n_pinions
             raise GeometryError(
                 f"{label}: teeth = {stage.teeth} must be a multiple of n_pinions = "
-                f"{self.n_pinions} (pinions arranged symmetrically)"
+                f"{self.n_pinions} (pinions arranged symmetrically): use {below} or "
+                f"{below + self.n_pinions}"
             )
         low, high = (self.pinion.teeth + e for e in SHAPER_TEETH_EXCESS)
         if stage.shaper_teeth < self.pinion.teeth:
@@ -539,23 +598,20 @@ class GearSet:
             )
         _crowning(f"{label}: lengthwise_crowning", stage.lengthwise_crowning, self.pinion.module)
         self._check_shaper_tip(label, stage.shaper_teeth)
-        limits = self.stage_limits(number - 1)
-        inner = limits.inner(self.inner_limit)
-        other = "undercut" if self.inner_limit == "conjugate" else "conjugate"
-        usable = (
-            f"usable [{inner * 1e3:.3f}, {limits.outer_pointing * 1e3:.3f}] mm: inner = "
-            f"{self.inner_limit} limit (face_gear.inner_limit; the {other} limit is "
-            f"{limits.inner(other) * 1e3:.3f} mm), outer = pointing limit"
-        )
+        limits = self._usable_limits(label, number - 1)
+        inner, outer = limits.inner(self.inner_limit), limits.outer_pointing
+        usable = (f"the {limits.inner_reason(self.inner_limit)}; usable "
+                  f"[{inner * 1e3:.3f}, {outer * 1e3:.3f}] mm, the pointing limit outside")
         if stage.inner_radius < inner:
             raise GeometryError(
                 f"{label}: inner_radius = {stage.inner_radius * 1e3:.3f} mm is below the "
-                f"inner limit; {usable}"
+                f"inner limit: raise it to at least {inner * 1e3:.3f} mm ({usable})"
             )
-        if stage.outer_radius > limits.outer_pointing:
+        if stage.outer_radius > outer:
             raise GeometryError(
                 f"{label}: outer_radius = {stage.outer_radius * 1e3:.3f} mm is beyond the "
-                f"pointing limit; {usable}"
+                f"pointing limit, where the tooth comes to a point: lower it to at most "
+                f"{outer * 1e3:.3f} mm ({usable})"
             )
         r_2 = limits.pitch_radius
         if not stage.inner_radius < r_2 < stage.outer_radius:
@@ -566,6 +622,41 @@ class GearSet:
                 f"analysis' design point): allowed inner_radius < {r_2 * 1e3:.3f} mm < "
                 "outer_radius"
             )
+
+    def _usable_limits(self, label: str, index: int) -> FaceGearLimits:
+        """The stage's limits; refused, saying what to change, when the usable face width
+        is empty or does not hold the pitch radius ``r_2`` (the design contact point)."""
+        stage = self.stages[index]
+        try:
+            limits = self.stage_limits(index)
+        except GeometryError as exc:
+            raise GeometryError(f"{label}: {exc}; {self._more_teeth(stage)}") from exc
+        inner, r_2 = limits.inner(self.inner_limit), limits.pitch_radius
+        if not inner < r_2 < limits.outer_pointing:
+            raise GeometryError(
+                f"{label}: the usable face {inner * 1e3:.3f} to "
+                f"{limits.outer_pointing * 1e3:.3f} mm does not hold the pitch radius "
+                f"{r_2 * 1e3:.3f} mm, where the pinion meshes ("
+                f"{limits.inner_reason(self.inner_limit)}); {self._more_teeth(stage)}")
+        return limits
+
+    def _more_teeth(self, stage: FaceGearStage) -> str:
+        """Advice for a face gear too small for its shaper: the fewest teeth (a multiple
+        of n_pinions, up to 20 shaper teeth) whose usable face holds the pitch radius
+        (the inner limit falls towards 0.9-0.97 r_2 as the face gear grows), else to raise
+        the pressure angle."""
+        p, n = self.pinion, self.n_pinions
+        for teeth in range(stage.teeth + n - stage.teeth % n, 20 * stage.shaper_teeth, n):
+            try:
+                limits = face_gear_limits(teeth, stage.shaper_teeth, p.module,
+                                          p.pressure_angle_deg, p.addendum_coeff,
+                                          p.clearance_coeff)
+            except GeometryError:
+                continue
+            if limits.inner(self.inner_limit) < limits.pitch_radius < limits.outer_pointing:
+                return (f"give it at least {teeth} teeth (a multiple of n_pinions = {n}), or "
+                        "raise the pressure angle")
+        return "raise the pressure angle or the face-gear teeth"
 
     def _check_shaper_tip(self, label: str, shaper_teeth: int) -> None:
         """The shaper cuts the face gear's root with its tip, ``(ha* + c*) m`` above its
@@ -664,7 +755,10 @@ class GearSet:
                 raise GeometryError(
                     f"{self._label(i + 1)} and {self._label(j + 1)} overlap radially by "
                     f"{overlap * 1e3:.3f} mm: outer_radius {a.outer_radius * 1e3:.3f} mm > "
-                    f"inner_radius {b.inner_radius * 1e3:.3f} mm; clip the face widths"
+                    f"inner_radius {b.inner_radius * 1e3:.3f} mm; lower stage {i + 1}'s "
+                    f"outer_radius to at most {b.inner_radius * 1e3:.3f} mm or raise stage "
+                    f"{j + 1}'s inner_radius to at least {a.outer_radius * 1e3:.3f} mm (each "
+                    "must keep its pitch radius inside its face)"
                 )
 
     # -- geometry ---------------------------------------------------------------------------
@@ -757,6 +851,7 @@ _MATERIAL_KEYS = {
     "poisson_ratio": ("poisson_ratio", _si(1.0)),
     "density_kg_m3": ("density", _si(1.0)),
     "yield_strength_pa": ("yield_strength", _si(1.0)),
+    "contact_stress_limit_pa": ("contact_stress_limit", _si(1.0)),
 }
 _PINION_KEYS = {
     "teeth": ("teeth", _count),
@@ -787,6 +882,7 @@ _STAGE_KEYS = {
 }
 # the keys each table may leave out (their fields have defaults)
 _TOP_OPTIONAL = {"notes", "n_pinions"}
+_MATERIAL_OPTIONAL = {"contact_stress_limit_pa"}
 _PINION_OPTIONAL = {"tip_edge_radius_mm"}
 _FACE_GEAR_OPTIONAL = {"inner_limit", "module_mm", "tip_edge_radius_mm"}
 _STAGE_OPTIONAL = {"force_shaper"}
@@ -836,7 +932,7 @@ def gearset_from_dict(data: Mapping[str, Any]) -> GearSet:
     top = _convert(data, _TOP_KEYS, "", _TOP_OPTIONAL, more=("material", "pinion", "face_gear"))
     try:
         material = Material(**_convert(r.table(data, "", "material"), _MATERIAL_KEYS,
-                                       "material"))
+                                       "material", _MATERIAL_OPTIONAL))
         pinion = Pinion(**_convert(r.table(data, "", "pinion"), _PINION_KEYS, "pinion",
                                    _PINION_OPTIONAL))
         face_data = r.table(data, "", "face_gear")
@@ -894,27 +990,20 @@ def load_gearset(path: str | Path) -> GearSet:
     return gearset
 
 
-def _default_candidates() -> list[Path]:
-    """Where the default gear set is looked for, in order."""
-    here = Path(__file__).resolve().parent
-    return [here / "seed.toml", here.parents[1] / "geometry" / "seed.toml"]
-
-
 def default_gearset_path() -> Path:
-    """The file of the seed study's gear set: ``seed.toml`` next to this module (a
-    packaged copy), else in the source tree's ``geometry/`` directory.
+    """The file of the seed study's gear set: ``seed.toml`` next to this module, the one
+    copy (packaged with it; the shipped drives under the source tree's ``geometry/``
+    are further examples, not defaults).
 
     Raises
     ------
     GeometryError
-        If neither file exists.
+        If the file is missing (a broken installation).
     """
-    candidates = _default_candidates()
-    for path in candidates:
-        if path.is_file():
-            return path
-    tried = ", ".join(str(p) for p in candidates)
-    raise GeometryError(f"default gear set not found; looked for {tried}")
+    path = Path(__file__).resolve().parent / "seed.toml"
+    if not path.is_file():
+        raise GeometryError(f"default gear set not found at {path}: reinstall fe-impact")
+    return path
 
 
 def default_gearset() -> GearSet:

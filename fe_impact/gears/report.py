@@ -116,6 +116,8 @@ def _face_width(gearset: GearSet, index: int) -> dict:
         "inner_conjugate_u_m": limits.inner_conjugate_u,
         "fractions_of_pitch_radius": limits.fractions(),
         "inner_limit_rule": gearset.inner_limit,
+        "inner_limit_governing": limits.governing(gearset.inner_limit),
+        "inner_limit_reason": limits.inner_reason(gearset.inner_limit),
         "inner_radius_m": stage.inner_radius,
         "outer_radius_m": stage.outer_radius,
         "face_width_m": stage.face_width,
@@ -251,6 +253,54 @@ def contact_path_ends(pair: GearPair, pitch: ContactPoint | None = None) -> dict
 
 
 # -- load and Hertz ----------------------------------------------------------------------
+#: The edges of the working flanks, as the tooth contact analysis bounds them
+#: (:meth:`~fe_impact.gears.tca.GearPair._on_flank`), each a function of a point in the
+#: mesh frame that is >= 0 inside: the face gear's two face ends and its tip plane, the
+#: pinion's two face ends (the inner one towards the face-gear axis), tip and form circle.
+ELLIPSE_EDGES = ("face-gear inner end", "face-gear outer end", "face-gear tip",
+                 "pinion inner face end", "pinion outer face end", "pinion tip",
+                 "pinion form circle")
+
+
+def _edge_margins(pair: GearPair, contact: ContactPoint, point: np.ndarray) -> np.ndarray:
+    """Signed distances [m] of a mesh-frame ``point`` inside each of :data:`ELLIPSE_EDGES`
+    (radii and heights of the face gear, axial positions and radii of the pinion)."""
+    p, f = pair.pinion, pair.face
+    q_f = pair.face_rotation(contact.face_angle).T @ point
+    q_p = pair.pinion_rotation(contact.roll_angle).T @ (
+        point - np.array([0.0, p.pitch_radius, pair.z0]))
+    radius, height = math.hypot(q_f[0], q_f[2]), q_f[1]
+    axial, pinion_radius = q_p[2], math.hypot(q_p[0], q_p[1])
+    return np.array([radius - f.face_inner, f.face_outer - radius, f.tip_height - height,
+                     axial + 0.5 * p.face_width, 0.5 * p.face_width - axial,
+                     p.tip_radius - pinion_radius, pinion_radius - p.form_radius])
+
+
+def ellipse_edges(pair: GearPair, contact: ContactPoint, a: float, b: float) -> dict[str, float]:
+    """How far [m] the contact ellipse (semi-axes ``a`` along the relative curvature's
+    major direction, ``b`` along its minor) runs past each edge of the working flanks
+    (negative: how far inside it stays).
+
+    Each edge's margin ``g`` is linearised in the tangent plane (its gradient by central
+    differences over 1 um); the ellipse reaches ``sqrt((a g.e_a)^2 + (b g.e_b)^2)`` towards
+    it. The flanks' curvature bends them off the plane by ``a^2 kappa / 2``, under a
+    micrometre for ``a`` of a few millimetres against the ~0.1-0.5 1/m of the major
+    direction. The Hertz ellipse assumes whole flanks: where it overhangs an edge the
+    pressure there is higher than ``p0`` (edge loading).
+    """
+    step = 1e-6
+    centre = np.asarray(contact.point, float)
+    margin = _edge_margins(pair, contact, centre)
+    reach = np.zeros_like(margin)
+    for axis, length in ((contact.relative.major, a), (contact.relative.minor, b)):
+        direction = np.asarray(axis, float)
+        slope = (_edge_margins(pair, contact, centre + step * direction)
+                 - _edge_margins(pair, contact, centre - step * direction)) / (2 * step)
+        reach += (length * slope) ** 2
+    return {name: float(r - m) for name, r, m in zip(ELLIPSE_EDGES, np.sqrt(reach), margin,
+                                                     strict=True)}
+
+
 def seed_load_torque() -> float:
     """Largest load torque [N m] on the output among the seed presets (1 N m: the
     seed's 1000 N mm, presets ``table4`` and ``variable-load``)."""
@@ -277,6 +327,9 @@ def pitch_point(gearset: GearSet, number: int, torque: float) -> tuple[GearPair,
     contact, masses = analysis.contact, analysis.masses
     force = torque / (gearset.n_pinions * abs(masses.face_lever))
     ellipse = contact_ellipse(contact.relative, force, analysis.effective_modulus)
+    limit = gearset.material.contact_stress_limit
+    edges = ellipse_edges(pair, contact, ellipse.a, ellipse.b)
+    worst = max(edges, key=edges.get)
     hertz = {
         "contact_point_m": contact.point.tolist(),
         "pinion_curvatures_1_m": contact.pinion_curvature.kappa.tolist(),
@@ -291,6 +344,11 @@ def pitch_point(gearset: GearSet, number: int, torque: float) -> tuple[GearPair,
         "b_m": ellipse.b,
         "max_pressure_Pa": ellipse.p0,
         "approach_m": ellipse.approach,
+        "contact_stress_limit_Pa": limit,
+        "contact_stress_ratio": ellipse.p0 / limit,
+        "ellipse_overhang_m": edges,
+        "ellipse_nearest_edge": worst,
+        "ellipse_past_edge_m": edges[worst],
     }
     reduced = {
         "pinion_inertia_kg_m2": gearset.pinion.inertia,

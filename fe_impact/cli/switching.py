@@ -4,6 +4,7 @@
 
     fe-impact switching --list
     fe-impact switching [GEARSET] --preset NAME [--calibration FILE] [--duration S] --out DIR
+    fe-impact switching [GEARSET] --schedule FILE [--calibration FILE] --out DIR
 
 `register` adds the subcommand to the CLI's subparsers; the handler returns
 an exit status and raises `fe_impact.errors.FeImpactError` subclasses for bad
@@ -38,8 +39,9 @@ MAX_SAMPLES = 2_000_000
 _DESCRIPTION = (
     "Lumped torsional model of the multistage face-gear drive (pinions, three rings, output) "
     "with backlash, the calibrated IMPACT law per tooth pair and ratio switching. Runs one "
-    "of the seed study's conditions and writes time series, impacts, statistics beside the "
-    "seed's Tables 1-4 (CSV, JSON, report.md) and plots to --out. The IMPACT parameters come "
+    "of the seed study's conditions (--preset) or a duty cycle from a schedule file "
+    "(--schedule) and writes time series, impacts, statistics (beside the seed's Tables 1-4 "
+    "for a preset; CSV, JSON, report.md) and plots to --out. The IMPACT parameters come "
     "from --calibration, else ./calibration.json, else closed forms (with a warning)."
 )
 
@@ -53,11 +55,15 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
                         "must be of it")
     p.add_argument("--list", action="store_true", help="list the presets and exit")
     p.add_argument("--preset", metavar="NAME", help="preset to run (see --list)")
+    p.add_argument("--schedule", type=Path, metavar="FILE",
+                   help="schedule file (TOML) to run in place of a preset: segments of "
+                        "engaged stage, pinion speed, output load torque and duration, a "
+                        "ratio switch where the stage changes (docs: guide/schedule.md)")
     p.add_argument("--calibration", type=Path, metavar="FILE",
                    help="calibration file (fe-impact calibrate's calibration.json)")
     p.add_argument("--duration", type=float, metavar="S",
                    help="simulated time of each case [s] (default: the seed's, 5 s per "
-                        "segment); segments are scaled in proportion")
+                        "segment, or the schedule's); segments are scaled in proportion")
     p.add_argument("--sample-interval", type=float, default=SAMPLE_INTERVAL, metavar="S",
                    help="time-series sampling interval [s] (default 2e-4; statistics use "
                         "every integration step)")
@@ -89,10 +95,15 @@ def _list_presets() -> int:
 def _check(args: argparse.Namespace) -> None:
     from fe_impact.output.files import check_output_dir
 
-    if args.preset is None:
-        raise CaseError("--preset is required (or --list); see fe-impact switching --list")
+    if args.preset is not None and args.schedule is not None:
+        raise CaseError(f"--preset = {args.preset!r} and --schedule = {str(args.schedule)!r}: "
+                        "give one of them")
+    if args.preset is None and args.schedule is None:
+        raise CaseError("--preset NAME or --schedule FILE is required (or --list); see "
+                        "fe-impact switching --list")
     if args.out is None:
-        raise CaseError("--out is required with --preset: the folder for the results")
+        option = "--preset" if args.schedule is None else "--schedule"
+        raise CaseError(f"--out is required with {option}: the folder for the results")
     check_output_dir(args.out)
     for option, value in (("--duration", args.duration),
                           ("--sample-interval", args.sample_interval)):
@@ -128,11 +139,11 @@ def _check_preset(args: argparse.Namespace, preset, pinion_teeth: int) -> list[s
     for case in preset.cases:
         total = case.schedule.duration
         for seg in case.schedule.segments:
-            cycles = seg.duration * seg.speed_rpm / 60.0 * pinion_teeth
-            if seg.speed_rpm > 0.0 and cycles < MIN_MESH_CYCLES:
+            cycles = seg.duration * seg.mean_speed_rpm / 60.0 * pinion_teeth
+            if seg.mean_speed_rpm > 0.0 and cycles < MIN_MESH_CYCLES:
                 needed = max(needed, MIN_MESH_CYCLES / cycles * total)
-                notes.append(f"{case.name}: stage {seg.stage} at {seg.speed_rpm:g} r/min runs "
-                             f"{cycles:.3g} mesh cycles in {seg.duration:.3g} s")
+                notes.append(f"{case.name}: stage {seg.stage} at {seg.mean_speed_rpm:g} r/min "
+                             f"runs {cycles:.3g} mesh cycles in {seg.duration:.3g} s")
     if not notes:
         return []
     text = (f"run too short for its statistics: {'; '.join(notes[:3])}"
@@ -149,13 +160,17 @@ def run(args: argparse.Namespace) -> int:
         return _list_presets()
     _check(args)
     from fe_impact.gears import default_gearset, load_gearset
-    from fe_impact.switching.presets import get_preset
+    from fe_impact.switching.presets import get_preset, schedule_preset
+    from fe_impact.switching.schedule import read_schedule
     from fe_impact.switching.study import run_study
 
-    preset = get_preset(args.preset)
+    duty = None if args.schedule is None else read_schedule(args.schedule)
+    preset = get_preset(args.preset) if duty is None else schedule_preset(duty)
     if args.duration is not None:
         preset = preset.scaled(args.duration)
     gearset = default_gearset() if args.gearset is None else load_gearset(args.gearset)
+    if duty is not None:
+        duty.check_stages(len(gearset.stages), f"the gear set {gearset.name!r}")
     notes = _check_preset(args, preset, gearset.pinion.teeth)
     print(f"{preset.name}: {len(preset.cases)} case(s), {preset.duration:g} s simulated",
           flush=True)

@@ -49,7 +49,6 @@ PARAMS = np.dtype([
     ("transition_speed", np.float64),  # friction transition speed [m/s]
     ("friction", np.int64),  # 1 with friction
     ("drive", np.int64),  # 0 speed-driven pinion, 1 torque-driven
-    ("ramp", np.float64),  # speed/load ramp time [s]
     ("x0", np.float64),  # mesh-coordinate offset of the engaged ring [m]
     ("engaged", np.int64),  # engaged ring, 0-based
     ("u0", np.float64),  # roll offset of the tooth-pair numbering [m]
@@ -76,9 +75,25 @@ STAGE = np.dtype([("inertia", np.float64), ("coupling", np.float64), ("damping",
                   ("lever", np.float64), ("corner_in", np.float64),
                   ("corner_out", np.float64)], align=True)
 
-#: Schedule segment, for `reference`.
-SEGMENT = np.dtype([("t_start", np.float64), ("speed", np.float64), ("load", np.float64),
-                    ("input_torque", np.float64), ("psi_start", np.float64)], align=True)
+#: Piece of a schedule, for `reference`: a schedule segment, or a part of one between two
+#: points of its load time series. Within a segment the pinion speed is linear in time
+#: and, within a piece, the load; at a segment's start both blend from the previous
+#: segment's end values over ``blend`` with the ADAMS STEP cubic.
+SEGMENT = np.dtype([
+    ("t_start", np.float64),  # start of the piece [s]
+    ("seg_start", np.float64),  # start of its segment [s]
+    ("speed", np.float64),  # pinion speed at the segment's start, before blending [rad/s]
+    ("speed_rate", np.float64),  # its slope over the segment [rad/s^2]
+    ("prev_speed", np.float64),  # the previous segment's speed at its end [rad/s]
+    ("load", np.float64),  # load torque at the piece's start, before blending [N m]
+    ("load_rate", np.float64),  # its slope over the piece [N m/s]
+    ("prev_load", np.float64),  # the previous segment's load at its end [N m]
+    ("input_torque", np.float64),  # [N m]
+    ("prev_input_torque", np.float64),  # [N m]
+    ("psi_start", np.float64),  # scheduled pinion angle at the segment's start [rad]
+    ("blend", np.float64),  # blend time at the segment's start [s]
+    ("follows", np.int64),  # 1 if a segment precedes (its values blend in)
+], align=True)
 
 #: Contact slot of a tooth pair, SLOTS[flank, pair mod NSLOT]: the pair number, whether it
 #: is in contact, its open event (-1: none), whether it has its own law (else the
@@ -154,39 +169,66 @@ _EXPO, _BETA, _SAFE = 0.2 - 0.04 * 0.75, 0.04, 0.9
 
 
 @njit(cache=True)
-def reference(t, sch, ramp):
+def piece_index(t, sch):
+    """Index of the schedule piece holding ``t``: the last starting at or before it (0 before
+    the first), by bisection."""
+    lo, hi = 0, sch.shape[0] - 1
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if sch[mid].t_start <= t:
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
+
+
+@njit(cache=True)
+def segment_angle(psi0, tau, w0, rate, wp, blend):
+    """Scheduled pinion angle ``tau`` [s] into a segment that starts at ``psi0`` [rad].
+
+    The speed ``w0 + rate tau`` blends in from ``wp`` over ``blend`` with the STEP
+    cubic ``S(z) = 3 z^2 - 2 z^3``: the integrals of ``S`` and ``z S`` over the blend
+    are ``blend (z^3 - z^4 / 2)`` and ``blend^2 (3 z^4 / 4 - 2 z^5 / 5)``.
+    """
+    if blend > 0.0 and tau < blend:
+        z = tau / blend
+        return (psi0 + wp * tau + (w0 - wp) * blend * (z**3 - 0.5 * z**4)
+                + rate * blend * blend * (0.75 * z**4 - 0.4 * z**5))
+    if blend > 0.0:
+        return (psi0 + wp * blend + 0.5 * (w0 - wp) * blend + w0 * (tau - blend)
+                + rate * (0.35 * blend * blend + 0.5 * (tau * tau - blend * blend)))
+    return psi0 + w0 * tau + 0.5 * rate * tau * tau
+
+
+@njit(cache=True)
+def reference(t, sch):
     """Scheduled pinion angle, speed, acceleration, load and input torque at ``t``.
 
     ``sch`` holds `SEGMENT` records; speed, load and input torque blend from
-    the previous segment's value over ``ramp`` with the ADAMS STEP cubic.
+    the previous segment's end values over the segment's ``blend`` with the
+    ADAMS STEP cubic.
     """
-    k = 0
-    while k + 1 < sch.shape[0] and sch[k + 1].t_start <= t:
-        k += 1
-    seg = sch[k]
-    tau = t - seg.t_start
-    w1 = seg.speed
-    w0 = sch[k - 1].speed if k > 0 else w1
+    seg = sch[piece_index(t, sch)]
+    tau = t - seg.seg_start
+    w1 = seg.speed + seg.speed_rate * tau
+    w0 = seg.prev_speed
+    ramp = seg.blend
     blend = 1.0
-    if ramp > 0.0 and k > 0 and tau < ramp:
+    psi = segment_angle(seg.psi_start, tau, seg.speed, seg.speed_rate, w0, ramp)
+    if ramp > 0.0 and tau < ramp:
         z = tau / ramp
         blend = unit_step(z)
-        psi = seg.psi_start + w0 * tau + (w1 - w0) * ramp * (z**3 - 0.5 * z**4)
         psid = w0 + (w1 - w0) * blend
-        psidd = (w1 - w0) * 6.0 * z * (1.0 - z) / ramp
+        psidd = (w1 - w0) * 6.0 * z * (1.0 - z) / ramp + seg.speed_rate * blend
     else:
-        if ramp > 0.0 and k > 0:
-            psi = seg.psi_start + w0 * ramp + 0.5 * (w1 - w0) * ramp + w1 * (tau - ramp)
-        else:
-            psi = seg.psi_start + w1 * tau
         psid = w1
-        psidd = 0.0
-    if k > 0:
-        prev = sch[k - 1]
-        load = prev.load + (seg.load - prev.load) * blend
-        tin = prev.input_torque + (seg.input_torque - prev.input_torque) * blend
+        psidd = seg.speed_rate
+    base = seg.load + seg.load_rate * (t - seg.t_start)
+    if seg.follows:
+        load = seg.prev_load + (base - seg.prev_load) * blend
+        tin = seg.prev_input_torque + (seg.input_torque - seg.prev_input_torque) * blend
     else:
-        load = seg.load
+        load = base
         tin = seg.input_torque
     return psi, psid, psidd, load, tin
 
@@ -345,7 +387,7 @@ def rhs(t, y, dy, p, stages, aoff, corners, postab, sch, slots, pairs, npairs, a
     the rings and the pinions.
     """
     n = stages.shape[0]
-    psi, psid, psidd, load, tin = reference(t, sch, p.ramp)
+    psi, psid, psidd, load, tin = reference(t, sch)
     c = p.ratio
     eng = p.engaged
     rbp, rbe, pb = p.base_radius, stages[eng].lever, p.base_pitch
@@ -659,7 +701,7 @@ def accumulate(stats, stage, dt, a0, a1):
 def write_sample(row, t, y, p, stages, aoff, sch, aux):
     """One row of the time series (columns: see `model.series_columns`)."""
     n = stages.shape[0]
-    psi, psid, psidd, load, tin = reference(t, sch, p.ramp)
+    psi, psid, psidd, load, tin = reference(t, sch)
     c = p.ratio
     out = 2 + 2 * n
     row[0] = t

@@ -60,7 +60,8 @@ from fe_impact.switching.geometry import (
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["DRIVES", "RPM", "DriveModel", "Friction", "Segment", "StageSchedule"]
+__all__ = ["DRIVES", "RPM", "DriveModel", "Friction", "LoadSeries", "Segment",
+           "StageSchedule"]
 
 DRIVES = ("speed", "torque")
 RPM = 2.0 * math.pi / 60.0  # rad/s per r/min
@@ -102,6 +103,52 @@ class Friction:
             )
 
 
+@dataclass(frozen=True, eq=False)
+class LoadSeries:
+    """Output load torque of a segment as a time series, linear between its points.
+
+    Attributes
+    ----------
+    times : ndarray, shape (n,)
+        [s] from the segment's start: first 0, strictly increasing, n >= 2.
+    torques : ndarray, shape (n,)
+        Load torque on the output at ``times`` [N m], >= 0.
+    source : str
+        Where the series came from (a file name), for messages and reports.
+    """
+
+    times: np.ndarray
+    torques: np.ndarray
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        times = np.asarray(self.times, dtype=float)
+        torques = np.asarray(self.torques, dtype=float)
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "torques", torques)
+        where = f"load series {self.source}".rstrip()
+        if times.ndim != 1 or times.shape != torques.shape or times.size < 2:
+            raise CaseError(f"{where}: needs two or more (time, torque) points, got "
+                            f"{times.size} times and {torques.size} torques")
+        if not (np.all(np.isfinite(times)) and np.all(np.isfinite(torques))):
+            raise CaseError(f"{where}: times and torques must be finite numbers (no NaN)")
+        if times[0] != 0.0 or np.any(np.diff(times) <= 0.0):
+            raise CaseError(f"{where}: times must start at 0 s and increase strictly")
+        if np.any(torques < 0.0):
+            raise CaseError(f"{where}: torques must be >= 0 N m (the load resists the "
+                            "rotation)")
+
+    def profile(self, duration: float) -> tuple[np.ndarray, np.ndarray]:
+        """Break points ``(t, torque)`` of the series over ``[0, duration]`` [s, N m], the
+        last at ``duration`` (interpolated); CaseError if the series ends before it."""
+        if self.times[-1] < duration * (1.0 - 1e-12):
+            raise CaseError(f"load series {self.source}: ends at {self.times[-1]:g} s, "
+                            f"before the segment's {duration:g} s")
+        inside = self.times < duration
+        t = np.append(self.times[inside], duration)
+        return t, np.interp(t, self.times, self.torques)
+
+
 @dataclass(frozen=True)
 class Segment:
     """One segment of a schedule.
@@ -109,15 +156,32 @@ class Segment:
     Attributes
     ----------
     duration : float
-        [s], > 0 and at least the model's ramp time after the first segment.
+        [s], > 0 and at least the blend time after the first segment.
     stage : int
         Engaged ring, from 1.
     speed_rpm : float
-        Pinion speed [r/min] (the reference speed for a torque-driven pinion).
+        Pinion speed at the segment's start [r/min] (the reference speed for a
+        torque-driven pinion).
     load : float
-        Load torque on the output [N m], resisting the rotation.
+        Load torque on the output at the segment's start [N m], resisting the
+        rotation (with ``load_series``: the series' first value).
     input_torque : float
         Torque on the pinions [N m], torque-driven pinion only.
+    speed_end_rpm : float or None
+        Pinion speed at the segment's end [r/min], reached linearly; None: constant.
+    load_end : float or None
+        Load at the segment's end [N m], reached linearly; None: constant.
+    load_series : LoadSeries or None
+        The load as a time series from the segment's start (in place of ``load``
+        and ``load_end``).
+    blend : float or None
+        Time over which speed, load and input torque blend from the previous
+        segment's end values to this segment's (the ADAMS STEP cubic) [s]; None: the
+        model's ``ramp_time``. Not used on the first segment.
+    engage : float or None
+        Where the mesh starts within its free play when this segment switches to
+        another stage, -1 (coast flank) .. 1 (drive flank); None: the model's
+        ``engage_position``.
     """
 
     duration: float
@@ -125,18 +189,67 @@ class Segment:
     speed_rpm: float
     load: float = 0.0
     input_torque: float = 0.0
+    speed_end_rpm: float | None = None
+    load_end: float | None = None
+    load_series: LoadSeries | None = None
+    blend: float | None = None
+    engage: float | None = None
 
     def __post_init__(self) -> None:
+        if self.load_series is not None:
+            if self.load_end is not None:
+                raise CaseError("segment: give load_end or load_series, not both")
+            object.__setattr__(self, "load", float(self.load_series.torques[0]))
         if not (math.isfinite(self.duration) and self.duration > 0.0):
             raise CaseError(f"segment duration = {self.duration!r} s must be > 0")
         if isinstance(self.stage, bool) or not isinstance(self.stage, int) or self.stage < 1:
             raise CaseError(f"segment stage = {self.stage!r} must be an integer >= 1")
-        for name in ("speed_rpm", "load", "input_torque"):
-            if not math.isfinite(getattr(self, name)):
-                raise CaseError(f"segment {name} = {getattr(self, name)!r} must be finite")
-        if self.speed_rpm < 0.0 or self.load < 0.0:
-            raise CaseError(f"segment speed_rpm = {self.speed_rpm!r} and load = {self.load!r} "
-                            "must be >= 0")
+        for name in ("speed_rpm", "load", "input_torque", "speed_end_rpm", "load_end",
+                     "blend", "engage"):
+            value = getattr(self, name)
+            if value is not None and not math.isfinite(value):
+                raise CaseError(f"segment {name} = {value!r} must be finite")
+        for name in ("speed_rpm", "load", "speed_end_rpm", "load_end", "blend"):
+            value = getattr(self, name)
+            if value is not None and value < 0.0:
+                raise CaseError(f"segment {name} = {value!r} must be >= 0")
+        if self.engage is not None and not -1.0 <= self.engage <= 1.0:
+            raise CaseError(f"segment engage = {self.engage!r} must lie in [-1, 1]")
+        if self.load_series is not None:
+            self.load_series.profile(self.duration)
+
+    @property
+    def end_speed_rpm(self) -> float:
+        """Pinion speed at the segment's end [r/min]."""
+        return self.speed_rpm if self.speed_end_rpm is None else self.speed_end_rpm
+
+    @property
+    def max_speed_rpm(self) -> float:
+        """Largest pinion speed of the segment [r/min] (speeds are linear in time)."""
+        return max(self.speed_rpm, self.end_speed_rpm)
+
+    @property
+    def mean_speed_rpm(self) -> float:
+        """Time-average pinion speed [r/min]."""
+        return 0.5 * (self.speed_rpm + self.end_speed_rpm)
+
+    def load_profile(self) -> tuple[np.ndarray, np.ndarray]:
+        """Break points ``(t, load)`` of the load over the segment [s, N m], from 0 to
+        ``duration``, linear between them."""
+        if self.load_series is not None:
+            return self.load_series.profile(self.duration)
+        end = self.load if self.load_end is None else self.load_end
+        return np.array([0.0, self.duration]), np.array([self.load, end])
+
+    @property
+    def max_load(self) -> float:
+        """Largest load torque of the segment [N m]."""
+        return float(self.load_profile()[1].max())
+
+    @property
+    def end_load(self) -> float:
+        """Load torque at the segment's end [N m]."""
+        return float(self.load_profile()[1][-1])
 
 
 @dataclass(frozen=True)
@@ -170,8 +283,14 @@ class StageSchedule:
         if not (math.isfinite(duration) and duration > 0.0):
             raise CaseError(f"duration = {duration!r} s must be > 0")
         factor = duration / self.duration
-        return StageSchedule(tuple(replace(s, duration=s.duration * factor)
-                                   for s in self.segments))
+
+        def stretch(seg: Segment) -> Segment:
+            series = seg.load_series
+            if series is not None:
+                series = LoadSeries(series.times * factor, series.torques, series.source)
+            return replace(seg, duration=seg.duration * factor, load_series=series)
+
+        return StageSchedule(tuple(stretch(s) for s in self.segments))
 
 
 @dataclass(frozen=True)

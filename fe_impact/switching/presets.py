@@ -16,22 +16,22 @@ and names the seed table its statistics are compared with:
   which stage).
 
 Every case is also a preset of its own (``table1-100rpm``, ``table4-500Nmm``, ...).
+The cases are the package's schedule files (`fe_impact.switching.schedule`,
+``schedules/<case>.toml``), read by the same reader as a user's ``--schedule``
+file; this module groups them and names the seed tables they are compared with.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import cache
+from pathlib import Path
 
 from fe_impact.errors import CaseError
-from fe_impact.switching.model import Segment, StageSchedule
+from fe_impact.switching.model import StageSchedule
+from fe_impact.switching.schedule import SCHEDULE_DIR, DutyCycle, read_schedule
 
-__all__ = ["PRESETS", "Case", "Preset", "get_preset"]
-
-#: The seed's segment length [s] (sections 4 and 5: "5 s", "5-second intervals").
-SEGMENT = 5.0
-_SPEEDS = (100.0, 300.0, 1000.0)
-_LOADS = (0.05, 0.2, 0.5, 1.0)  # N m: the seed's 50, 200, 500, 1000 N mm
-
+__all__ = ["PRESETS", "Case", "Preset", "get_preset", "preset_file", "schedule_preset"]
 
 @dataclass(frozen=True)
 class Case:
@@ -54,15 +54,16 @@ class Case:
 
 @dataclass(frozen=True)
 class Preset:
-    """A seed condition set.
+    """A seed condition set, or a user's schedule (`schedule_preset`).
 
     Attributes
     ----------
     name : str
     description : str
     cases : tuple of Case
-    seed_table : str
-        Key of `fe_impact.switching.seed_tables.SEED_TABLES`.
+    seed_table : str or None
+        Key of `fe_impact.switching.seed_tables.SEED_TABLES`; None for a user's
+        schedule (nothing to compare with).
     figures : str
         The seed figures the plots correspond to.
     layout : {"conditions", "stages"}
@@ -75,7 +76,7 @@ class Preset:
     name: str
     description: str
     cases: tuple[Case, ...]
-    seed_table: str
+    seed_table: str | None
     figures: str
     layout: str
     stage: int | None = None
@@ -87,68 +88,48 @@ class Preset:
 
     def scaled(self, duration: float) -> Preset:
         """Each case stretched or shrunk to ``duration`` [s] of simulated time."""
-        cases = tuple(Case(c.name, c.condition, c.schedule.scaled(duration)) for c in self.cases)
-        return Preset(self.name, self.description, cases, self.seed_table, self.figures,
-                      self.layout, self.stage)
+        return replace(self, cases=tuple(replace(c, schedule=c.schedule.scaled(duration))
+                                         for c in self.cases))
 
 
-def _speed_table(number: int) -> Preset:
-    cases = tuple(
-        Case(f"table{number}-{rpm:.0f}rpm", f"{rpm:.0f} r/min",
-             StageSchedule((Segment(SEGMENT, number, rpm),)))
-        for rpm in _SPEEDS
-    )
-    figures = "Figures 8-11" if number == 1 else "none in the seed (cf. Figures 8-11)"
-    return Preset(
-        f"table{number}",
-        f"stage {number}, no load, constant pinion speed 100/300/1000 r/min, 5 s each "
-        f"(seed section 4.1, Table {number})",
-        cases, f"table{number}", figures, "conditions", number,
-    )
+def preset_file(case: str) -> Path:
+    """The package's schedule file of the seed case ``case`` (``table1-100rpm``, ...)."""
+    return SCHEDULE_DIR / f"{case}.toml"
 
 
-def _load_table() -> Preset:
-    cases = tuple(
-        Case(f"table4-{load * 1e3:.0f}Nmm", f"{load * 1e3:.0f} N mm",
-             StageSchedule((Segment(SEGMENT, 2, 300.0, load),)))
-        for load in _LOADS
-    )
-    return Preset(
-        "table4",
-        "stage 2, 300 r/min, load 50/200/500/1000 N mm on the output, 5 s each "
-        "(seed section 4.2, Table 4)",
-        cases, "table4", "Figures 12-15", "conditions", 2,
-    )
+@cache
+def _read(case: str) -> DutyCycle:
+    return read_schedule(preset_file(case))
 
 
-def _variable_speed() -> Preset:
-    schedule = StageSchedule(tuple(Segment(SEGMENT, stage, rpm)
-                                   for stage, rpm in zip((1, 2, 3), _SPEEDS, strict=True)))
-    return Preset(
-        "variable-speed",
-        "stages 1 -> 2 -> 3 at 100 -> 300 -> 1000 r/min, no load, 5 s per segment, ratio "
-        "switching with each speed step (seed section 5.1)",
-        (Case("variable-speed", "multistage", schedule),), "section5.1", "Figures 17-20",
-        "stages",
-    )
-
-
-def _variable_load() -> Preset:
-    schedule = StageSchedule(tuple(Segment(SEGMENT, stage, 300.0, load)
-                                   for stage, load in zip((1, 2, 3, 3), _LOADS, strict=True)))
-    return Preset(
-        "variable-load",
-        "300 r/min, load 50 -> 200 -> 500 -> 1000 N mm in 5 s steps, stages 1 -> 2 -> 3 -> 3 "
-        "(seed section 5.2)",
-        (Case("variable-load", "multistage", schedule),), "section5.2", "Figures 21-24",
-        "stages",
-    )
+#: The seed's condition sets: name, (case file, seed column label) per case, seed table,
+#: seed figures, layout, stage of a ``conditions`` layout, description.
+_GROUPS = (
+    *((f"table{n}", tuple((f"table{n}-{rpm}rpm", f"{rpm} r/min") for rpm in (100, 300, 1000)),
+       f"table{n}", "Figures 8-11" if n == 1 else "none in the seed (cf. Figures 8-11)",
+       "conditions", n,
+       f"stage {n}, no load, constant pinion speed 100/300/1000 r/min, 5 s each (seed "
+       f"section 4.1, Table {n})") for n in (1, 2, 3)),
+    ("table4", tuple((f"table4-{load}Nmm", f"{load} N mm") for load in (50, 200, 500, 1000)),
+     "table4", "Figures 12-15", "conditions", 2,
+     "stage 2, 300 r/min, load 50/200/500/1000 N mm on the output, 5 s each (seed section "
+     "4.2, Table 4)"),
+    ("variable-speed", (("variable-speed", "multistage"),), "section5.1", "Figures 17-20",
+     "stages", None, None),
+    ("variable-load", (("variable-load", "multistage"),), "section5.2", "Figures 21-24",
+     "stages", None, None),
+)
 
 
 def _all_presets() -> dict[str, Preset]:
-    groups = [_speed_table(1), _speed_table(2), _speed_table(3), _load_table(),
-              _variable_speed(), _variable_load()]
-    presets = {p.name: p for p in groups}
+    presets = {}
+    groups = []
+    for name, cases, table, figures, layout, stage, description in _GROUPS:
+        runs = tuple(Case(case, condition, _read(case).schedule) for case, condition in cases)
+        group = Preset(name, description or _read(cases[0][0]).description, runs, table,
+                       figures, layout, stage)
+        groups.append(group)
+        presets[name] = group
     for group in groups:
         if len(group.cases) == 1:
             continue
@@ -158,6 +139,12 @@ def _all_presets() -> dict[str, Preset]:
                 group.seed_table, group.figures, group.layout, group.stage,
             )
     return presets
+
+
+def schedule_preset(duty: DutyCycle) -> Preset:
+    """A user's schedule as a study of one case (no seed table to compare with)."""
+    return Preset(duty.name, duty.description or f"schedule {duty.source or duty.name}",
+                  (Case(duty.name, "schedule", duty.schedule),), None, "none", "stages")
 
 
 #: Every preset by name.

@@ -116,6 +116,18 @@ def _law_sources(model: DriveModel) -> dict[str, list[str | None]]:
             for kind in LAW_NAMES.values()}
 
 
+def _segment_record(seg) -> dict:
+    """A segment's fields for statistics.json (those set); a load series by its file and
+    extremes."""
+    record = {k: v for k, v in vars(seg).items() if v is not None and k != "load_series"}
+    if seg.load_series is not None:
+        loads = seg.load_profile()[1]
+        record["load_series"] = {"file": seg.load_series.source,
+                                 "points": int(seg.load_series.times.size),
+                                 "min_Nm": float(loads.min()), "max_Nm": float(loads.max())}
+    return record
+
+
 def _clean(obj):
     """JSON-safe copy: tuples to lists, non-finite floats to None."""
     if isinstance(obj, dict):
@@ -317,8 +329,10 @@ def _fmt(value: float | None) -> str:
     return f"{value:.4g}"
 
 
-def _seed_layout_table(rows: list[dict], key: str, conditions: list[str]) -> list[str]:
-    """Markdown table: category, value, then ``model / seed`` per condition."""
+def _seed_layout_table(rows: list[dict], key: str, conditions: list[str],
+                      seed: bool = True) -> list[str]:
+    """Markdown table: category, value, then ``model / seed`` per condition (``model``
+    alone without ``seed``)."""
     lines = ["| category | value | " + " | ".join(conditions) + " |",
              "|---|---|" + "---|" * len(conditions)]
     index = {(r["condition"], r["quantity"], r["statistic"]): r for r in rows}
@@ -330,7 +344,8 @@ def _seed_layout_table(rows: list[dict], key: str, conditions: list[str]) -> lis
             for condition in conditions:
                 r = index[(condition, quantity, statistic)]
                 model = _fmt(r[key])
-                cells.append(model if key == "model_impacts" else f"{model} / {_fmt(r['seed'])}")
+                cells.append(model if key == "model_impacts" or not seed
+                             else f"{model} / {_fmt(r['seed'])}")
             lines.append(f"| {label} | {statistic} | " + " | ".join(cells) + " |")
     return lines
 
@@ -544,16 +559,20 @@ def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict
                   baseline: dict[str, SwitchingRun] | None = None) -> str:
     """The text of ``report.md``; ``notes`` (warnings about the run) come first;
     ``baseline``: the same cases on the pitch-point-only laws (`write_results`)."""
-    table = SEED_TABLES[preset.seed_table]
+    seed = preset.seed_table is not None
     conditions = list(dict.fromkeys(r["condition"] for r in rows))
     first = next(iter(runs.values()))
+    if seed:
+        table = SEED_TABLES[preset.seed_table]
+        intro = [f"{preset.description}. Compared with the seed's {table.source} "
+                 f"({table.title}); plots correspond to the seed's {preset.figures}.", ""]
+    else:
+        intro = [f"{preset.description}.", "", *_schedule_lines(first.schedule)]
     lines = [
         f"# Ratio-switching study `{preset.name}`",
         "",
         *[f"**Note:** {n}\n" for n in notes],
-        f"{preset.description}. Compared with the seed's {table.source} ({table.title}); "
-        f"plots correspond to the seed's {preset.figures}.",
-        "",
+        *intro,
         "## Runs",
         "",
         "| case | simulated [s] | steps | rejected | wall [s] | impacts (rattle / mesh-in / "
@@ -584,9 +603,10 @@ def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict
         "flank carries load; switch: the first contact after a ratio switch): closing speed, "
         "peak approach, peak force, peak energy of each contact.",
         "",
-        "## Series statistics, model / seed (seed units)",
+        "## Series statistics, model / seed (seed units)" if seed
+        else "## Series statistics (seed units)",
         "",
-        *_seed_layout_table(rows, "model_series", conditions),
+        *_seed_layout_table(rows, "model_series", conditions, seed),
         "",
         "## Impact statistics, model (seed units)",
         "",
@@ -597,10 +617,32 @@ def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict
         *_contact_lines(runs),
         *_clamp_lines(runs),
         *_switching_lines(runs),
-        *_differences(preset, runs, rows),
+        *(_differences(preset, runs, rows) if seed else []),
         "",
     ]
     return "\n".join(lines)
+
+
+def _schedule_lines(schedule) -> list[str]:
+    """The schedule's segments as a table: start, stage, duration, speed and load."""
+    lines = ["## Schedule", "",
+             "| segment | start [s] | stage | duration [s] | pinion [r/min] | load [N m] |",
+             "|---|---|---|---|---|---|"]
+    previous = None
+    for i, (t0, seg) in enumerate(zip(schedule.start_times, schedule.segments, strict=True)):
+        speed = (f"{seg.speed_rpm:g}" if seg.speed_end_rpm is None
+                 else f"{seg.speed_rpm:g} -> {seg.speed_end_rpm:g}")
+        if seg.load_series is not None:
+            _, loads = seg.load_profile()
+            load = (f"series {Path(seg.load_series.source).name} "
+                    f"({loads.min():.4g}..{loads.max():.4g})")
+        else:
+            load = f"{seg.load:.4g}" + ("" if seg.load_end is None else f" -> {seg.load_end:.4g}")
+        stage = f"{seg.stage}" + (" (switch)" if previous is not None and previous != seg.stage
+                                  else "")
+        lines.append(f"| {i} | {t0:g} | {stage} | {seg.duration:g} | {speed} | {load} |")
+        previous = seg.stage
+    return [*lines, ""]
 
 
 # -- plots ---------------------------------------------------------------------------------
@@ -651,7 +693,8 @@ def _plot_quantity(preset: Preset, runs: dict[str, SwitchingRun], quantity: str,
         if len(np.unique(stage)) > 1:
             ax.legend(fontsize=8, loc="upper left")
     axes[-1, 0].set_xlabel("time [s]")
-    fig.suptitle(f"{LABELS[quantity]} per mesh (cf. seed {preset.figures})", fontsize=10)
+    cf = f" (cf. seed {preset.figures})" if preset.seed_table is not None else ""
+    fig.suptitle(f"{LABELS[quantity]} per mesh{cf}", fontsize=10)
     _margins(fig, len(names))
     _save(fig, path)
     plt.close(fig)
@@ -743,13 +786,15 @@ def write_results(out: str | Path, preset: Preset, runs: dict[str, SwitchingRun]
         "missing": list(missing),
         "notes": list(notes),
         "description": preset.description,
-        "seed_table": SEED_TABLES[preset.seed_table].source,
-        "seed_notes": list(SEED_TABLES[preset.seed_table].notes),
+        "seed_table": (None if preset.seed_table is None
+                       else SEED_TABLES[preset.seed_table].source),
+        "seed_notes": ([] if preset.seed_table is None
+                       else list(SEED_TABLES[preset.seed_table].notes)),
         "units": {"comparison": SEED_UNITS, "statistics": "SI (m, m/s, N, J)"},
         "comparison": rows,
         "cases": {name: {
             "condition": next(c.condition for c in preset.cases if c.name == name),
-            "segments": [vars(s) for s in run.schedule.segments],
+            "segments": [_segment_record(s) for s in run.schedule.segments],
             "series_statistics": series_statistics(run),
             "impact_statistics": impact_statistics(run),
             "run": run.info,

@@ -192,18 +192,28 @@ class SwitchingRun:
 
 # -- packing the model for the kernel -----------------------------------------------------
 def _schedule_array(schedule: StageSchedule, ramp: float) -> np.ndarray:
-    """`_kernel.SEGMENT` records for `_kernel.reference`."""
-    rows = np.zeros(len(schedule.segments), dtype=K.SEGMENT)
+    """`_kernel.SEGMENT` records for `_kernel.reference`: one per segment, or per part of a
+    segment between two points of its load series. ``ramp``: the blend of the segments
+    that do not set their own."""
+    rows = []
     psi = 0.0
-    for k, (t0, seg) in enumerate(zip(schedule.start_times, schedule.segments, strict=True)):
-        rows[k] = (t0, seg.speed_rpm * RPM, seg.load, seg.input_torque, psi)
-        w1 = rows[k]["speed"]
-        if k > 0 and ramp > 0.0:
-            w0 = rows[k - 1]["speed"]
-            psi += w0 * ramp + 0.5 * (w1 - w0) * ramp + w1 * (seg.duration - ramp)
+    prev = None
+    for t0, seg in zip(schedule.start_times, schedule.segments, strict=True):
+        w0 = seg.speed_rpm * RPM
+        rate = (seg.end_speed_rpm - seg.speed_rpm) * RPM / seg.duration
+        if prev is None:
+            blend, before = 0.0, (w0, seg.load, seg.input_torque)
         else:
-            psi += w1 * seg.duration
-    return rows
+            blend = ramp if seg.blend is None else seg.blend
+            before = (prev.end_speed_rpm * RPM, prev.end_load, prev.input_torque)
+        times, loads = seg.load_profile()
+        for k in range(len(times) - 1):
+            slope = (loads[k + 1] - loads[k]) / (times[k + 1] - times[k])
+            rows.append((t0 + times[k], t0, w0, rate, before[0], loads[k], slope, before[1],
+                         seg.input_torque, before[2], psi, blend, int(prev is not None)))
+        psi += K.segment_angle(0.0, seg.duration, w0, rate, before[0], blend)
+        prev = seg
+    return np.array(rows, dtype=K.SEGMENT)
 
 
 @dataclass
@@ -255,10 +265,9 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     else:
         p["stiction_speed"], p["transition_speed"] = 1.0, 2.0
     p["drive"] = DRIVES.index(model.drive)
-    p["ramp"] = model.ramp_time
     p["u0"] = model.mesh_phase * geo.base_pitch
     p["rtol"] = model.rtol
-    max_speed = max(max(s.speed_rpm for s in schedule.segments) * RPM, 1e-9)
+    max_speed = max(max(s.max_speed_rpm for s in schedule.segments) * RPM, 1e-9)
     # a tooth pair passes every p_b / (r_bp omega): take at least 8 steps per pair
     passing = geo.base_pitch / (geo.base_radius * max_speed)
     # the ring-on-web modes (~9 kHz) are resolved but carry little: keep the step inside
@@ -297,9 +306,11 @@ def _check_schedule(model: DriveModel, schedule: StageSchedule) -> None:
         if seg.stage > model.n_stages:
             raise CaseError(f"segment {i + 1}: stage = {seg.stage} but the gear set has "
                             f"{model.n_stages} stages (1..{model.n_stages})")
-        if i > 0 and seg.duration < model.ramp_time:
+        blend = model.ramp_time if seg.blend is None else seg.blend
+        if i > 0 and seg.duration < blend:
+            what = "ramp_time" if seg.blend is None else "its blend"
             raise CaseError(f"segment {i + 1}: duration = {seg.duration!r} s is shorter than "
-                            f"ramp_time = {model.ramp_time!r} s")
+                            f"{what} = {blend!r} s")
 
 
 def _static_offset(model: DriveModel, pk: _Packed, stage: int, load: float,
@@ -345,7 +356,7 @@ def _start_segment(model: DriveModel, pk: _Packed, seg: Segment, t: float, y: np
     n = model.n_stages
     i = seg.stage - 1
     geo = model.geometry
-    psi, psid, _, _, _ = K.reference(t, pk.sch, model.ramp_time)
+    psi, psid, _, _, _ = K.reference(t, pk.sch)
     p = pk.p
     old_c = p["ratio"]
     new_c = geo.base_radius / model.base_levers[i]
@@ -377,7 +388,8 @@ def _start_segment(model: DriveModel, pk: _Packed, seg: Segment, t: float, y: np
     if first:   # on the laws just set
         p["x0"] = _static_offset(model, pk, seg.stage, seg.load + model.drag_torque, roll)
     else:
-        p["x0"] = model.engage_position * 0.5 * model.backlashes[i]
+        engage = model.engage_position if seg.engage is None else seg.engage
+        p["x0"] = engage * 0.5 * model.backlashes[i]
         p["x0"] -= geo.base_radius * y[0]  # x = x0 at the switch, whatever q_p is
 
 

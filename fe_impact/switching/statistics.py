@@ -121,8 +121,9 @@ def _columns(preset: Preset, runs: dict[str, SwitchingRun]) -> list[tuple[str, d
     else:
         run = runs[preset.cases[0].name]
         series, impacts = series_statistics(run), impact_statistics(run)
-        for key, label in [("1", "stage 1"), ("2", "stage 2"), ("3", "stage 3"),
-                           (ALL, "all stages")]:
+        # the seed's multistage tables have stages 1-3; a user's schedule, the stages it runs
+        stages = (1, 2, 3) if preset.seed_table is not None else sorted(run.schedule.stages)
+        for key, label in [*((str(i), f"stage {i}") for i in stages), (ALL, "all stages")]:
             columns.append((label, series.get(key, {}), impacts.get(key, {}).get(ALL, {})))
     return columns
 
@@ -134,7 +135,7 @@ def comparison_rows(preset: Preset, runs: dict[str, SwitchingRun]) -> list[dict]
     ``condition, quantity, statistic, unit, model_series, model_impacts,
     seed`` (None where a value does not exist).
     """
-    table = SEED_TABLES[preset.seed_table]
+    table = None if preset.seed_table is None else SEED_TABLES[preset.seed_table]
     rows = []
     for condition, series, impacts in _columns(preset, runs):
         for quantity in QUANTITIES:
@@ -143,7 +144,7 @@ def comparison_rows(preset: Preset, runs: dict[str, SwitchingRun]) -> list[dict]
                 model = series.get(quantity)
                 hits = impacts.get(quantity)
                 seed = table.value(quantity, statistic, condition) \
-                    if condition in table.conditions else None
+                    if table is not None and condition in table.conditions else None
                 rows.append({
                     "condition": condition,
                     "quantity": quantity,

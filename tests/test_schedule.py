@@ -1,0 +1,216 @@
+"""Schedule files: the reader's checks, the shipped presets, and the kernel's time functions
+(ramped speed, ramped and tabulated load) against independent integrals."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fe_impact.errors import CaseError
+from fe_impact.switching import _kernel as K
+from fe_impact.switching.model import RPM, DriveModel, LoadSeries, Segment, StageSchedule
+from fe_impact.switching.presets import PRESETS, preset_file
+from fe_impact.switching.schedule import SCHEMA, read_load_series, read_schedule
+from fe_impact.switching.simulation import _schedule_array, simulate
+
+GOOD = """\
+schema = "fe-impact/schedule/1"
+name = "climb"
+blend_s = 0.02
+
+[[segments]]
+stage = 1
+duration_s = 0.1
+speed_rpm = { from = 100, to = 300 }
+load_Nm = 20
+
+[[segments]]
+stage = 2
+duration_s = 0.1
+speed_rpm = 300
+load_Nm = { file = "torque.csv" }
+switch = { engage = 0.5 }
+
+[[segments]]
+stage = 2
+duration_s = 0.05
+speed_rpm = 300
+load_Nm = { from = 30, to = 60 }
+blend_s = 0.01
+"""
+SERIES = "time_s,load_Nm\n0,20\n0.05,40\n0.1,30\n0.2,0\n"
+
+
+def _write(folder: Path, text: str, series: str = SERIES) -> Path:
+    (folder / "torque.csv").write_text(series)
+    path = folder / "duty.toml"
+    path.write_text(text)
+    return path
+
+
+def test_reader_builds_the_segments(tmp_path):
+    duty = read_schedule(_write(tmp_path, GOOD))
+    a, b, c = duty.schedule.segments
+    assert duty.name == "climb"
+    assert (a.stage, a.speed_rpm, a.speed_end_rpm, a.load, a.blend) == (1, 100, 300, 20, None)
+    assert (b.stage, b.engage, b.blend, b.load) == (2, 0.5, 0.02, 20.0)
+    np.testing.assert_array_equal(b.load_series.times, [0, 0.05, 0.1, 0.2])
+    assert (c.load, c.load_end, c.blend, c.engage) == (30, 60, 0.01, None)
+    assert duty.max_load == 60
+    assert len(duty.digest) == 24
+
+
+def _replace(text: str, old: str, new: str) -> str:
+    assert old in text
+    return text.replace(old, new, 1)
+
+
+@pytest.mark.parametrize(("old", "new", "message"), [
+    ("duration_s = 0.1\nspeed_rpm = 300", "duration_s = 0\nspeed_rpm = 300",
+     "[segments[1]] duration_s = 0: must be > 0"),
+    ("duration_s = 0.1\nspeed_rpm = 300", "duration_s = -2\nspeed_rpm = 300",
+     "[segments[1]] duration_s = -2: must be > 0"),
+    ("stage = 2\nduration_s = 0.05", "stage = 1\nduration_s = 0.05", None),  # no switch table
+    ("stage = 2\nduration_s = 0.1", "stage = 1\nduration_s = 0.1",
+     "[segments[1]] switch = {'engage': 0.5}: a ratio switch to stage 1, which segments[0] "
+     "already engages"),
+    ("switch = { engage = 0.5 }", "switch = { engage = 2 }",
+     "[segments[1].switch] engage = 2: must be in [-1.0, 1.0]"),
+    ("speed_rpm = 300\nload_Nm = { from", "speed_rpm = -5\nload_Nm = { from",
+     "[segments[2]] speed_rpm = -5: must be a number >= 0"),
+    ("blend_s = 0.01", "blend_s = 0.2", "[segments[2]] blend_s = 0.2: the segment (0.05 s) "
+     "must last at least its blend_s = 0.2 s"),
+    ('schema = "fe-impact/schedule/1"', 'schema = "fe-impact/schedule/9"',
+     "schema = 'fe-impact/schedule/9': this version reads 'fe-impact/schedule/1'"),
+    ("load_Nm = 20", "load_Nm = 20\ncolour = 1", "unknown key(s) ['colour'] in [segments[0]]"),
+    ("load_Nm = 20", "load_Nm = { from = 1, upto = 2 }", "unknown key(s) ['upto'] in "
+     "[segments[0].load_Nm]"),
+    ('{ file = "torque.csv" }', '{ file = "missing.csv" }', "missing.csv: load series not "
+     "found"),
+])
+def test_reader_refuses_in_one_line(tmp_path, old, new, message):
+    path = _write(tmp_path, _replace(GOOD, old, new))
+    if message is None:          # a stage kept without a switch table is no switch: fine
+        read_schedule(path)
+        return
+    with pytest.raises(CaseError) as info:
+        read_schedule(path)
+    text = str(info.value)
+    assert "\n" not in text and text.startswith(str(path)) and message in text, text
+
+
+@pytest.mark.parametrize(("series", "message"), [
+    ("time_s,load_Nm\n0,20\n0.1,30\n0.05,40\n0.3,1\n",
+     "line 4: time_s = 0.05 is not after line 3's 0.1: times must increase strictly"),
+    ("time_s,load_Nm\n0,20\n0.1,30\n0.1,40\n0.3,1\n", "line 4: time_s = 0.1 is not after"),
+    ("time_s,load_Nm\n0,20\n0.1,nan\n0.3,1\n",
+     "line 3: load_Nm = nan: must be a finite number (no NaN or inf)"),
+    ("time_s,load_Nm\n0,20\n0.1,abc\n0.3,1\n", "line 3: load_Nm = 'abc': must be a number"),
+    ("time_s,load_Nm\n0.01,20\n0.3,1\n", "line 2: time_s = 0.01: the series must start at 0"),
+    ("time_s,load_Nm\n0,20\n0.3,-1\n", "line 3: load_Nm = -1: must be >= 0"),
+    ("t,T\n0,20\n0.3,1\n", "line 1: header ['t', 'T']: give the two columns"),
+    ("time_s,load_Nm\n0,20\n0.05,1\n", "ends at 0.05 s, before the segment's duration_s = "
+     "0.1 s"),
+])
+def test_series_refused_in_one_line(tmp_path, series, message):
+    path = _write(tmp_path, GOOD, series)
+    with pytest.raises(CaseError) as info:
+        read_schedule(path)
+    text = str(info.value)
+    assert "\n" not in text and "[segments[1]] load_Nm" in text and message in text, text
+
+
+def test_series_columns_in_either_order(tmp_path):
+    path = tmp_path / "s.csv"
+    path.write_text("# measured\nload_Nm,time_s\n5,0\n7,1\n")
+    series = read_load_series(path)
+    np.testing.assert_array_equal(series.times, [0, 1])
+    np.testing.assert_array_equal(series.torques, [5, 7])
+
+
+def test_stage_the_gear_set_lacks(tmp_path):
+    duty = read_schedule(_write(tmp_path, _replace(GOOD, "stage = 2\nduration_s = 0.05",
+                                                   "stage = 4\nduration_s = 0.05")))
+    with pytest.raises(CaseError, match=r"\[segments\[2\]\] stage = 4: the gear set 'seed' "
+                                        r"has stages 1..3"):
+        duty.check_stages(3, "the gear set 'seed'")
+
+
+def test_presets_are_schedule_files():
+    # every case of every preset is a package file with the current schema
+    names = {c.name for p in PRESETS.values() for c in p.cases}
+    for name in names:
+        path = preset_file(name)
+        assert SCHEMA in path.read_text()
+        duty = read_schedule(path)
+        (case,) = [c for c in PRESETS[name].cases]
+        assert duty.schedule == case.schedule
+
+
+# -- the kernel's time functions -----------------------------------------------------------
+def test_reference_angle_is_the_integral_of_its_speed():
+    # ramps and blends: the closed-form angle of `_kernel.reference` against the trapezoid
+    # integral of its own speed on 2e5 points (error ~ h^2 |psi'''| ~ 1e-10 rad here)
+    schedule = StageSchedule((
+        Segment(0.3, 1, 100.0, 5.0, speed_end_rpm=700.0, load_end=50.0),
+        Segment(0.2, 2, 400.0, 10.0, blend=0.15),
+        Segment(0.25, 2, 900.0, 0.0, speed_end_rpm=200.0, blend=0.05),
+    ))
+    sch = _schedule_array(schedule, 0.1)
+    t = np.linspace(0.0, schedule.duration, 200_001)
+    values = np.array([K.reference(x, sch) for x in t])
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (values[1:, 1] + values[:-1, 1])
+                                                * np.diff(t))])
+    assert np.max(np.abs(values[:, 0] - integral)) < 1e-8
+    # the speed's slope is its acceleration (central differences, O(h^2))
+    h = 1e-6
+    for x in (0.05, 0.31, 0.4, 0.52, 0.7):
+        fd = (K.reference(x + h, sch)[1] - K.reference(x - h, sch)[1]) / (2 * h)
+        assert abs(fd - K.reference(x, sch)[2]) < 1e-4 * max(1.0, abs(fd))
+    # outside the blends, the ramps themselves: linear speed, linear load
+    assert K.reference(0.15, sch)[1] == pytest.approx(400.0 * RPM, rel=1e-12)
+    assert K.reference(0.15, sch)[3] == pytest.approx(27.5, rel=1e-12)
+    assert K.reference(0.6, sch)[1] == pytest.approx((900.0 - 700.0 * 0.1 / 0.25) * RPM,
+                                                     rel=1e-12)
+
+
+def test_load_series_reaches_the_model(tmp_path):
+    # the sampled load torque equals the CSV's linear interpolation once the blend is over
+    duty = read_schedule(_write(tmp_path, GOOD))
+    run = simulate(DriveModel(), duty.schedule, sample_interval=1e-3)
+    t, load = run.series["time_s"], run.series["load_torque_Nm"]
+    seg = duty.schedule.segments[1]
+    inside = (t > 0.1 + 0.02) & (t < 0.2)
+    expected = np.interp(t[inside] - 0.1, seg.load_series.times, seg.load_series.torques)
+    np.testing.assert_allclose(load[inside], expected, rtol=1e-12, atol=1e-12)
+    pinion = run.series["pinion_speed_rad_s"]
+    first = t < 0.1
+    np.testing.assert_allclose(pinion[first], (100.0 + 2000.0 * t[first]) * RPM, rtol=1e-9)
+    assert math.isclose(float(pinion[-1]), 300.0 * RPM, rel_tol=1e-9)
+
+
+def test_load_series_record_checks():
+    with pytest.raises(CaseError, match="times must start at 0 s and increase strictly"):
+        LoadSeries([0.0, 0.2, 0.1], [1.0, 2.0, 3.0])
+    with pytest.raises(CaseError, match="no NaN"):
+        LoadSeries([0.0, 0.2], [1.0, math.nan])
+
+
+def test_cli_refuses_a_stage_the_gear_set_lacks(tmp_path):
+    import argparse
+
+    from fe_impact.cli.switching import register
+
+    parser = argparse.ArgumentParser(prog="fe-impact")
+    register(parser.add_subparsers())
+    path = _write(tmp_path, _replace(GOOD, "stage = 2\nduration_s = 0.05",
+                                     "stage = 4\nduration_s = 0.05"))
+    args = parser.parse_args(["switching", "--schedule", str(path), "--out",
+                              str(tmp_path / "out")])
+    with pytest.raises(CaseError, match=r"duty.toml: \[segments\[2\]\] stage = 4: the gear set "
+                                        r"'seed-multistage-face-gear' has stages 1..3"):
+        args.func(args)
+    assert not (tmp_path / "out").exists()

@@ -27,15 +27,28 @@ from fe_impact.fe.mesh import FEMesh
 
 
 class ContactModel:
-    """Penalty forces on linearised weighted gaps, re-projected as the bodies move."""
+    """Penalty forces on linearised weighted gaps, re-projected as the bodies move.
+
+    ``laws``: each pair's :class:`~fe_impact.contact.friction.FrictionLaw` (None:
+    frictionless). With friction on any pair, each projection also forms the
+    rows' tangential frames and slip Jacobians (:attr:`Bt_full`, :attr:`Bt`);
+    without, nothing of it is formed.
+    """
 
     def __init__(self, mesh: FEMesh, model: ElasticModel, kin: Kinematics, zone: ContactZone,
-                 tolerance: float) -> None:
+                 tolerance: float, laws: list | None = None) -> None:
         self.mesh, self.model, self.kin, self.zone = mesh, model, kin, zone
         self.tolerance = tolerance
+        self.laws = list(laws) if laws is not None and any(
+            law is not None for law in laws) else None
         self.n_projections = 0
         self.projector: sp.csr_matrix | None = None
         self.update(np.zeros(kin.n))
+
+    @property
+    def friction(self) -> bool:
+        """True if a pair has Coulomb friction."""
+        return self.laws is not None
 
     def point_values(self, z: np.ndarray) -> np.ndarray:
         """Nodal (n_points, 3) displacement of the reduced coordinates ``z``."""
@@ -43,7 +56,8 @@ class ContactModel:
 
     def update(self, z: np.ndarray) -> None:
         """Project the zone's slave nodes on the configuration ``z``."""
-        self.states: list[GapState] = self.zone.gap_states(self.mesh, self.point_values(z))
+        up = self.point_values(z)
+        self.states: list[GapState] = self.zone.gap_states(self.mesh, up)
         B = sp.vstack([s.B for s in self.states]).tocsr()
         self.B = (B @ self.kin.T).tocsr()
         self.g_ref = np.concatenate([s.gap for s in self.states])
@@ -62,7 +76,42 @@ class ContactModel:
         self._zone_cols, self._T_zone_held = _held_columns(self.T_zone)
         self.z_ref = z.copy()
         self.n_projections += 1
+        if self.laws is not None:
+            self._slip_rows(up)
 
+    def _slip_rows(self, up: np.ndarray) -> None:
+        """Tangential frames (:attr:`t1`, :attr:`t2`, (r, 3)), slip Jacobians on all DOFs
+        (:attr:`Bt_full`, (2 r, n_dofs): the t1 rows, then the t2 rows) and in reduced
+        coordinates (:attr:`Bt`), and each row's law (:attr:`row_law`, pair index)."""
+        from fe_impact.contact.friction import relative_jacobian, slip_jacobians, tangent_frames
+
+        t1s, t2s, B1, B2, law = [], [], [], [], []
+        for k, (pair, sf, mf, st) in enumerate(zip(self.zone.pairs, self.zone.slave_faces,
+                                                   self.zone.master_faces, self.states,
+                                                   strict=True)):
+            t1, t2 = tangent_frames(st.normal)
+            J = relative_jacobian(pair, self.mesh, up, sf, mf)
+            b1, b2 = slip_jacobians(J, t1, t2)
+            t1s.append(t1)
+            t2s.append(t2)
+            B1.append(b1)
+            B2.append(b2)
+            law.append(np.full(len(st.gap), k))
+        self.t1, self.t2 = np.concatenate(t1s), np.concatenate(t2s)
+        mask = sp.diags(self.active_rows.astype(float))
+        self.Bt_full = sp.vstack([mask @ sp.vstack(B1), mask @ sp.vstack(B2)]).tocsr()
+        self.Bt = (self.Bt_full @ self.kin.T).tocsr()
+        self.row_law = np.concatenate(law)
+
+    def row_coefficients(self, speed: np.ndarray | None = None) -> np.ndarray:
+        """Each row's Coulomb coefficient at the slip speed ``speed`` (m/s; None: at
+        rest, ``mu_static``); 0 on frictionless pairs."""
+        mu = np.zeros(len(self.row_law))
+        for k, law in enumerate(self.laws):
+            on = self.row_law == k
+            if law is not None and on.any():
+                mu[on] = law.coefficient(0.0 if speed is None else speed[on])
+        return mu
     def set_projector(self, projector: sp.csr_matrix | None) -> None:
         """Keep only the normal components of the zone nodes in the gap Jacobian.
 
@@ -150,12 +199,16 @@ class ZoneFrames:
     """
 
     R: sp.csr_matrix
-    projector: sp.csr_matrix
+    projector: sp.csr_matrix | None     # None: every component kept (friction)
     condensed: np.ndarray
 
 
-def zone_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel) -> ZoneFrames:
+def zone_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel,
+                all_components: bool = False) -> ZoneFrames:
     """Frames whose normal is the direction the gaps see each zone node move.
+
+    ``all_components``: condense the tangent slots too (friction: the
+    tangential forces act on them), and the projector keeps every component.
 
     A node's normal is the principal direction of ``sum_r b_r b_r^T`` over its
     3-vector entries ``b_r`` in the full gap Jacobian ``contact.B_full``: the
@@ -207,6 +260,9 @@ def zone_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel) -> ZoneFra
     # Unrotated nodes keep every coordinate they move with: their free
     # components and, if tied, their rigid body's.
     other = contact.T_zone[(3 * np.flatnonzero(~free)[:, None] + np.arange(3)).ravel()]
+    if all_components:
+        condensed = np.unique(np.concatenate([jf.ravel(), other.indices]))
+        return ZoneFrames(R, None, condensed)
     condensed = np.unique(np.concatenate([jf[:, 0], other.indices]))
     return ZoneFrames(R, P, condensed)
 

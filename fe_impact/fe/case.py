@@ -121,6 +121,13 @@ MAX_LOAD = 1e9
 MAX_INERTIA = 1e9
 MAX_DISPLACEMENT = 1.0
 MAX_SPEED = 1e4
+#: Coulomb coefficients above this are refused as a mistake (dry clean metals
+#: in vacuum reach about 1-2; greased gear flanks 0.02-0.05).
+MAX_FRICTION = 5.0
+#: Slip speed (m/s) over which the coefficient falls from static to dynamic, by
+#: default: the lumped switching model's transition speed (:class:`fe_impact.
+#: switching.model.Friction`).
+DEFAULT_TRANSITION_SPEED = 1e-2
 
 
 @dataclass(frozen=True)
@@ -137,13 +144,27 @@ class MaterialSpec:
 
 @dataclass(frozen=True)
 class ContactSpec:
-    """A frictionless contact pair; ``penalty=None`` means derive it (``"auto"``)."""
+    """A contact pair; ``penalty=None`` means derive it (``"auto"``).
+
+    Coulomb friction (:mod:`fe_impact.contact.friction`): ``mu_static`` at zero
+    slip speed, blending to ``mu_dynamic`` at ``transition_speed`` (m/s) and
+    above (the seed's eqs. 9-10 with a regularised transition). Both zero:
+    frictionless (the default). ``friction = mu`` in a case file sets both.
+    """
 
     slave: str
     master: str
     penalty: float | None = None
     search_distance: float | None = None
     multiplier: str = "linear"             # one of MULTIPLIERS
+    mu_static: float = 0.0
+    mu_dynamic: float = 0.0
+    transition_speed: float = DEFAULT_TRANSITION_SPEED
+
+    @property
+    def friction(self) -> bool:
+        """True if the pair has Coulomb friction."""
+        return self.mu_static > 0.0 or self.mu_dynamic > 0.0
 
 
 @dataclass(frozen=True)
@@ -489,7 +510,8 @@ def _static_motion(r: Reader, t: dict, where: str, spec: RigidBodySpec) -> Rigid
 
 
 def _contact(r: Reader, t: dict, where: str) -> ContactSpec:
-    r.keys(t, where, {"slave", "master", "penalty", "search_distance", "multiplier"},
+    r.keys(t, where, {"slave", "master", "penalty", "search_distance", "multiplier",
+                      "friction", "mu_static", "mu_dynamic", "transition_speed"},
            required={"slave", "master"})
     penalty = search = None
     if t.get("penalty", "auto") != "auto":
@@ -503,7 +525,43 @@ def _contact(r: Reader, t: dict, where: str) -> ContactSpec:
         raise r.problem(f"[{where}] slave and master are both '{slave}': a contact pair "
                         "needs two different surfaces")
     multiplier = r.choice(t, where, "multiplier", MULTIPLIERS, default="linear")
-    return ContactSpec(slave, master, penalty, search, multiplier)
+    return ContactSpec(slave, master, penalty, search, multiplier, *_friction(r, t, where))
+
+
+def _friction(r: Reader, t: dict, where: str) -> tuple[float, float, float]:
+    """``(mu_static, mu_dynamic, transition_speed)`` of a ``[[contacts]]`` table.
+
+    ``friction = mu`` gives one coefficient; ``mu_static`` and ``mu_dynamic``
+    (both) a static and a dynamic one with the ``transition_speed`` (m/s)
+    between them.
+    """
+    pair = [k for k in ("mu_static", "mu_dynamic") if k in t]
+    if "friction" in t and pair:
+        raise r.problem(f"[{where}] friction and {' and '.join(pair)} are both given: set "
+                        "friction = mu for one coefficient, or mu_static and mu_dynamic")
+    if len(pair) == 1:
+        other = ({"mu_static", "mu_dynamic"} - set(pair)).pop()
+        raise r.problem(f"[{where}] {pair[0]} is given without {other}: give both, or "
+                        "friction = mu for one coefficient")
+    hint = "(Coulomb coefficient; 0 is frictionless)"
+    speed = r.number(t, where, "transition_speed", low=0.0, high=MAX_SPEED, low_open=True,
+                     default=DEFAULT_TRANSITION_SPEED,
+                     hint="(m/s: the slip speed at which mu has fallen from mu_static to "
+                          "mu_dynamic)")
+    if "friction" in t:
+        mu = r.number(t, where, "friction", low=0.0, high=MAX_FRICTION, hint=hint)
+        return mu, mu, speed
+    if not pair:
+        if "transition_speed" in t:
+            raise r.problem(f"[{where}] transition_speed needs mu_static and mu_dynamic")
+        return 0.0, 0.0, speed
+    mu_s = r.number(t, where, "mu_static", low=0.0, high=MAX_FRICTION, hint=hint)
+    mu_d = r.number(t, where, "mu_dynamic", low=0.0, high=MAX_FRICTION, hint=hint)
+    if mu_s < mu_d:
+        raise r.fail(where, "mu_static", t["mu_static"],
+                     f"must be at least mu_dynamic = {mu_d!r} (the static coefficient is "
+                     "never below the dynamic one: swap them?)")
+    return mu_s, mu_d, speed
 
 
 def _support(r: Reader, t: dict, where: str) -> SupportSpec:

@@ -28,6 +28,7 @@ from fe_impact.atomic import atomic_path
 from fe_impact.errors import CaseError
 from fe_impact.fe.case import (
     COMPONENTS,
+    DEFAULT_TRANSITION_SPEED,
     AnalysisSpec,
     Case,
     ContactSpec,
@@ -110,7 +111,11 @@ def _contact(c: ContactSpec) -> list[str]:
              f"penalty = {_auto(c.penalty)}"]
     if c.search_distance is not None:
         lines.append(f"search_distance = {_number(c.search_distance)}")
-    return lines + [f"multiplier = {_string(c.multiplier)}"]
+    lines.append(f"multiplier = {_string(c.multiplier)}")
+    if c.friction or c.transition_speed != DEFAULT_TRANSITION_SPEED:
+        lines += [f"mu_static = {_number(c.mu_static)}", f"mu_dynamic = {_number(c.mu_dynamic)}",
+                  f"transition_speed = {_number(c.transition_speed)}"]
+    return lines
 
 
 def _displacement(d: DisplacementSpec) -> list[str]:

@@ -52,6 +52,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fe_impact.contact.condensed import ROW_SPACE_COORDINATES, ZoneSolver, row_compliance
+from fe_impact.contact.friction import pair_laws, slip_dissipation, solve_frictional
 from fe_impact.contact.lcp import solve_penalty_lcp
 from fe_impact.contact.linearised import ContactModel, zone_frames
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
@@ -103,6 +104,15 @@ class StepResult:
     #: it (N or N m), in the case's order.
     rigid_values: list[float] = field(default_factory=list)
     rigid_reactions: list[float] = field(default_factory=list)
+    #: Friction (pairs with a coefficient): each pair's tangential contact force on
+    #: its slave surface (N, a 3-vector), the area of its slave nodes in contact and
+    #: sticking (m^2, from the rows' tributary areas, as ``stick_area``'s partner
+    #: ``friction_contact_area``), and the energy friction has dissipated since the
+    #: first step (J).
+    friction_force: list[list[float]] = field(default_factory=list)
+    stick_area: list[float] = field(default_factory=list)
+    friction_contact_area: list[float] = field(default_factory=list)
+    friction_dissipation: float = 0.0
 
 
 @dataclass
@@ -137,6 +147,8 @@ class _Equilibrium:
     q: float               # the load-controlled coordinate (0 if none)
     iterations: int
     active_set_iterations: int
+    t: np.ndarray | None = None          # friction: tangential forces (r, 2) in the rows'
+    slipping: np.ndarray | None = None   # frames; the rows slipping
 
 
 class StaticSolver:
@@ -175,10 +187,24 @@ class StaticSolver:
         controlled = [k for k, b in enumerate(case.rigid_bodies) if b.load_controlled]
         self.load_body = controlled[0] if controlled else None
         self.pairs = contact_pairs(case, self.mesh, self.model)
+        self.laws = pair_laws(case.contacts)
+        self.friction = any(law is not None for law in self.laws)
+        if self.friction and self.load_body is not None:
+            raise CaseError(f"{case.path.name}: [[contacts]] friction with a load-controlled "
+                            "[[rigid_bodies]] entry (loads) is not supported: prescribe the "
+                            "body's values instead, or drop the friction")
         self.node_areas = [nodal_areas(self.mesh, p.slave) for p in self.pairs]
         setup = ContactSetup.build(case, self.mesh, self.pairs, self._reach_rule())
         self.zone, self.reference = setup.zone, setup.states
-        self.contact = _StaticContact(self.mesh, self.model, self.kin, self.zone, 0.0)
+        self.contact = _StaticContact(self.mesh, self.model, self.kin, self.zone, 0.0,
+                                      self.laws)
+        # friction history: the last step's tangential force of each row (a 3-vector,
+        # keyed by :meth:`_row_keys`), the displacement it was reached at, the
+        # energy dissipated so far
+        self._t_keys = np.zeros(0, dtype=np.int64)
+        self._t_vec = np.zeros((0, 3))
+        self._u_prev = np.zeros(self.model.n_dofs)
+        self._dissipation = 0.0
         self.rows: _RowSpace | None = None    # set when the zone is solved in row space
         self._condense()
         # The load-controlled body (at most one) and its unit response.
@@ -204,9 +230,14 @@ class StaticSolver:
         (or, for a large zone, of the gap rows: :data:`ROW_SPACE_COORDINATES`)."""
         t = time.perf_counter()
         factor = self.solver.factor_seconds
-        frames = zone_frames(self.mesh, self.kin, self.contact)
+        frames = zone_frames(self.mesh, self.kin, self.contact, all_components=self.friction)
         self.contact.set_projector(frames.projector)
         self.n_condensed = len(frames.condensed)
+        if self.friction and self.n_condensed > ROW_SPACE_COORDINATES:
+            raise ContactError(f"the contact zone holds {self.n_condensed} coordinates, above "
+                               f"the {ROW_SPACE_COORDINATES} friction can be condensed on: "
+                               "set a smaller [[contacts]] search_distance or coarsen the "
+                               "contact faces")
         if self.rows is None and self.n_condensed > ROW_SPACE_COORDINATES:
             self.solver.release()
             self.solver = ZoneSolver(self.K_ff, schur_solves=0)   # a plain factorisation
@@ -266,11 +297,17 @@ class StaticSolver:
             load = self.case.rigid_bodies[self.load_body].loads[i]
         warm = getattr(self, "_last", None)
         for _ in range(MAX_ZONE_GROWTH + 1):
-            eq = self._equilibrium(u0, u_d, load, warm)
+            if self.friction:
+                eq = self._frictional_equilibrium(u0, u_d, warm)
+            else:
+                eq = self._equilibrium(u0, u_d, load, warm)
             u_full = self._full(eq.z, self._prescribed(u_d, eq.q))
             if not (self._grow_zone(u_full, eq.z) or self._zone_for_largest_load(i, eq)):
                 self._last = eq
-                return self._step_result(i, u_full, eq)
+                result = self._step_result(i, u_full, eq)
+                if self.friction:
+                    result = self._commit_friction(result, u_full, eq)
+                return result
             warm = eq
         raise ContactError(f"the contact zone grew {MAX_ZONE_GROWTH} times in load step "
                            f"{i + 1}: set a [[contacts]] search_distance that covers the "
@@ -364,6 +401,100 @@ class StaticSolver:
             f"zone's displacement {change:.3g} m, {change / max(scale, 1e-30):.2g} of the "
             f"contact displacement {scale:.3g} m; tolerance {a.tolerance:g}): "
             f"{_diagnosis(history, scale, face_size(self.mesh, self.pairs[0].slave))}")
+
+    # -- friction -------------------------------------------------------------------
+    def _friction_history(self) -> np.ndarray:
+        """The last step's tangential force of each row, in the rows' current frames
+        (r, 2): the stored 3-vector projected on the current tangents (N)."""
+        c = self.contact
+        keys = self._row_keys()
+        t_vec = np.zeros((len(keys), 3))
+        if len(self._t_keys):
+            pos = np.minimum(np.searchsorted(self._t_keys, keys), len(self._t_keys) - 1)
+            hit = self._t_keys[pos] == keys
+            t_vec[hit] = self._t_vec[pos[hit]]
+        return np.stack([np.einsum("ij,ij->i", t_vec, c.t1),
+                         np.einsum("ij,ij->i", t_vec, c.t2)], axis=1)
+
+    def _frictional_equilibrium(self, u0: np.ndarray, u_d: np.ndarray,
+                                warm: _Equilibrium | None) -> _Equilibrium:
+        """Projections and frictional contact forces to a converged state of a load step.
+
+        Each projection solves the frictional problem of the zone's rows
+        (:func:`~fe_impact.contact.friction.solve_frictional`) on their
+        compliance ``[B; B_t] G [B; B_t]^T`` (``G`` of the zone's condensed
+        normal and tangent coordinates), from the last step's tangential forces
+        and with the slip measured from the last step's displacement, in the
+        current projection's frames. Converged when the rows in contact and
+        those slipping repeat and the zone's displacement has settled to the
+        tolerance.
+        """
+        a = self.case.analysis
+        c = self.contact
+        z = warm.z if warm is not None and len(warm.z) == len(u0) else u0
+        full0 = self._full(u0, u_d)
+        state, total, change, scale = None, 0, math.inf, 0.0
+        for it in range(1, a.max_iterations + 1):
+            c.offset = self._full(np.zeros(len(u0)), u_d)
+            c.update(z)
+            r = len(c.active_rows)
+            h = np.where(c.active_rows, c.gaps(u0), np.inf)
+            s0 = (c.Bt_full @ (full0 - self._u_prev)).reshape(2, r).T
+            B_all = (sp.vstack([c.B, c.Bt]) @ self.R_c).tocsr()
+            sol = solve_frictional(_compliance_blocks(B_all, self.G, r), h, s0, c.eps_w,
+                                   c.eps_w, c.row_coefficients(), self._friction_history())
+            total += sol.iterations
+            f = c.BT @ sol.lam + c.Bt.T @ np.concatenate([sol.t[:, 0], sol.t[:, 1]])
+            z_new = u0 + self.solver.solve(f) if f.any() else u0.copy()
+            zone = c.T_zone
+            change = float(np.abs(zone @ (z_new - z)).max(initial=0.0))
+            scale = float(np.abs(zone @ (z_new - u0)).max(initial=0.0))
+            z = z_new
+            new_state = (sol.lam > 0, sol.slipping)
+            logger.debug("frictional projection %d: change %.3g of %.3g, %d in contact, "
+                         "%d slipping", it, change, scale, int(new_state[0].sum()),
+                         int(new_state[1].sum()))
+            if state is not None and all(np.array_equal(x, y) for x, y in
+                                         zip(state, new_state, strict=True)) and \
+                    change <= a.tolerance * max(scale, 1e-30):
+                return _Equilibrium(z, sol.lam, 0.0, it, total, sol.t, sol.slipping)
+            state = new_state if len(new_state[0]) == r else None
+        raise ContactError(
+            f"frictional contact did not converge in {a.max_iterations} iterations (last "
+            f"change of the zone's displacement {change:.3g} m, "
+            f"{change / max(scale, 1e-30):.2g} of the contact displacement {scale:.3g} m): "
+            "apply the load in smaller steps (more [[displacements]] values), or raise "
+            "[analysis] max_iterations")
+
+    def _commit_friction(self, step: StepResult, u_full: np.ndarray,
+                         eq: _Equilibrium) -> StepResult:
+        """Store the step's tangential forces as the next step's history, add its
+        dissipation, and put the friction's figures into the step's result."""
+        from dataclasses import replace
+
+        c = self.contact
+        r = len(c.active_rows)
+        t_old = self._friction_history()
+        s = (c.Bt_full @ (u_full - self._u_prev)).reshape(2, r).T
+        t_tr = t_old - c.eps_w[:, None] * s
+        cap = c.row_coefficients() * eq.lam
+        self._dissipation += slip_dissipation(np.linalg.norm(t_tr, axis=1), cap, c.eps_w)
+        t_vec = c.t1 * eq.t[:, [0]] + c.t2 * eq.t[:, [1]]
+        keys = self._row_keys()
+        order = np.argsort(keys)
+        self._t_keys, self._t_vec = keys[order], t_vec[order]
+        self._u_prev = u_full.copy()
+        forces, stick, touching = [], [], []
+        start = 0
+        for st in c.states:
+            sl = slice(start, start + len(st.gap))
+            start += len(st.gap)
+            on = eq.lam[sl] > 0
+            forces.append([float(v) for v in t_vec[sl].sum(axis=0)])
+            touching.append(float(st.weight[on].sum()))
+            stick.append(float(st.weight[on & ~eq.slipping[sl]].sum()))
+        return replace(step, friction_force=forces, stick_area=stick,
+                       friction_contact_area=touching, friction_dissipation=self._dissipation)
 
     def _contact_response(self, Bc: sp.csr_matrix, lam: np.ndarray) -> np.ndarray:
         """``K^-1 B^T lambda``, the displacement of the contact forces ``lambda``.
@@ -572,6 +703,19 @@ class StaticSolver:
                           self.model.point_values(u), pressure,
                           von_mises(self.model, u) if self.stress else None,
                           [float(v) for v in coords], rigid_reactions)
+
+
+def _compliance_blocks(B: sp.csr_matrix, G: np.ndarray, r: int):
+    """``D(idx)``: the compliance ``B_i G B_i^T`` of the rows ``idx`` stacked as (normal,
+    t1, t2) (``B``: (3 r, m), the normal rows then the two tangential ones, in the
+    condensed coordinates), and ``D(idx, other)`` the normal rows ``other``'s part."""
+    def block(idx: np.ndarray, other: np.ndarray | None = None) -> np.ndarray:
+        rows = np.concatenate([idx, r + idx, 2 * r + idx])
+        BG = np.asarray(B[rows] @ G)
+        if other is None:
+            return np.asarray(B[rows] @ BG.T)
+        return np.asarray(B[other] @ BG.T)
+    return block
 
 
 def _alternates(cycle: list[tuple[np.ndarray, np.ndarray, float]], z: np.ndarray,

@@ -1,0 +1,316 @@
+"""Coulomb friction on the penalty contact: the law, the slip Jacobians, the frictional problem.
+
+Law
+---
+At each weighted slave node ``a`` (the rows of
+:class:`~fe_impact.contact.surfaces.GapState`) the normal force is the penalty
+``lambda_a = eps w_a <-g_a>``. The tangential force ``t_a`` (a vector in the
+node's tangent plane, acting on the slave and, opposite, on the master) follows
+the penalty-regularised Coulomb law by a return mapping (Wriggers,
+Computational Contact Mechanics, 2nd ed., 2006, sections 5.2 and 10.4; Laursen,
+2002, ch. 5):
+
+- trial (stick): ``t_tr = t_n - eps_t w_a ds``, ``ds`` the slip increment of
+  the step, the tangential part of the relative displacement of the slave node
+  and its master point, measured with the current projection (the current
+  configuration);
+- ``|t_tr| <= mu lambda``: stick, ``t = t_tr``; else slip,
+  ``t = mu lambda t_tr / |t_tr|``, and the step dissipates
+  ``mu lambda (|t_tr| - mu lambda) / (eps_t w_a)``.
+
+The seed's eqs. 9-10 (``F_t = -mu F_n sgn(v12)``) are this law with the
+elastic stick of the penalty in place of the sign's jump at zero slip speed.
+The coefficient falls from ``mu_static`` at zero slip speed to
+``mu_dynamic`` at ``transition_speed`` and above, by the ADAMS STEP cubic
+(:func:`coefficient`; the lumped switching model's transition,
+:func:`fe_impact.switching._kernel.friction_coefficient`). A static analysis
+has no slip speed: it takes ``mu_static``.
+
+The tangential penalty equals the normal one (``eps_t = eps``): its stick
+compliance ``1 / (eps w)`` per node is then the normal penetration's share
+of the approach (well below 1% at the automatic penalties).
+
+Problem
+-------
+An implicit solve (static or Newmark) gives the contact-free gaps ``h`` and
+slip increments ``s0`` of the rows and their compliance ``D`` (the Delassus
+matrix of the normal and two tangential rows of every node). The forces
+``p = (lambda, t1, t2)`` solve ``p = F(y0 + D p)``, ``F`` the local law above;
+:func:`solve_frictional` does it by a semismooth Newton iteration on the
+small dense system, on the rows near contact only.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from fe_impact.contact.surfaces import ContactPair, tri_shape
+from fe_impact.errors import ContactError
+from fe_impact.fe.case import ContactSpec
+from fe_impact.fe.mesh import FEMesh
+
+logger = logging.getLogger(__name__)
+
+#: The frictional Newton iteration stops when the residual is below this times
+#: the forces' size (N); the return mapping itself is exact, so the forces'
+#: error is that of the linear solves, far below the discretisation's.
+NEWTON_TOL = 1e-10
+#: Newton iterations before the problem is declared unsolved.
+NEWTON_ITERATIONS = 60
+
+
+@dataclass(frozen=True)
+class FrictionLaw:
+    """Coulomb coefficients of one contact pair.
+
+    Attributes
+    ----------
+    mu_static, mu_dynamic : float
+        Coefficients [-] at zero slip speed and at ``transition_speed`` and above.
+    transition_speed : float
+        Slip speed [m/s] over which the coefficient blends from static to dynamic.
+    """
+
+    mu_static: float
+    mu_dynamic: float
+    transition_speed: float
+
+    @classmethod
+    def of(cls, spec: ContactSpec) -> FrictionLaw | None:
+        """The law of a case's contact pair (None: frictionless)."""
+        if not spec.friction:
+            return None
+        return cls(spec.mu_static, spec.mu_dynamic, spec.transition_speed)
+
+    def coefficient(self, speed: np.ndarray | float) -> np.ndarray:
+        """``mu`` at the slip speed ``speed`` (m/s, >= 0): ADAMS STEP from
+        ``mu_static`` at 0 to ``mu_dynamic`` at :attr:`transition_speed`."""
+        x = np.clip(np.asarray(speed, dtype=float) / self.transition_speed, 0.0, 1.0)
+        return self.mu_static + (self.mu_dynamic - self.mu_static) * x * x * (3.0 - 2.0 * x)
+
+
+def pair_laws(specs) -> list[FrictionLaw | None]:
+    """The friction law of each contact spec (None where frictionless)."""
+    return [FrictionLaw.of(s) for s in specs]
+
+
+def tangent_frames(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents ``t1, t2`` (each (n, 3)) with ``(n, t1, t2)`` right-handed."""
+    n = np.asarray(normal, dtype=float)
+    helper = np.where(np.abs(n[:, [0]]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t1 = np.cross(n, helper)
+    t1 /= np.maximum(np.linalg.norm(t1, axis=1), 1e-300)[:, None]
+    return t1, np.cross(n, t1)
+
+
+def relative_jacobian(pair: ContactPair, mesh: FEMesh, u: np.ndarray, slave_faces: np.ndarray,
+                      master_faces: np.ndarray) -> list[sp.csr_matrix]:
+    """``d r_a / d u`` of each weighted slave node, one matrix per component x, y, z.
+
+    ``r_a = int phi_a (u_s - u_m) dA / A_a``: the relative displacement of the
+    slave and its closest master point (projected in the configuration
+    ``X + u``), weighted as the gap of :meth:`ContactPair.gap_state` is, so its
+    rows are those of the gap state (a node with no valid projection has a
+    zero row). Each matrix is (n_nodes, n_dofs).
+    """
+    x = mesh.points + u
+    key = (id(mesh), np.asarray(slave_faces).tobytes(), np.asarray(master_faces).tobytes())
+    # the layout and projection gap_state just made of this configuration (cached)
+    lay = pair._layout(mesh, x, slave_faces, master_faces, key)
+    proj = pair._project(mesh, x, lay, master_faces, key)
+    Nm, _ = tri_shape(proj.xi, proj.eta, pair.master.nodes_per_face)
+    Wv = lay.W.copy()
+    Wv.data = Wv.data * proj.valid[Wv.indices]
+    valid_area = np.asarray(Wv.sum(axis=1)).ravel()
+    ok = valid_area > 1e-3 * lay.area
+    Wn = sp.diags(np.where(ok, 1.0 / np.where(ok, valid_area, 1.0), 0.0)) @ Wv
+    nodes = np.concatenate([lay.snodes, pair.master.faces[proj.face]], axis=1)   # (q, a)
+    coef = np.concatenate([lay.Ns, -Nm], axis=1) * proj.valid[:, None]
+    nq, na = nodes.shape
+    ndof = 3 * (mesh.point_dof.max() + 1)
+    indptr = np.arange(0, nq * na + 1, na)
+    out = []
+    for d in range(3):
+        cols = 3 * mesh.point_dof[nodes] + d
+        Bq = sp.csr_matrix((coef.ravel(), cols.ravel(), indptr), shape=(nq, ndof))
+        out.append((Wn @ Bq).tocsr())
+    return out
+
+
+def slip_jacobians(J: list[sp.csr_matrix], t1: np.ndarray, t2: np.ndarray
+                   ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """The tangential rows ``t_k . J`` of each node's relative displacement."""
+    return tuple(sum(sp.diags(t[:, d]) @ J[d] for d in range(3)).tocsr() for t in (t1, t2))
+
+
+def local_law(y: np.ndarray, eps_n: np.ndarray, eps_t: np.ndarray, mu: np.ndarray,
+              t_old: np.ndarray, jacobian: bool = False):
+    """Forces ``F(y)`` of the rows and, with ``jacobian``, ``dF/dy`` (dense).
+
+    ``y = (g, s1, s2)`` stacked (3 r): gaps and slip increments (m);
+    ``t_old``: (r, 2) tangential forces at the step's start (N).
+    Returns ``p = (lambda, t1, t2)`` stacked, ``slipping`` (bool, r) and,
+    with ``jacobian``, the (3 r, 3 r) derivative.
+    """
+    r = len(eps_n)
+    g, s = y[:r], np.stack([y[r:2 * r], y[2 * r:]], axis=1)
+    closed = g < 0.0
+    lam = np.where(closed, -eps_n * g, 0.0)
+    t_tr = t_old - eps_t[:, None] * s
+    norm = np.linalg.norm(t_tr, axis=1)
+    cap = mu * lam
+    slipping = norm > cap
+    scale = np.where(slipping, cap / np.maximum(norm, 1e-300), 1.0)
+    t = t_tr * scale[:, None]
+    p = np.concatenate([lam, t[:, 0], t[:, 1]])
+    if not jacobian:
+        return p, slipping
+    A = np.zeros((3 * r, 3 * r))
+    i = np.arange(r)
+    dlam = np.where(closed, -eps_n, 0.0)
+    A[i, i] = dlam
+    e = t_tr / np.maximum(norm, 1e-300)[:, None]
+    for a in range(2):
+        for b in range(2):
+            stick = -eps_t * (a == b)
+            slip = -eps_t * scale * ((a == b) - e[:, a] * e[:, b])
+            A[(a + 1) * r + i, (b + 1) * r + i] = np.where(slipping, slip, stick)
+        A[(a + 1) * r + i, i] = np.where(slipping, mu * e[:, a] * dlam, 0.0)
+    return p, slipping, A
+
+
+@dataclass(frozen=True, eq=False)
+class FrictionalSolution:
+    """Forces of the rows and how they were found."""
+
+    lam: np.ndarray         # (r,) normal forces, N
+    t: np.ndarray           # (r, 2) tangential forces in the rows' (t1, t2), N
+    slipping: np.ndarray    # (r,) bool: the row slips (in contact, at the cone)
+    iterations: int
+
+
+def solve_frictional(D: np.ndarray, h: np.ndarray, s0: np.ndarray, eps_n: np.ndarray,
+                     eps_t: np.ndarray, mu: np.ndarray, t_old: np.ndarray,
+                     rows: np.ndarray | None = None) -> FrictionalSolution:
+    """The forces with ``p = F(y0 + D p)`` (see the module docstring).
+
+    Parameters
+    ----------
+    D : callable or ndarray
+        ``D(idx)``: the (3 k, 3 k) compliance of the rows ``idx`` stacked as
+        (normal, t1, t2), and ``D(idx, other)`` the normal gaps' change of the
+        rows ``other`` per force on ``idx``, (k', 3 k); or the whole (3 r, 3 r)
+        matrix.
+    h, s0 : ndarray
+        Contact-free gaps (r,) and slip increments (r, 2), m.
+    eps_n, eps_t : ndarray
+        Normal and tangential penalties times the nodes' areas (N/m), (r,).
+    mu : ndarray
+        Coefficients (r,).
+    t_old : ndarray
+        Tangential forces at the step's start (r, 2), N.
+    rows : ndarray, optional
+        Rows to start from (default: those with ``h`` below a small margin
+        or a force at the start); others whose gaps the forces close are added.
+    """
+    r = len(h)
+    if callable(D):
+        block = D
+    else:
+        def block(idx, other=None):
+            st = np.concatenate([idx, r + idx, 2 * r + idx])
+            if other is None:
+                return D[np.ix_(st, st)]
+            return D[np.ix_(other, st)]
+    lam = np.zeros(r)
+    t = np.zeros((r, 2))
+    slipping = np.zeros(r, dtype=bool)
+    if r == 0:
+        return FrictionalSolution(lam, t, slipping, 0)
+    margin = 0.05 * max(-float(h.min()), 0.0)
+    cand = (h < margin) | np.any(t_old != 0.0, axis=1)
+    if rows is not None:
+        cand[rows] = True
+    total = 0
+    p_warm = None
+    while True:
+        idx = np.flatnonzero(cand)
+        Dc = block(idx)
+        y0 = np.concatenate([h[idx], s0[idx, 0], s0[idx, 1]])
+        p, sl, its = _newton(Dc, y0, eps_n[idx], eps_t[idx], mu[idx], t_old[idx], p_warm)
+        total += its
+        k = len(idx)
+        rest = np.flatnonzero(~cand)
+        if len(rest):
+            g = h[rest] + block(idx, rest) @ p
+            missed = rest[g < 0.0]
+        else:
+            missed = rest
+        if len(missed) == 0:
+            lam[idx], t[idx, 0], t[idx, 1] = p[:k], p[k:2 * k], p[2 * k:]
+            slipping[idx] = sl
+            return FrictionalSolution(lam, t, slipping, total)
+        # warm start: the found forces, zero on the added rows
+        new = np.zeros(r * 3)
+        new[idx], new[r + idx], new[2 * r + idx] = p[:k], p[k:2 * k], p[2 * k:]
+        cand[missed] = True
+        idx2 = np.flatnonzero(cand)
+        p_warm = np.concatenate([new[idx2], new[r + idx2], new[2 * r + idx2]])
+
+
+def _newton(D, y0, eps_n, eps_t, mu, t_old, p0=None):
+    """Semismooth Newton on ``R(p) = p - F(y0 + D p)`` with a backtracking line search."""
+    n = len(y0)
+    if n == 0:
+        return np.zeros(0), np.zeros(0, dtype=bool), 0
+    p = np.zeros(n) if p0 is None else p0.copy()
+    if p0 is None:
+        p = local_law(y0, eps_n, eps_t, mu, t_old)[0] * 0.0
+    F, sl, A = local_law(y0 + D @ p, eps_n, eps_t, mu, t_old, jacobian=True)
+    R = p - F
+    res = float(np.linalg.norm(R))
+    for it in range(1, NEWTON_ITERATIONS + 1):
+        scale = max(float(np.linalg.norm(F)), float(np.linalg.norm(p)), 1e-300)
+        if res <= NEWTON_TOL * scale:
+            return p, sl, it - 1
+        J = np.eye(n) - A @ D
+        try:
+            dp = -sla.solve(J, R, check_finite=False)
+        except sla.LinAlgError:
+            dp = -np.linalg.lstsq(J, R, rcond=None)[0]
+        step = 1.0
+        for _ in range(30):
+            p_new = p + step * dp
+            F_new, sl_new, A_new = local_law(y0 + D @ p_new, eps_n, eps_t, mu, t_old,
+                                             jacobian=True)
+            R_new = p_new - F_new
+            res_new = float(np.linalg.norm(R_new))
+            if res_new < (1.0 - 1e-4 * step) * res or step < 1e-6:
+                break
+            step *= 0.5
+        p, F, sl, A, R, res = p_new, F_new, sl_new, A_new, R_new, res_new
+    scale = max(float(np.linalg.norm(F)), float(np.linalg.norm(p)), 1e-300)
+    if res <= 1e-6 * scale:
+        logger.debug("frictional Newton stopped at residual %.3g of %.3g", res, scale)
+        return p, sl, NEWTON_ITERATIONS
+    raise ContactError(f"the frictional contact problem did not converge in "
+                       f"{NEWTON_ITERATIONS} Newton iterations (residual {res:.3g} of "
+                       f"{scale:.3g} N): apply the load in smaller steps")
+
+
+def slip_dissipation(t_trial_norm: np.ndarray, cap: np.ndarray, eps_t: np.ndarray
+                     ) -> float:
+    """Energy (J) the slipping rows dissipate in a step: ``cap (|t_tr| - cap) / eps_t``."""
+    excess = np.maximum(t_trial_norm - cap, 0.0)
+    return float(np.sum(cap * excess / np.where(eps_t > 0, eps_t, np.inf)))
+
+
+def stored_energy(t: np.ndarray, eps_t: np.ndarray) -> float:
+    """Elastic energy (J) of the tangential penalty springs: ``sum |t|^2 / (2 eps_t)``."""
+    on = eps_t > 0
+    return float(0.5 * np.sum(np.sum(t[on] ** 2, axis=1) / eps_t[on]))

@@ -1,0 +1,119 @@
+"""Coulomb friction: case keys, the local law, the frictional problem, the sliding block."""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fe_impact.contact.friction import FrictionLaw, local_law, solve_frictional
+from fe_impact.errors import CaseError
+from fe_impact.fe.case import parse_case
+from fe_impact.fe.casefile import write_case
+from validation import friction_sliding
+
+MESHES = Path(__file__).resolve().parents[1] / "meshes"
+
+CASE = f"""[mesh]
+file = "{MESHES / 'two_blocks.msh'}"
+[[materials]]
+volumes = ["upper", "lower"]
+youngs_modulus = 2e11
+poisson_ratio = 0.3
+[[contacts]]
+slave = "upper_bottom"
+master = "lower_top"
+%s
+"""
+
+
+def _parse(extra: str, tmp_path: Path):
+    return parse_case(tomllib.loads(CASE % extra), tmp_path / "case.toml")
+
+
+@pytest.mark.parametrize("extra, words", [
+    ("friction = -0.1", ["[contacts[0]] friction = -0.1", "in [0.0, 5.0]"]),
+    ("friction = nan", ["[contacts[0]] friction = nan", "must be a number in [0.0, 5.0]"]),
+    ("mu_static = 0.02\nmu_dynamic = 0.05",
+     ["[contacts[0]] mu_static = 0.02", "at least mu_dynamic = 0.05"]),
+    ("mu_static = 0.05\nmu_dynamic = 0.02\ntransition_speed = 0.0",
+     ["[contacts[0]] transition_speed = 0.0", "(0.0, 10000.0]", "m/s"]),
+    ("friction = 0.1\nmu_static = 0.2", ["friction and mu_static are both given"]),
+    ("mu_static = 0.2", ["mu_static is given without mu_dynamic"]),
+])
+def test_bad_friction_input_names_key_value_and_range(extra, words, tmp_path):
+    with pytest.raises(CaseError) as err:
+        _parse(extra, tmp_path)
+    text = str(err.value)
+    assert "\n" not in text
+    for w in words:
+        assert w in text
+
+
+def test_friction_keys_read_and_write_back(tmp_path):
+    one = _parse("friction = 0.3", tmp_path).contacts[0]
+    assert (one.mu_static, one.mu_dynamic, one.friction) == (0.3, 0.3, True)
+    case = _parse("mu_static = 0.05\nmu_dynamic = 0.02\ntransition_speed = 0.004", tmp_path)
+    c = case.contacts[0]
+    assert (c.mu_static, c.mu_dynamic, c.transition_speed) == (0.05, 0.02, 0.004)
+    assert not _parse("", tmp_path).contacts[0].friction
+    out = write_case(replace(case, path=tmp_path / "w.toml"), tmp_path / "w.toml")
+    assert "mu_static = 0.05" in out.read_text()
+
+
+def test_coefficient_blends_from_static_to_dynamic():
+    law = FrictionLaw(0.05, 0.02, 0.01)
+    mu = law.coefficient(np.array([0.0, 0.005, 0.01, 1.0]))
+    # the STEP cubic: mu_s at 0, the mean at half the transition speed, mu_d beyond
+    assert mu == pytest.approx([0.05, 0.035, 0.02, 0.02], abs=1e-15)
+
+
+def test_return_mapping_sticks_inside_the_cone_and_slips_on_it():
+    eps = np.array([10.0, 10.0])
+    y = np.array([-1.0, -1.0, 0.01, 0.5, 0.0, 0.0])   # two rows pressed 1 m; slips 0.01, 0.5
+    p, slipping = local_law(y, eps, eps, np.full(2, 0.3), np.zeros((2, 2)))
+    assert p[:2] == pytest.approx([10.0, 10.0])
+    assert not slipping[0] and slipping[1]
+    assert p[2] == pytest.approx(-0.1)        # stick: -eps s
+    assert p[3] == pytest.approx(-3.0)        # slip: mu lambda against the slip
+
+
+@pytest.mark.parametrize("s0", [0.01, 0.2])
+def test_frictional_problem_of_one_node_against_its_closed_form(s0):
+    # One node on springs: normal and tangential compliances c_n, c_t, pressed by
+    # h0 < 0 and slid by s0. Closed form: lam = eps |h0| / (1 + eps c_n); in
+    # stick t = -eps s0 / (1 + eps c_t), else t = -mu lam.
+    c_n, c_t, eps, mu, h0 = 0.5, 0.8, 4.0, 0.3, -1.0
+    D = np.diag([c_n, c_t, c_t])
+    sol = solve_frictional(D, np.array([h0]), np.array([[s0, 0.0]]), np.array([eps]),
+                           np.array([eps]), np.array([mu]), np.zeros((1, 2)))
+    lam = eps * -h0 / (1 + eps * c_n)
+    stick = -eps * s0 / (1 + eps * c_t)
+    expected = stick if abs(stick) <= mu * lam else -mu * lam
+    assert sol.lam[0] == pytest.approx(lam, rel=1e-12)
+    assert sol.t[0, 0] == pytest.approx(expected, rel=1e-12)
+    assert sol.slipping[0] == (abs(stick) > mu * lam)
+
+
+def test_frictionless_case_forms_no_slip_rows():
+    # friction off: the contact model forms nothing of the friction (no cost), so
+    # the solvers take the frictionless paths unchanged
+    from fe_impact.fe.mesh import load_mesh
+    from fe_impact.solvers.static import StaticSolver
+    from validation.impact_cases import sphere_block_case
+
+    case = sphere_block_case(MESHES / "hertz_coarse_p1.msh", (-2e-6,))
+    solver = StaticSolver(case, load_mesh(case.mesh_file), stress=False)
+    assert not solver.friction and not solver.contact.friction
+    assert not hasattr(solver.contact, "Bt")
+
+
+def test_sliding_block_force_ratio_and_dissipation(tmp_path):
+    # the validation's coarse setting, held to the study's own tolerances (0.5%:
+    # see validation/friction_sliding.py)
+    r = friction_sliding.run(quick=True, out=tmp_path)
+    assert abs(r["force_ratio_error"]) <= friction_sliding.RATIO_TOL
+    assert abs(r["dissipation_error"]) <= friction_sliding.DISSIPATION_TOL

@@ -189,7 +189,8 @@ def _parser() -> argparse.ArgumentParser:
 
 
 #: Modules that add their own subcommands with ``register(subparsers)``.
-_COMMAND_MODULES = ("fe_impact.cli.mesh", "fe_impact.cli.switching", "fe_impact.cli.geometry")
+_COMMAND_MODULES = ("fe_impact.cli.mesh", "fe_impact.cli.switching", "fe_impact.cli.geometry",
+                    "fe_impact.cli.export")
 
 
 def _configure_logging(verbose: int) -> None:

@@ -509,8 +509,8 @@ def settings(data, duration, *, atol, rtol, max_step):
     ti.minimumStepSize = 1e-14
     ti.initialStepSize = 1e-7
     ti.verboseMode = 0
-    s.solutionSettings.writeSolutionToFile = False
-    s.displayComputationTime = False
+    s.solution.file.write = False
+    s.show.computationTime = False
     return s
 
 

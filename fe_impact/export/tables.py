@@ -15,8 +15,9 @@ Three files, SI units (the column names carry them):
   empty), ``cmax`` and ``d`` the impact's. This is how fe-impact's switching
   model combines them (`fe_impact.switching.calibration`).
 
-Roll angle: the pinion's roll from the pitch point [deg], positive towards
-the end of the path of contact (recess).
+Roll angle: the pinion's roll from the pitch point [deg]; the line-of-action
+coordinate is ``s = s_pitch - r_bp roll``, so a positive roll lies towards
+the start of the path of contact (approach).
 """
 
 from __future__ import annotations
@@ -115,9 +116,9 @@ contact_table.csv   stage, kind, impact_speed_m_s, roll_angle_deg, k, exponent, 
                     impact's onset (linear in log speed between speeds, held beyond).
                     An empty roll angle: the same at every position.
 
-Roll angle: the pinion's roll from the pitch point [deg], positive towards recess;
-the line-of-action coordinate is s = s_pitch - r_bp * roll (r_bp the pinion's base
-radius).
+Roll angle: the pinion's roll from the pitch point [deg]. The line-of-action
+coordinate is s = s_pitch - r_bp * roll (r_bp the pinion's base radius): a positive
+roll lies towards the start of the path of contact, where a pair enters mesh.
 
 Using the tables elsewhere
 - a general force element (Simpack, RecurDyn, your own code): the force law above

@@ -314,3 +314,78 @@ def stored_energy(t: np.ndarray, eps_t: np.ndarray) -> float:
     """Elastic energy (J) of the tangential penalty springs: ``sum |t|^2 / (2 eps_t)``."""
     on = eps_t > 0
     return float(0.5 * np.sum(np.sum(t[on] ** 2, axis=1) / eps_t[on]))
+
+
+class TangentialHistory:
+    """The tangential force of each contact row at the last committed step, kept as a
+    3-vector keyed by its pair and slave node, so that it survives re-projections
+    (new tangent frames) and zone growth (new rows)."""
+
+    def __init__(self) -> None:
+        self.keys = np.zeros(0, dtype=np.int64)
+        self.vectors = np.zeros((0, 3))
+
+    def get(self, keys: np.ndarray, t1: np.ndarray, t2: np.ndarray) -> np.ndarray:
+        """The rows' forces in their current tangent frames (r, 2), N (0 for new rows)."""
+        vec = np.zeros((len(keys), 3))
+        if len(self.keys):
+            pos = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
+            hit = self.keys[pos] == keys
+            vec[hit] = self.vectors[pos[hit]]
+        return np.stack([np.einsum("ij,ij->i", vec, t1), np.einsum("ij,ij->i", vec, t2)],
+                        axis=1)
+
+    def put(self, keys: np.ndarray, t1: np.ndarray, t2: np.ndarray, t: np.ndarray) -> None:
+        """Commit the rows' forces ``t`` (r, 2) given in the frames ``t1``, ``t2``."""
+        order = np.argsort(keys)
+        self.keys = keys[order]
+        self.vectors = (t1 * t[:, [0]] + t2 * t[:, [1]])[order]
+
+
+def return_mapping(t_old: np.ndarray, ds: np.ndarray, lam: np.ndarray, eps_t: np.ndarray,
+                   mu: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """Tangential forces after the slip increments ``ds`` (r, 2) under the normal forces
+    ``lam``: the stick trial ``t_old - eps_t ds`` returned to the cone ``mu lam``.
+
+    Returns the forces (r, 2), the energy the step dissipates (J) and the rows
+    slipping.
+    """
+    t_tr = t_old - eps_t[:, None] * ds
+    norm = np.linalg.norm(t_tr, axis=1)
+    cap = mu * lam
+    slipping = norm > cap
+    t = t_tr * np.where(slipping, cap / np.maximum(norm, 1e-300), 1.0)[:, None]
+    return t, slip_dissipation(norm, cap, eps_t), slipping
+
+
+class ExplicitFriction:
+    """Friction of the explicit integrator: each step's return mapping from the slip
+    increments of the step, committed at once.
+
+    Attributes
+    ----------
+    dissipation : float
+        Energy dissipated so far (J).
+    stored : float
+        Energy of the tangential penalty springs at the last step (J).
+    """
+
+    def __init__(self) -> None:
+        self.history = TangentialHistory()
+        self.dissipation = 0.0
+        self.stored = 0.0
+
+    def forces(self, contact, z: np.ndarray, z_old: np.ndarray, lam: np.ndarray,
+               dt: float) -> np.ndarray:
+        """The tangential forces (r, 2) at ``z`` after a step of ``dt`` from ``z_old``."""
+        r = len(lam)
+        keys = contact.row_keys()
+        t_old = self.history.get(keys, contact.t1, contact.t2)
+        ds = (contact.Bt @ (z - z_old)).reshape(2, r).T
+        speed = np.linalg.norm(ds, axis=1) / dt
+        eps_t = contact.eps_w
+        t, dissipated, _ = return_mapping(t_old, ds, lam, eps_t, contact.row_coefficients(speed))
+        self.history.put(keys, contact.t1, contact.t2, t)
+        self.dissipation += dissipated
+        self.stored = stored_energy(t, eps_t)
+        return t

@@ -103,6 +103,16 @@ class ContactModel:
         self.Bt = (self.Bt_full @ self.kin.T).tocsr()
         self.row_law = np.concatenate(law)
 
+    def row_keys(self) -> np.ndarray:
+        """A key per row naming its pair and slave node (stable over projections)."""
+        n = self.mesh.n_points
+        return np.concatenate([st.nodes + k * n for k, st in enumerate(self.states)])
+
+    def add_tangential(self, t: np.ndarray, out: np.ndarray, sign: float = 1.0) -> np.ndarray:
+        """``out += sign B_t^T t`` in place, ``t`` the rows' tangential forces (r, 2)."""
+        out += sign * (self.Bt.T @ np.concatenate([t[:, 0], t[:, 1]]))
+        return out
+
     def row_coefficients(self, speed: np.ndarray | None = None) -> np.ndarray:
         """Each row's Coulomb coefficient at the slip speed ``speed`` (m/s; None: at
         rest, ``mu_static``); 0 on frictionless pairs."""

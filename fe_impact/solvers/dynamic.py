@@ -43,6 +43,7 @@ import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from fe_impact.contact.condensed import CondensedContact, StepContact
+from fe_impact.contact.friction import ExplicitFriction, pair_laws
 from fe_impact.contact.linearised import ContactModel, SurfaceMonitor
 from fe_impact.contact.zone import (
     PENALTY_FACTOR_EXPLICIT,
@@ -119,7 +120,8 @@ class DynamicResult:
 RIGID_START = 1e-10
 
 HISTORY_KEYS = ("time", "contact_force", "approach", "normal_velocity", "kinetic_energy",
-                "strain_energy", "contact_energy", "plastic_dissipation", "total_energy")
+                "strain_energy", "contact_energy", "plastic_dissipation", "friction_dissipation",
+                "total_energy")
 
 
 class Stop(enum.Enum):
@@ -199,7 +201,13 @@ class DynamicSolver:
         self.zone = setup.zone
         h_min = min(face_size(self.mesh, p.slave) for p in self.pairs)
         self.contact = ContactModel(self.mesh, self.model, self.kin, self.zone,
-                                    REPROJECT_FRACTION * h_min)
+                                    REPROJECT_FRACTION * h_min, pair_laws(case.contacts))
+        #: the explicit integrator's friction (None: frictionless, or Newmark)
+        self.friction = ExplicitFriction() if self.contact.friction and self.explicit else None
+        if self.contact.friction and not self.explicit:
+            raise CaseError(f"{case.path.name}: [[contacts]] friction needs [analysis] "
+                            "integrator = \"explicit\" (Newmark with friction is not "
+                            "available yet)")
         self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone, setup.reach, setup.states)
         clock.lap("contact_setup")
         self.probe = ImpactProbe.build(case, self.mesh, self.kin, self.M, self.contact.states[0])
@@ -209,6 +217,7 @@ class DynamicSolver:
         clock.lap("probe_and_plastic_zone")
         self.dt_stable = (ti.stable_time_step(self.K, self.m, self.contact) if self.explicit
                           else None)
+        _check_stick_resolved(case, self.dt_stable, self.friction is not None)
         self.dt = ti.time_step(case, self.dt_stable)
         self.scheme, self.condensed = self._scheme()
         clock.lap("stable_step" if self.explicit else "factorisation")
@@ -315,7 +324,7 @@ class DynamicSolver:
             self._flying = False
         if self.explicit:
             return ti.central_difference_step(s, self.scheme, self.contact, self.plastic,
-                                              self._watch_zone)
+                                              self._watch_zone, self.friction)
         return ti.newmark_step(s, self.scheme, self.contact, self._newmark_solve, self.plastic,
                                self.case.analysis.max_iterations)
 
@@ -372,15 +381,27 @@ class DynamicSolver:
         v = s.v
         ke = 0.5 * float(v @ (self.m * v) if self.explicit else v @ (self.scheme.M_product @ v))
         ce = self.contact.energy(s.lam)
-        strain, dis = s.strain_energy, 0.0
+        strain, dis, fr = s.strain_energy, 0.0, 0.0
         if self.plastic is not None:
             strain += self.plastic.energy_correction(s.z)
             dis = self.plastic.dissipation()
+        total = ke + strain + ce + dis
+        friction = self._friction_energies()
+        if friction is not None:   # the tangential springs' energy counts as contact energy
+            ce += friction[0]
+            fr = friction[1]
+            total += friction[0] + fr
         return {"time": s.n * self.dt, "contact_force": float(s.lam.sum()),
                 "approach": self.probe.approach(s.z),
                 "normal_velocity": self.probe.normal_velocity(v), "kinetic_energy": ke,
                 "strain_energy": strain, "contact_energy": ce, "plastic_dissipation": dis,
-                "total_energy": ke + strain + ce + dis}
+                "friction_dissipation": fr, "total_energy": total}
+
+    def _friction_energies(self) -> tuple[float, float] | None:
+        """The tangential springs' stored energy and the friction's dissipation so far
+        (J), None without friction."""
+        f = self.friction
+        return None if f is None else (f.stored, f.dissipation)
 
     def _check(self, s: ti.State, total: float) -> None:
         # The total energy is finite exactly when z and v are: it holds v M v
@@ -467,6 +488,23 @@ class DynamicSolver:
 
 
 # -- set-up --------------------------------------------------------------------------
+
+
+def _check_stick_resolved(case: Case, dt_stable: float | None, friction: bool) -> None:
+    """Refuse an explicit time step above the stable limit of the sticking contact.
+
+    Stick is the tangential penalty spring; a step above its stable limit cannot
+    resolve it (the stick-slip oscillation grows without bound).
+    """
+    dt = case.analysis.time_step
+    if not friction or dt_stable is None or dt is None or dt <= dt_stable:
+        return
+    k, spec = next((k, c) for k, c in enumerate(case.contacts) if c.friction)
+    raise CaseError(f"{case.path.name}: [contacts[{k}]] friction (mu_static = "
+                    f"{spec.mu_static:g}) on an explicit case with [analysis] time_step = "
+                    f"{dt:.4g} s: that step cannot resolve stick, whose stable limit (the "
+                    f"tangential penalty) is {dt_stable:.4g} s; use at most that, or "
+                    "time_step = \"auto\"")
 
 
 def _check_case(case: Case) -> None:

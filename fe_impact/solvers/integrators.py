@@ -86,6 +86,8 @@ class State:
     f_plastic: np.ndarray | None = None
     active: np.ndarray | None = None
     Kz: np.ndarray | None = None
+    #: friction: the rows' tangential forces (r, 2) in the contact model's frames, N
+    t: np.ndarray | None = None
 
 
 def time_step(case: Case, dt_stable: float | None) -> float:
@@ -135,13 +137,18 @@ class CentralDifference:
         object.__setattr__(self, "product", SparseProduct(self.K, copy=False))
 
 
-def stable_time_step(K: sp.csr_matrix, m: np.ndarray, contact: ContactModel) -> float:
+def stable_time_step(K: sp.csr_matrix, m: np.ndarray, contact: ContactModel,
+                     tangential: bool = True) -> float:
     """Critical central-difference step ``2 / omega_max``, contact penalty included.
 
     ``omega_max^2`` is the largest eigenvalue of ``M^-1/2 (K + K_c) M^-1/2``
-    (Lanczos), with every row of the contact model in contact.
+    (Lanczos), with every row of the contact model in contact, sticking
+    (the tangential penalty) if it has friction and ``tangential``.
     """
     Kc = (contact.B.T @ sp.diags(contact.eps_w) @ contact.B).tocsr()
+    if tangential and contact.friction:   # the tangential penalty springs, as stiff
+        eps = np.concatenate([contact.eps_w, contact.eps_w])
+        Kc = (Kc + contact.Bt.T @ sp.diags(eps) @ contact.Bt).tocsr()
     s = 1.0 / np.sqrt(m)
     A = sp.diags(s) @ (K + Kc) @ sp.diags(s)
     if A.shape[0] < 10:
@@ -164,13 +171,15 @@ def central_difference_start(cd: CentralDifference, v0: np.ndarray,
 
 
 def central_difference_step(s: State, cd: CentralDifference, contact: ContactModel,
-                            plastic=None, watch: Callable[[np.ndarray], object] | None = None
-                            ) -> State:
+                            plastic=None, watch: Callable[[np.ndarray], object] | None = None,
+                            friction=None) -> State:
     """One velocity-Verlet step.
 
     Every :data:`CHECK_EVERY` steps, once the displacement is known, the
     contact is re-projected if the zone moved and ``watch(z)`` may grow the
-    zone, before the forces are evaluated.
+    zone, before the forces are evaluated. ``friction``: the
+    :class:`~fe_impact.contact.friction.ExplicitFriction` of a contact model
+    with friction (its tangential forces from the step's slip increments).
     """
     n, dt = s.n + 1, cd.dt
     v, z = _verlet_predict(s.a, s.v, s.z, 0.5 * dt, dt)
@@ -187,8 +196,12 @@ def central_difference_step(s: State, cd: CentralDifference, contact: ContactMod
         plastic.commit()
     lam, _ = contact.forces(z)
     contact.add_forces(-lam, f)
+    t = None
+    if friction is not None:
+        t = friction.forces(contact, z, s.z, lam, dt)
+        contact.add_tangential(t, f, -1.0)
     a = _verlet_correct(f, cd.minv, v, 0.5 * dt)
-    return State(n, z, v, a, lam, strain_energy)
+    return State(n, z, v, a, lam, strain_energy, t=t)
 
 
 # The explicit step's vector work in two passes instead of nine numpy operations and

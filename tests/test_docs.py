@@ -124,3 +124,31 @@ def test_every_command_has_its_page():
         assert f"<!-- fe-impact {command} --help -->" in page.read_text(encoding="utf-8"), (
             f"{page.relative_to(ROOT)} does not show fe-impact {command} --help")
         assert f"guide/{command}.md" in nav, f"guide/{command}.md not in mkdocs.yml's nav"
+
+
+def _toml_blocks(path: Path) -> list[str]:
+    return re.findall(r"^```toml\n(.*?)^```", path.read_text(encoding="utf-8"),
+                      re.MULTILINE | re.DOTALL)
+
+
+def test_readme_gear_set_is_valid():
+    """The README's gear-set file is one the project's reader accepts, and the same
+    drive as the shipped docs/tutorials/cases/my_drive.toml the docs include."""
+    import tomllib
+
+    from fe_impact.gears import load_gearset
+    from fe_impact.gears.gearset import gearset_from_dict
+
+    blocks = [b for b in _toml_blocks(README) if "[[face_gear.stages]]" in b]
+    assert len(blocks) == 1, "the README shows one gear-set file"
+    shown = gearset_from_dict(tomllib.loads(blocks[0]))
+    assert shown == load_gearset(DOCS / "tutorials" / "cases" / "my_drive.toml")
+
+
+@pytest.mark.parametrize("name", ["sphere_static.toml", "sphere_impact.toml"])
+def test_tutorial_cases_are_valid(name):
+    """The case files the docs include read as shipped (their mesh is committed)."""
+    from fe_impact.fe.case import load_case
+
+    case = load_case(DOCS / "tutorials" / "cases" / name)
+    assert case.mesh_file.is_file()

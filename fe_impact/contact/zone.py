@@ -126,7 +126,8 @@ class ContactZone:
                 zip(self.pairs, self.slave_faces, self.master_faces, strict=True)]
 
     def grow(self, mesh: FEMesh, up: np.ndarray, margin: float = 0.0) -> bool:
-        """Add faces outside the zone that hold a watched node whose gap is below ``margin``.
+        """Add faces outside the zone that hold a watched node whose gap is below ``margin``,
+        and master faces under zone nodes that slid off the zone's master faces.
 
         Watched: every slave node whose faces are not all in the zone (those
         on its edge too), with its weighted gap over all its faces. True if
@@ -134,6 +135,7 @@ class ContactZone:
         """
         grew = False
         for k, pair in enumerate(self.pairs):
+            grew |= self._follow_slide(mesh, pair, k, up, margin)
             outside = np.setdiff1d(np.arange(len(pair.slave.faces)), self.slave_faces[k])
             if len(outside) == 0:
                 continue
@@ -162,6 +164,47 @@ class ContactZone:
                     self.master_faces[k], master_near(mesh, pair, up[pts] + mesh.points[pts], s))
                 grew = True
         return grew
+
+
+    def _follow_slide(self, mesh: FEMesh, pair: ContactPair, k: int, up: np.ndarray,
+                      margin: float) -> bool:
+        """Add the master faces under zone nodes that slid off the zone's master faces.
+
+        A zone node whose support the zone's master faces do not wholly cover
+        (it slid past them, or it lies at the master's edge) is projected on
+        the whole master; if more of its support finds a master face there
+        and its gap is below ``margin``, the master faces near it join the
+        zone (a body moved by a load slides as far as the load takes it).
+        True if the zone grew.
+        """
+        st = pair.gap_state(mesh, up, self.slave_faces[k], self.master_faces[k],
+                            jacobian=False)
+        part = ~np.isfinite(st.gap) | (st.weight < (1.0 - 1e-9) * st.area)
+        if not part.any():
+            return False
+        faces = self.slave_faces[k]
+        touching = faces[np.isin(pair.slave.faces[faces], st.nodes[part]).any(axis=1)]
+        whole = pair.gap_state(mesh, up, touching, np.arange(len(pair.master.faces)),
+                               jacobian=False)
+        pos = np.searchsorted(st.nodes, whole.nodes)
+        here = (pos < len(st.nodes)) & (st.nodes[np.minimum(pos, len(st.nodes) - 1)]
+                                        == whole.nodes)
+        before = np.where(np.isfinite(st.gap), st.weight, 0.0)[np.minimum(pos, len(st.nodes) - 1)]
+        after = np.where(np.isfinite(whole.gap), whole.weight, 0.0)
+        slid = here & (after > (1.0 + 1e-6) * before) & (whole.gap < margin)
+        if not slid.any():
+            return False
+        pts = whole.nodes[slid]
+        s = max(margin, 0.0) + 2.0 * face_size(mesh, pair.slave, np.max, touching)
+        new = np.union1d(self.master_faces[k],
+                         master_near(mesh, pair, up[pts] + mesh.points[pts], s))
+        if len(new) == len(self.master_faces[k]):
+            return False
+        logger.info("contact %s: %d zone nodes slid past the zone's master faces; "
+                    "%d master faces join it", pair.slave.name, int(slid.sum()),
+                    len(new) - len(self.master_faces[k]))
+        self.master_faces[k] = new
+        return True
 
 
 def master_near(mesh: FEMesh, pair: ContactPair, points: np.ndarray, s: float) -> np.ndarray:

@@ -66,6 +66,8 @@ HISTORY_TOL, STATISTICS_TOL = 0.02, 0.05
 #: Simulated time of the Exudyn step-halving runs [s]: the first four impacts, before
 #: the rattle parts runs that differ by round-off (about 0.45 s on this case).
 STUDY_TIME = 0.42
+#: Output load of the loaded history [N m] (the seed's largest is 1 N m).
+LOAD = 2.0
 ENSEMBLE = 16
 #: A position law for the test (not measured): the closed form's stiffness scaled along
 #: the path of contact, a softer pair at its ends.
@@ -104,12 +106,13 @@ def calibration_file(path: Path, positions: bool = True) -> Path:
     return path
 
 
-def exported_module(calibration: Path, folder: Path, duration: float = DURATION):
+def exported_module(calibration: Path, folder: Path, duration: float = DURATION,
+                    load: float = 0.0):
     """Export the stage with ``fe-impact export --to exudyn`` and import the script."""
     from fe_impact.export import export_calibration
 
     result = export_calibration(calibration, "exudyn", folder, stage=STAGE, speed_rpm=RPM,
-                                duration=duration)
+                                load=load, duration=duration)
     script = next(p for p in result.files if p.suffix == ".py")
     spec = importlib.util.spec_from_file_location(f"exported_{script.stem}", script)
     module = importlib.util.module_from_spec(spec)
@@ -129,13 +132,13 @@ def drive_model(calibration: Path, **changes):
                                **changes)
 
 
-def fe_run(model, duration: float, sample_interval: float = 2e-4):
+def fe_run(model, duration: float, sample_interval: float = 2e-4, load: float = 0.0):
     """fe-impact's run of the case: ``(times, forces)`` of the series, the impacts'
     ``(time, peak force)``, steps, wall time [s]."""
     from fe_impact.switching import Segment, StageSchedule, simulate
 
     wall = time.perf_counter()
-    run = simulate(model, StageSchedule((Segment(duration, STAGE, RPM),)),
+    run = simulate(model, StageSchedule((Segment(duration, STAGE, RPM, load),)),
                    sample_interval=sample_interval)
     s = run.series
     return {"time": s["time_s"], "force": s["impact_force_N"],
@@ -174,6 +177,26 @@ def history(fe: dict, ex: dict, cycles: int = CYCLES) -> dict:
     return {"cycles": cycles, "duration_s": cycles * period, "peak_N": peak,
             "max_difference_N": float(np.abs(a - b).max()),
             "relative": float(np.abs(a - b).max() / peak)}
+
+
+def loaded(calibration: Path, folder: Path, load: float = LOAD, cycles: int = 3) -> dict:
+    """The first ``cycles`` mesh cycles under ``load`` [N m]: each side at its own
+    settings against fe-impact converged (tolerances / 1024, largest step 0.5 us):
+    largest force difference over the peak."""
+    duration = cycles * 60.0 / (RPM * 19)
+    module = exported_module(calibration, folder, duration, load)
+    base = drive_model(calibration)
+    tight = drive_model(calibration, rtol=base.rtol / 1024, length_tol=base.length_tol / 1024,
+                        speed_tol=base.speed_tol / 1024, max_step=5e-7)
+    ref = fe_run(tight, duration, HISTORY_SAMPLE, load)
+    sides = {"fe-impact": fe_run(base, duration, HISTORY_SAMPLE, load),
+             "exudyn": exudyn_run(module, duration, HISTORY_SAMPLE)}
+    out = {"load_Nm": load, "cycles": cycles, "peak_N": float(np.abs(ref["force"]).max())}
+    for name, side in sides.items():
+        out[f"{name} against converged"] = history(ref, side, cycles)["relative"]
+    out["exudyn against fe-impact"] = history(sides["fe-impact"], sides["exudyn"],
+                                              cycles)["relative"]
+    return out
 
 
 def study(calibration: Path, module) -> dict:
@@ -238,6 +261,7 @@ def run(out: Path | None = None, duration: float = DURATION, ensemble_size: int 
                                 "exudyn": ex["impacts"][:6].tolist()}}
     if with_study:
         record["study"] = study(calibration, module)
+        record["loaded"] = loaded(calibration, folder / "exudyn_loaded")
     if ensemble_size > 1:
         record["ensemble"] = ensemble(calibration, ensemble_size, duration)
     return record
@@ -289,6 +313,15 @@ def report(record: dict) -> str:
         for name, v in record["study"]["fe-impact"].items():
             lines.append(f"| {name} | " + " | ".join(f"{v['statistics'][k]:.4g}"
                                                      for k in STATISTICS) + " |")
+    if "loaded" in record:
+        ld = record["loaded"]
+        lines += ["", f"## Under load: {ld['load_Nm']:g} N m, the first {ld['cycles']} mesh "
+                      f"cycles (peak {ld['peak_N']:.4g} N)", "",
+                  "Largest force difference over the peak; converged: fe-impact with its "
+                  "tolerances / 1024 and a largest step of 0.5 us.", "",
+                  "| comparison | difference / peak |", "|---|---|"]
+        lines += [f"| {k} | {100 * ld[k]:.2f}% |" for k in ld
+                  if k not in ("load_Nm", "cycles", "peak_N")]
     if "ensemble" in record:
         ens = record["ensemble"]
         lines += ["", f"## fe-impact ensemble: {ens['size']} runs, initial mesh position "

@@ -57,7 +57,8 @@ def test_the_demand_is_counted_per_stage_and_law_and_cached(tmp_path, monkeypatc
         calls.append(name)
         # (stage, law code, closing speed, peak force, place on the line of action):
         # two mesh, one corner-approach
-        return [(1, 0, 0.01, 10.0, 0.011), (1, 0, 0.03, 30.0, 0.013), (1, 2, 0.02, 5.0, 0.001)]
+        return ([(1, 0, 0.01, 10.0, 0.011), (1, 0, 0.03, 30.0, 0.013),
+                 (1, 2, 0.02, 5.0, 0.001)], {1: 40.0 if name == "a" else 55.0})
 
     monkeypatch.setattr(D, "_run_preset", fake)
     gearset = default_gearset()
@@ -69,6 +70,8 @@ def test_the_demand_is_counted_per_stage_and_law_and_cached(tmp_path, monkeypatc
     assert math.isclose(mesh.speed_median, 0.02) and math.isclose(mesh.position_median, 0.012)
     assert got.stages[1]["corner-approach"].count == 2
     assert got.top_speed(1) == 0.03 and got.top_speed(2) is None
+    assert got.mesh_force == {1: 55.0} and got.top_mesh_force() == 55.0
+    assert D.curve_top_force(got) == pytest.approx(83.0)  # 1.5 x 55 = 82.5, up to 2 digits
     again = D.preset_demand(gearset, ["a", "b"], workers=1)
     assert calls == ["a", "b"] and again == got           # from the cache
     D.preset_demand(gearset, ["a"], workers=1)            # other presets: run again
@@ -136,3 +139,26 @@ def test_switch_cases_strike_where_the_presets_first_contacts_touched():
     assert [c.id for c in cases] == [c.id for c in planned]
     none, lines = D.place_switches(D.Demand(("x",), {}), planned, gearset)
     assert none == planned and "pitch point" in lines[0]
+
+
+def test_a_user_schedule_joins_the_first_pass(tmp_path, monkeypatch):
+    # A schedule at a real load: its largest mesh force on stage 2 is at least the static
+    # share T / (n r_b) of each mesh (the time mean is that, the peak cannot be below it),
+    # and the cache keys on the schedule's content.
+    from fe_impact.switching.model import DriveModel
+    from fe_impact.switching.schedule import schedule_from_dict
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    gearset = default_gearset()
+    doc = {"name": "loaded", "segments": [{"stage": 2, "duration_s": 0.05, "speed_rpm": 300,
+                                           "load_Nm": 200}]}
+    duty = schedule_from_dict(doc)
+    got = D.preset_demand(gearset, [], workers=1, schedules=[duty])
+    model = DriveModel(gearset=gearset)
+    static = 200.0 / (model.pinions * model.base_levers[1])
+    assert got.schedules == ("loaded",) and set(got.mesh_force) == {2}
+    assert static <= got.mesh_force[2] < 2.0 * static
+    assert D.curve_top_force(got) >= D.FORCE_MARGIN * got.mesh_force[2]
+    doc["segments"][0]["load_Nm"] = 400
+    other = D.preset_demand(gearset, [], workers=1, schedules=[schedule_from_dict(doc)])
+    assert other.mesh_force[2] > 1.9 * static

@@ -1,14 +1,16 @@
-"""What the seed's switching presets ask of a calibration: the closing speeds of their impacts.
+"""What the switching runs ask of a calibration: the closing speeds and forces of their impacts.
 
 The calibration measures impacts at chosen closing speeds, and the torsional
 model interpolates its laws between them, clamping outside. Which speeds
 matter is the model's business: :func:`preset_demand` runs the seed's
-condition sets (:data:`~fe_impact.switching.study.SEED_STUDIES`) on a gear set
-with the closed-form laws (the first pass of the loop the main job closes:
-closed forms, then FE at the speeds they produce, then the presets again on
-the calibration) and keeps, per stage and per law an impact's onset takes
+condition sets (:data:`~fe_impact.switching.study.SEED_STUDIES`) and the
+user's schedules (`fe_impact.switching.schedule`) on a gear set with the
+closed-form laws (the first pass of the loop the main job closes: closed
+forms, then FE at the speeds they produce, then the same runs again on the
+calibration) and keeps, per stage and per law an impact's onset takes
 (`fe_impact.switching.simulation.LAW_NAMES`), how many impacts there were and
-their closing speeds and peak forces.
+their closing speeds and peak forces, and per stage the largest mesh force
+of the runs (the force range the mesh cycle and the corner laws must span).
 
 The runs take about half a minute on two processes (a fresh process also
 compiles the model's kernel, some 16 s); the result is kept in the user's
@@ -25,17 +27,18 @@ import math
 import tempfile
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from fe_impact.gears.gearset import GearSet
+from fe_impact.switching.model import StageSchedule
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Demand", "LawDemand", "corner_impacts", "cover", "place_switches",
-           "preset_demand", "top_speed"]
+__all__ = ["FORCE_MARGIN", "Demand", "LawDemand", "corner_impacts", "cover", "curve_top_force",
+           "place_switches", "preset_demand", "top_speed"]
 
 #: The closing speed of an FE case added at the top of a stage's range is the
 #: largest the closed-form presets produce times this margin, rounded up to two
@@ -60,12 +63,26 @@ class LawDemand:
     position_median: float = math.nan
 
 
+#: The mesh cycle and the corner laws are measured up to this factor times the largest
+#: mesh force of the first pass (issue: the laws must not be extrapolated at the forces
+#: the runs on the calibration reach, which differ from the closed forms' by some 10%).
+FORCE_MARGIN = 1.5
+
+
 @dataclass(frozen=True)
 class Demand:
-    """Per stage (from 1) and law kind, the presets' impacts (`LawDemand`)."""
+    """Per stage (from 1) and law kind, the runs' impacts (`LawDemand`); per stage, the
+    largest mesh force of the runs [N, per mesh]; the names of the presets and of the
+    schedules run."""
 
     presets: tuple[str, ...]
     stages: dict[int, dict[str, LawDemand]]
+    mesh_force: dict[int, float] = field(default_factory=dict)
+    schedules: tuple[str, ...] = ()
+
+    def top_mesh_force(self) -> float | None:
+        """Largest mesh force of any stage [N] (None: no run engaged a stage)."""
+        return max(self.mesh_force.values(), default=None)
 
     def top_speed(self, stage: int, laws: Sequence[str] = ("mesh", "switch")) -> float | None:
         """Largest closing speed [m/s] of the stage's impacts that took one of ``laws``."""
@@ -74,35 +91,50 @@ class Demand:
         return max(speeds) if speeds else None
 
     def to_dict(self) -> dict:
-        return {"presets": list(self.presets),
+        return {"presets": list(self.presets), "schedules": list(self.schedules),
                 "stages": {str(s): {law: asdict(d) for law, d in laws.items()}
-                           for s, laws in self.stages.items()}}
+                           for s, laws in self.stages.items()},
+                "mesh_force_max_N": {str(s): f for s, f in self.mesh_force.items()}}
 
     @classmethod
     def from_dict(cls, data: dict) -> Demand:
         return cls(tuple(data["presets"]),
                    {int(s): {law: LawDemand(**d) for law, d in laws.items()}
-                    for s, laws in data["stages"].items()})
+                    for s, laws in data["stages"].items()},
+                   {int(s): float(f) for s, f in data.get("mesh_force_max_N", {}).items()},
+                   tuple(data.get("schedules", ())))
 
 
-def _run_preset(gearset: GearSet, name: str) -> list[tuple[int, int, float, float, float]]:
-    """(stage, law code, closing speed, peak force, position) of every impact of preset
-    ``name`` on the closed-form laws."""
+#: A run's impacts: (stage, law code, closing speed, peak force, position) each; and per
+#: stage (from 1) the largest mesh force of the run [N].
+_Rows = tuple[list[tuple[int, int, float, float, float]], dict[int, float]]
+
+
+def _run_preset(gearset: GearSet, name: str | StageSchedule) -> _Rows:
+    """The impacts and mesh forces of preset ``name`` (or of one schedule) on the
+    closed-form laws."""
     from fe_impact.switching.model import DriveModel
     from fe_impact.switching.presets import get_preset
     from fe_impact.switching.simulation import simulate
 
     model = DriveModel(gearset=gearset)
-    out = []
-    for case in get_preset(name).cases:
-        ev = simulate(model, case.schedule).events
+    schedules = ([name] if isinstance(name, StageSchedule)
+                 else [case.schedule for case in get_preset(name).cases])
+    out, forces = [], {}
+    for schedule in schedules:
+        run = simulate(model, schedule)
+        ev = run.events
         out += list(zip(ev.stage.tolist(), ev.law.tolist(), ev.speed.tolist(),
                         ev.force.tolist(), ev.position.tolist(), strict=True))
-    return out
+        for stage in schedule.stages:
+            # stage_stats[:, 2]: the signed mesh force, its largest magnitude either flank
+            top = float(np.max(np.abs(run.stage_stats[stage - 1, 2, 1:3])))
+            forces[stage] = max(forces.get(stage, 0.0), top)
+    return out, forces
 
 
-def _run_in_processes(gearset: GearSet, presets: Sequence[str], n: int, numba: Path
-                      ) -> list[tuple[int, int, float, float, float]]:
+def _run_in_processes(gearset: GearSet, presets: Sequence[str | StageSchedule], n: int,
+                      numba: Path) -> list[_Rows]:
     """`_run_preset` of every preset on ``n`` fresh processes, process ``i`` compiling
     its kernels into ``numba/w<i>`` (the folders of a local Dask cluster's workers).
 
@@ -131,17 +163,19 @@ def _run_in_processes(gearset: GearSet, presets: Sequence[str], n: int, numba: P
     try:
         futures = [pools[k % n].submit(_run_preset, gearset, name)
                    for k, name in enumerate(presets)]
-        return [r for f in futures for r in f.result()]
+        return [f.result() for f in futures]
     finally:
         for pool in pools:
             pool.shutdown(cancel_futures=True)
 
 
-def _key(gearset: GearSet, presets: Sequence[str]) -> str:
+def _key(gearset: GearSet, presets: Sequence[str], schedules: Sequence = ()) -> str:
     import fe_impact.physics
     import fe_impact.switching
 
-    digest = hashlib.sha256(json.dumps({"gearset": asdict(gearset), "presets": list(presets)},
+    digest = hashlib.sha256(json.dumps({"gearset": asdict(gearset), "presets": list(presets),
+                                        "schedules": [d.digest or repr(d.schedule)
+                                                      for d in schedules]},
                                        sort_keys=True, default=repr).encode())
     for package in (fe_impact.switching, fe_impact.physics):
         for source in sorted(Path(package.__file__).parent.glob("*.py")):
@@ -150,9 +184,11 @@ def _key(gearset: GearSet, presets: Sequence[str]) -> str:
 
 
 def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
-                  workers: int = 2, numba: Path | None = None) -> Demand:
-    """The closing speeds the seed's condition sets produce on ``gearset`` with the
-    closed-form laws (module docstring), from the user's cache when it has them.
+                  workers: int = 2, numba: Path | None = None,
+                  schedules: Sequence = ()) -> Demand:
+    """The closing speeds and forces the seed's condition sets and the user's
+    ``schedules`` (`fe_impact.switching.schedule.DutyCycle`) produce on ``gearset`` with
+    the closed-form laws (module docstring), from the user's cache when it has them.
 
     ``numba``: the calibration's folder of compiled kernels
     (:func:`fe_impact.calibration.sweep.numba_folder`); process ``i`` of the pool
@@ -164,19 +200,26 @@ def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
     from fe_impact.switching.study import SEED_STUDIES
 
     presets = tuple(SEED_STUDIES if presets is None else presets)
+    schedules = tuple(schedules)
     folder = user_cache("demand")
-    path = None if folder is None else folder / f"{_key(gearset, presets)}.json"
+    path = None if folder is None else folder / f"{_key(gearset, presets, schedules)}.json"
     if path is not None and path.is_file():
         try:
             return Demand.from_dict(json.loads(path.read_text()))
         except (OSError, ValueError, KeyError, TypeError):
             logger.warning("preset demand cache %s unreadable; running the presets again", path)
-    if workers > 1 and len(presets) > 1:
+    runs = [*presets, *(d.schedule for d in schedules)]
+    if workers > 1 and len(runs) > 1:
         with tempfile.TemporaryDirectory(prefix="fe-impact-numba-") as scratch:
-            rows = _run_in_processes(gearset, presets, min(workers, len(presets)),
-                                     Path(numba or scratch))
+            results = _run_in_processes(gearset, runs, min(workers, len(runs)),
+                                        Path(numba or scratch))
     else:
-        rows = [r for name in presets for r in _run_preset(gearset, name)]
+        results = [_run_preset(gearset, name) for name in runs]
+    rows = [r for impacts, _ in results for r in impacts]
+    mesh_force: dict[int, float] = {}
+    for _, forces in results:
+        for stage, force in forces.items():
+            mesh_force[stage] = max(mesh_force.get(stage, 0.0), force)
     stages: dict[int, dict[str, LawDemand]] = {}
     if rows:
         table = np.array(rows, dtype=float)
@@ -188,7 +231,8 @@ def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
                         len(pick), float(pick[:, 2].min()), float(np.median(pick[:, 2])),
                         float(pick[:, 2].max()), float(pick[:, 3].max()),
                         float(np.median(pick[:, 4])))
-    demand = Demand(presets, stages)
+    demand = Demand(presets, stages, dict(sorted(mesh_force.items())),
+                    tuple(d.name for d in schedules))
     if path is not None:
         from fe_impact.atomic import atomic_path
 
@@ -198,6 +242,18 @@ def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
         except OSError as exc:
             logger.info("preset demand not cached (%s)", exc)
     return demand
+
+
+def curve_top_force(demand: Demand) -> float | None:
+    """The force [N] the mesh cycle's and the corner laws' quasi-static curves must reach:
+    `FORCE_MARGIN` times the largest mesh force of the first pass, rounded up to two
+    significant digits; None when the runs engaged no stage."""
+    top = demand.top_mesh_force()
+    if top is None or not top > 0.0:
+        return None
+    f = top * FORCE_MARGIN
+    scale = 10.0 ** (math.floor(math.log10(f)) - 1)
+    return math.ceil(f / scale - 1e-9) * scale
 
 
 def top_speed(speed: float) -> float:

@@ -278,8 +278,15 @@ class CornerGap:
     def from_samples(cls, xi: NDArray, gaps: NDArray, delta_max: float,
                      n: int = CORNER_GAP_NODES) -> CornerGap:
         """The table of a cubic spline through gaps [m] at ``xi = sqrt(delta /
-        delta_max)`` (``xi[0] = 0``, where the gap is taken as 0)."""
-        spline = CubicSpline(xi, gaps)
+        delta_max)`` (``xi[0] = 0``, where the gap is taken as 0).
+
+        The spline's slope at ``xi = 0`` is held at 0: a tip edge leaves the flank
+        tangentially, ``g ~ delta^2 ~ xi^4``. A free end's slope (a few 1e-10 m) made
+        ``dg/d delta = (dg/dxi) / (2 delta_max xi)`` unbounded at the path's end, and a
+        pair evaluated there under load took a spurious closing speed (metres per
+        second) into its damping force.
+        """
+        spline = CubicSpline(xi, gaps, bc_type=((1, 0.0), "not-a-knot"))
         nodes = np.linspace(0.0, 1.0, n)
         values = spline(nodes)
         values[0] = 0.0

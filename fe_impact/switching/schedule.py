@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import json
 import logging
 import math
 from collections.abc import Mapping
@@ -221,7 +222,8 @@ def schedule_from_dict(data: Mapping[str, Any], name: str = "schedule",
     name = r.string(data, "", "name", default=name)
     description = r.string(data, "", "description", default="", empty=True)
     blend = r.number(data, "", "blend_s", low=0.0, default=None, null=True)
-    digest = digest or hashlib.sha256()
+    if digest is None:     # a document built in code: its content keys the caches
+        digest = hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode())
     segments: list[Segment] = []
     for i, table in enumerate(r.array(data, "", "segments", required=True)):
         where = f"segments[{i}]"

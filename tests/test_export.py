@@ -48,8 +48,8 @@ def test_adams_statements_give_the_same_force_in_millimetres(tmp_path):
     assert main(["export", str(cal), "--to", "adams", "--out", str(out)]) == 0
     text = (out / "impact_contacts.adm").read_text()
     assert "UNITS/FORCE = NEWTON, MASS = KILOGRAM, LENGTH = MILLIMETER" in text
-    found = re.findall(r"IMPACT\([^)]*\)[^)]*\), <x1>, ([^,]+), ([^,]+), ([^,]+), ([^)]+)\)",
-                       text)
+    found = re.findall(r"IMPACT\(DM\(<I>, <J>\), VR\(<I>, <J>\), <x1>, ([^,]+), ([^,]+), "
+                       r"([^,]+), ([^)]+)\)", text)
     cases = json.loads(cal.read_text())["cases"]
     order = [cases[0], cases[1], cases[2]]   # by stage, kind (mesh before corners), speed
     assert len(found) == len(order)

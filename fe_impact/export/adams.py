@@ -59,15 +59,15 @@ def _adm(calibration: Calibration) -> str:
     lines += ["UNITS/FORCE = NEWTON, MASS = KILOGRAM, LENGTH = MILLIMETER, TIME = SECOND", "!",
               "! One SFORCE per stage, kind of contact and calibrated closing speed: keep",
               "! the one whose speed is nearest your model's closing speed (README.txt).",
-              "! I, J: the markers on the two teeth, z along the line of action; x1: the",
-              "! distance at first touch (free length) [mm]."]
+              "! I, J: markers on the two teeth, on the line of action (the force pushes",
+              "! them apart along I-J); x1: their distance at first touch [mm]."]
     for n, c in enumerate(sorted_cases(calibration)):
         k, e, cmax, d = adams_parameters(c.impact.k, c.impact.exponent, c.impact.cmax,
                                          c.impact.d)
         lines += ["!", f"! stage {c.stage}, {c.kind}, closing speed "
                        f"{c.impact_speed * 1e3:.6g} mm/s",
-                  f"SFORCE/{_SFORCE_ID + n}, TRANSLATIONAL, ACTIONONLY, I = <I>, J = <J>",
-                  f", FUNCTION = IMPACT(DZ(<I>, <J>, <J>), VZ(<I>, <J>, <J>, <J>), <x1>, "
+                  f"SFORCE/{_SFORCE_ID + n}, I = <I>, J = <J>, TRANSLATION",
+                  f", FUNCTION = IMPACT(DM(<I>, <J>), VR(<I>, <J>), <x1>, "
                   f"{k:.8g}, {e:.8g}, {cmax:.8g}, {d:.8g})"]
     return "\n".join(lines) + "\n"
 
@@ -118,8 +118,9 @@ cmax_mm = cmax_SI * 0.001, d_mm = d_SI * 1000.
 
 impact_contacts.adm   SFORCE statements with IMPACT(x, xdot, x1, k, exponent, cmax, d),
                       one per stage, kind of contact and calibrated closing speed.
-                      Replace <I>, <J> by the markers on the two teeth (z along the
-                      line of action) and <x1> by their distance at first touch.
+                      Replace <I>, <J> by markers on the two teeth, on the line of
+                      action (the force pushes them apart along I-J), and <x1> by
+                      their distance at first touch [mm].
 impact_contacts.cmd   The same parameters as Adams View `contact create` commands
                       (stiffness, exponent, damping, dmax = d); replace the geometry
                       names. Import with File > Import > Adams View command file.

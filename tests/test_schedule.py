@@ -214,3 +214,13 @@ def test_cli_refuses_a_stage_the_gear_set_lacks(tmp_path):
                                         r"'seed-multistage-face-gear' has stages 1..3"):
         args.func(args)
     assert not (tmp_path / "out").exists()
+
+
+def test_a_schedule_file_is_a_study(tmp_path):
+    from fe_impact.switching.study import study_folder, study_preset
+
+    path = _write(tmp_path, GOOD)
+    preset = study_preset(str(path))
+    assert (preset.name, preset.seed_table, len(preset.cases)) == ("climb", None, 1)
+    assert study_folder(str(path)) == "climb" and study_folder("table1") == "table1"
+    assert study_preset("table1").seed_table == "table1"

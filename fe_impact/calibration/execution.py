@@ -122,7 +122,8 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
     """Run the sweep (resuming), then write calibration.json/.csv, the report and summary.json.
 
     ``studies``: the seed's switching condition sets
-    (:data:`~fe_impact.switching.study.SEED_STUDIES`) to run on the finished
+    (:data:`~fe_impact.switching.study.SEED_STUDIES`), or schedule files' paths
+    (`fe_impact.switching.study.study_preset`), to run on the finished
     calibration, each into ``switching/<name>/`` (on the sweep's workers while
     the report is written); the report lists them. ``numba``: the folder of the
     local workers' compiled kernels, held by the caller (:func:`numba_folder`);
@@ -263,11 +264,13 @@ def _start_studies(out: Path, calibration: Path, gearset_text: str, studies: Seq
         return lambda: None
     from fe_impact.calibration.report import add_switching_section
     from fe_impact.output.files import write_json
-    from fe_impact.switching.study import seed_study_job
+    from fe_impact.switching.study import seed_study_job, study_folder
 
-    wait = draw([(f"switching study {name}", seed_study_job,
-                  (gearset_text, name, str(calibration), str(out / "switching" / name)))
-                 for name in studies])
+    # a study is a preset's name or a schedule file's path; its folder, the schedule's name
+    folders = [study_folder(name) for name in studies]
+    wait = draw([(f"switching study {folder}", seed_study_job,
+                  (gearset_text, name, str(calibration), str(out / "switching" / folder)))
+                 for name, folder in zip(studies, folders, strict=True)])
 
     def finish() -> None:
         try:

@@ -311,8 +311,9 @@ def _demand_lines(out: Path) -> list[str]:
     speeds: dict[int, list[float]] = {}
     for case in calibration.get("cases", []):
         speeds.setdefault(int(case["stage"]), []).append(float(case["impact_speed"]))
+    runs = [*demand["presets"], *(f"schedule {n}" for n in demand.get("schedules", []))]
     lines = ["", "### What the presets asked of the calibration", "",
-             f"The same condition sets ({', '.join(demand['presets'])}) run first on the "
+             f"The same condition sets ({', '.join(runs)}) run first on the "
              "closed-form laws: per stage and law taken at the onset, the impacts and their "
              "closing speeds. A stage whose flank impacts (mesh and switch laws) closed "
              "faster than its fastest planned FE impact had that one struck at "
@@ -329,6 +330,38 @@ def _demand_lines(out: Path) -> list[str]:
             lines.append(f"| {stage} | {law} | {d['count']} | {d['speed_min'] * 1e3:.3g} / "
                          f"{d['speed_median'] * 1e3:.3g} / {d['speed_max'] * 1e3:.3g} | "
                          f"{d['force_max']:.4g} | {fe} |")
+    return lines + _force_range_lines(out, demand)
+
+
+def _force_range_lines(out: Path, demand: dict) -> list[str]:
+    """The first pass's largest mesh force per stage beside the largest force of the
+    mesh cycle's and the corner laws' quasi-static curves (``mesh_cycle.json``)."""
+    import json
+
+    margin = float(demand.get("force_margin", 1.5))
+    forces = {int(s): float(f) for s, f in demand.get("mesh_force_max_N", {}).items()}
+    if not forces:
+        return []
+    curves: dict[int, float] = {}
+    try:
+        cycle = json.loads((out / "mesh_cycle.json").read_text())
+        for record in [*cycle.get("positions", []), *cycle.get("corners", [])]:
+            top = max(record.get("forces") or [0.0])
+            curves[int(record["stage"])] = max(curves.get(int(record["stage"]), 0.0), top)
+    except (OSError, ValueError, KeyError, TypeError):
+        curves = {}
+    lines = ["", f"Largest mesh force of these runs per stage (per mesh, both flanks), and "
+             f"the largest force of the stage's quasi-static curves (the mesh cycle's "
+             f"position laws and the corner laws are fitted up to it and extrapolated "
+             f"beyond as their power law): the curves are to reach {margin:g} times "
+             "the runs' largest.", "",
+             "| stage | largest mesh force [N] | curves reach [N] | ratio |", "|---|---|---|---|"]
+    for stage, force in sorted(forces.items()):
+        reach = curves.get(stage)
+        ratio = "-" if reach is None or force <= 0 else f"{reach / force:.2f}"
+        short = "" if reach is None or force <= 0 or reach >= margin * force * 0.999 \
+            else " (short of the margin: the laws extrapolate there)"
+        lines.append(f"| {stage} | {force:.4g} | {_fmt(reach, '.4g')} | {ratio}{short} |")
     return lines
 
 

@@ -94,7 +94,8 @@ class Demand:
         return {"presets": list(self.presets), "schedules": list(self.schedules),
                 "stages": {str(s): {law: asdict(d) for law, d in laws.items()}
                            for s, laws in self.stages.items()},
-                "mesh_force_max_N": {str(s): f for s, f in self.mesh_force.items()}}
+                "mesh_force_max_N": {str(s): f for s, f in self.mesh_force.items()},
+                "force_margin": FORCE_MARGIN}
 
     @classmethod
     def from_dict(cls, data: dict) -> Demand:

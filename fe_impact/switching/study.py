@@ -14,7 +14,8 @@ from pathlib import Path
 from fe_impact.defaults import SAMPLE_INTERVAL
 from fe_impact.switching.presets import Preset
 
-__all__ = ["SAMPLE_INTERVAL", "SEED_STUDIES", "run_study", "seed_study_job", "study_stages"]
+__all__ = ["SAMPLE_INTERVAL", "SEED_STUDIES", "run_study", "seed_study_job", "study_folder",
+           "study_preset", "study_stages"]
 
 #: The seed's condition sets: its Tables 1-4 (sections 4.1, 4.2) and its two
 #: switching runs (sections 5.1, 5.2).
@@ -81,9 +82,27 @@ def run_study(preset: Preset, gearset, calibration: str | Path | None, out: str 
                       for name, run in runs.items()}}
 
 
+def study_preset(name: str) -> Preset:
+    """The study ``name`` stands for: a preset's name, or the path of a schedule file
+    (`fe_impact.switching.schedule`; anything ending in ``.toml``)."""
+    from fe_impact.switching.presets import get_preset, schedule_preset
+    from fe_impact.switching.schedule import read_schedule
+
+    if name.endswith(".toml"):
+        return schedule_preset(read_schedule(name))
+    return get_preset(name)
+
+
+def study_folder(name: str) -> str:
+    """The folder name of study ``name`` (:func:`study_preset`): the preset's name, or the
+    schedule's ``name`` (its file's stem by default)."""
+    return study_preset(name).name if name.endswith(".toml") else name
+
+
 def seed_study_job(gearset_text: str, name: str, calibration: str, out: str) -> dict:
-    """:func:`run_study` of the seed condition set ``name`` on the gear set given as TOML
-    text and the calibration file just written (a task of the main job).
+    """:func:`run_study` of the seed condition set ``name`` (or of the schedule file
+    ``name``, :func:`study_preset`) on the gear set given as TOML text and the
+    calibration file just written (a task of the main job).
 
     The model's warnings (a kind of law borrowed from another, clamped speeds) are
     not logged: six studies would repeat them into the terminal, and each study's
@@ -93,13 +112,12 @@ def seed_study_job(gearset_text: str, name: str, calibration: str, out: str) -> 
     import tomllib
 
     from fe_impact.gears import gearset_from_dict
-    from fe_impact.switching.presets import get_preset
 
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
     log = logging.getLogger("fe_impact.switching")
     level = log.level
     log.setLevel(logging.ERROR)
     try:
-        return run_study(get_preset(name), gearset, calibration, out, search=False)
+        return run_study(study_preset(name), gearset, calibration, out, search=False)
     finally:
         log.setLevel(level)

@@ -162,6 +162,9 @@ def write_adams(calibration: Calibration, out: Path) -> list[Path]:
         written.append(write_csv(out / "pair_stiffness_mm.csv",
                                  ["stage", "roll_angle_deg", "k_N_per_mm_pow_exponent",
                                   "exponent"], rows))
+    else:   # an earlier export's splines are not this calibration's
+        for name in ("pair_stiffness_splines.adm", "pair_stiffness_mm.csv"):
+            (out / name).unlink(missing_ok=True)
     readme = README if splines is not None else README + (
         "\nThis calibration has no mesh cycle (no position dependence): no spline files.\n")
     with atomic_path(out / "README.txt") as tmp:

@@ -47,12 +47,12 @@ class ExudynOptions:
     def __post_init__(self) -> None:
         if isinstance(self.stage, bool) or not isinstance(self.stage, int) or self.stage < 1:
             raise CalibrationError(f"--stage {self.stage!r}: must be an integer >= 1")
-        for name, low in (("speed_rpm", 0.0), ("load", 0.0), ("duration", 0.0)):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= low) or (name != "load" and v == 0.0):
-                raise CalibrationError(f"--{name.replace('_rpm', '').replace('_', '-')} "
-                                       f"{v!r}: must be a finite number > 0"
-                                       + (" (or 0)" if name == "load" else ""))
+        for option, value, zero in (("--speed", self.speed_rpm, False),
+                                    ("--load", self.load, True),
+                                    ("--duration", self.duration, False)):
+            if not (math.isfinite(value) and (value >= 0.0 if zero else value > 0.0)):
+                raise CalibrationError(f"{option} {value!r}: must be a finite number "
+                                       f"{'>= 0' if zero else '> 0'}")
 
 
 def _drive_model(calibration: Path, gearset):

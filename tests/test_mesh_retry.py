@@ -16,7 +16,8 @@ import pytest
 
 from fe_impact.errors import MeshError
 from fe_impact.gears import default_gearset
-from fe_impact.meshing import toothpair
+from fe_impact.meshing import solids as solid_cache
+from fe_impact.meshing import stretchmesh, toothpair
 
 GAP, SPEED = 2e-6, 0.1
 
@@ -32,7 +33,7 @@ def _failing_mesh(monkeypatch, failures: int) -> list[tuple[float, float]]:
         st = design.stretch
         factors.append((design.sizes["factor"], round(st.reach / st.half_length, 12)))
         if len(factors) <= failures:
-            raise toothpair._InvertedMesh(
+            raise stretchmesh.InvertedMesh(
                 f"the mesh has an element of quality -0.1 at stretch factor "
                 f"{design.sizes['factor']:.3g}")
         return real(model, design, *args, **kwargs)
@@ -46,7 +47,7 @@ def test_every_attempt_inverted_ends_in_a_mesh_error(tmp_path, monkeypatch, capl
     # capped at the level's 8, then at 5, 2.5 (compensation to 4 and to 2.5 zone
     # half-lengths) and 1; after the isotropic attempt the error reaches the caller.
     factors = _failing_mesh(monkeypatch, failures=10)
-    with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"), \
+    with caplog.at_level(logging.WARNING, logger="fe_impact.meshing"), \
             pytest.raises(MeshError, match=r"^stage 1 at \+0\.000 deg roll: .*quality"):
         toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path)
     assert factors == [(toothpair.LEVELS["coarse"].max_stretch, 4.0), (5.0, 4.0), (2.5, 4.0),
@@ -63,7 +64,7 @@ def test_every_attempt_inverted_ends_in_a_mesh_error(tmp_path, monkeypatch, capl
 def test_one_inverted_attempt_is_meshed_again_with_less_stretch(tmp_path, monkeypatch,
                                                                  caplog):
     factors = _failing_mesh(monkeypatch, failures=1)
-    with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"):
+    with caplog.at_level(logging.WARNING, logger="fe_impact.meshing"):
         pair = toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED,
                                     tmp_path)
     assert factors == [(toothpair.LEVELS["coarse"].max_stretch, 4.0), (5.0, 4.0)]
@@ -108,7 +109,7 @@ def test_a_retry_reloads_the_sectors_it_built(tmp_path, monkeypatch):
         factors.append(design.sizes["factor"])
         stats = real(model, design, *args, **kwargs)
         if len(factors) == 1:   # built and meshed: report it inverted after all
-            raise toothpair._InvertedMesh("the mesh has an element of quality -0.1")
+            raise stretchmesh.InvertedMesh("the mesh has an element of quality -0.1")
         return stats
 
     monkeypatch.setattr(toothpair, "_mesh", mesh)
@@ -146,15 +147,15 @@ def test_solids_built_at_one_position_serve_another(tmp_path, monkeypatch):
     millimetres: one degree of pinion roll is 0.3 mm at the root)."""
     import numpy as np
 
-    monkeypatch.setattr(toothpair, "_SOLIDS", {})
+    monkeypatch.setattr(solid_cache, "_SOLIDS", {})
     gs = default_gearset()
     # 1 and 3 deg: both mesh on the first attempt (+-6 deg were made again up to
     # three times with less stretch, which only cost time here)
     toothpair.build_pair(gs, 1, 1.0, "coarse", 2, GAP, SPEED, tmp_path / "built")
-    assert len(toothpair._SOLIDS) == 1
+    assert len(solid_cache._SOLIDS) == 1
     turned = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED, tmp_path / "turned")
-    assert len(toothpair._SOLIDS) == 1
-    toothpair._SOLIDS.clear()
+    assert len(solid_cache._SOLIDS) == 1
+    solid_cache._SOLIDS.clear()
     fresh = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED, tmp_path / "fresh")
     want, got = _group_areas(fresh.mesh_path), _group_areas(turned.mesh_path)
     for name in want:
@@ -171,13 +172,13 @@ def test_solids_that_cannot_be_matched_are_built_again(tmp_path, monkeypatch, ca
     # sections: a mesh, not an error.
     import numpy as np
 
-    monkeypatch.setattr(toothpair, "_SOLIDS", {})
+    monkeypatch.setattr(solid_cache, "_SOLIDS", {})
     gs = default_gearset()
     toothpair.build_pair(gs, 1, 1.0, "coarse", 2, GAP, SPEED, tmp_path / "built")
-    (solids,) = toothpair._SOLIDS.values()
+    (solids,) = solid_cache._SOLIDS.values()
     solids.volumes = {k: c + 1.0 for k, c in solids.volumes.items()}   # 1 mm off
     solids.index = None             # not where an earlier import found them either
-    with caplog.at_level(logging.WARNING, logger="fe_impact.meshing.toothpair"):
+    with caplog.at_level(logging.WARNING, logger="fe_impact.meshing"):
         pair = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED, tmp_path / "again")
     assert any("building the sectors again" in r.getMessage() for r in caplog.records)
     assert pair.mesh_path.is_file() and np.isfinite(pair.stats.min_sicn)
@@ -193,16 +194,16 @@ def test_faces_taken_where_the_first_import_found_them_mesh_as_searched(tmp_path
     # noticed (the face's bounding box does not hold the group face's turned
     # centre) and the faces are searched again: that mesh, from the search, must be
     # byte for byte the mesh made from the places.
-    monkeypatch.setattr(toothpair, "_SOLIDS", {})
+    monkeypatch.setattr(solid_cache, "_SOLIDS", {})
     gs = default_gearset()
     first = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED, tmp_path / "first")
-    (solids,) = toothpair._SOLIDS.values()
+    (solids,) = solid_cache._SOLIDS.values()
     assert solids.index is not None
     volumes, places = solids.index
     indexed = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED, tmp_path / "indexed")
     assert indexed.mesh_path.read_bytes() == first.mesh_path.read_bytes()
     solids.index = (volumes, {g: [0] * len(p) for g, p in places.items()})   # all wrong
-    with caplog.at_level(logging.INFO, logger="fe_impact.meshing.toothpair"):
+    with caplog.at_level(logging.INFO, logger="fe_impact.meshing"):
         searched = toothpair.build_pair(gs, 1, 3.0, "coarse", 2, GAP, SPEED,
                                         tmp_path / "searched")
     assert any("searching them by their centres" in r.getMessage() for r in caplog.records)
@@ -215,18 +216,18 @@ def test_solids_shared_through_a_folder_mesh_the_same(tmp_path, monkeypatch):
     # A sweep's workers share their solids through the cache (share_solids): a
     # process that finds a stage's solids there does not build them (building is
     # refused here) and its mesh is the very mesh of the process that built them.
-    monkeypatch.setattr(toothpair, "_SOLIDS", {})
-    monkeypatch.setattr(toothpair, "_SHARED", [])
+    monkeypatch.setattr(solid_cache, "_SOLIDS", {})
+    monkeypatch.setattr(solid_cache, "_SHARED", [])
     toothpair.share_solids(tmp_path / "solids")
     gs = default_gearset()
     built = toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "built")
     assert len(list((tmp_path / "solids").glob("*.brep"))) == 1
-    toothpair._SOLIDS.clear()          # another process: nothing in memory
+    solid_cache._SOLIDS.clear()          # another process: nothing in memory
 
     def refuse(*args, **kwargs):
         raise AssertionError("the shared solids were built again")
 
-    monkeypatch.setattr(toothpair, "add_sectors", refuse)
+    monkeypatch.setattr(solid_cache, "add_sectors", refuse)
     shared = toothpair.build_pair(gs, 1, 0.0, "coarse", 2, GAP, SPEED, tmp_path / "shared")
     assert shared.mesh_path.read_bytes() == built.mesh_path.read_bytes()
     toothpair.share_solids(None)
@@ -243,7 +244,7 @@ def test_a_retry_from_the_kept_surface_mesh_is_the_mesh_built_afresh(tmp_path, m
     def after_meshing(model, design, *args, **kwargs):   # meshes, then fails once
         stats = real(model, design, *args, **kwargs)
         if design.sizes["factor"] == toothpair.LEVELS["coarse"].max_stretch:
-            raise toothpair._InvertedMesh("inverted (test)")
+            raise stretchmesh.InvertedMesh("inverted (test)")
         return stats
 
     monkeypatch.setattr(toothpair, "_mesh", after_meshing)
@@ -271,13 +272,13 @@ def test_shared_solids_are_pruned_least_recently_used_first(tmp_path):
         os.utime(folder / f"{key}.json", (1e9 - age * 100, 1e9 - age * 100))
     toothpair.share_solids(folder)
     try:
-        assert toothpair._shared_solids("a") is not None   # a is used: now the newest
+        assert solid_cache._shared_solids("a") is not None   # a is used: now the newest
     finally:
         toothpair.share_solids(None)
-    toothpair._prune_shared(folder, budget=25)             # 30 bytes: one entry goes
+    solid_cache._prune_shared(folder, budget=25)             # 30 bytes: one entry goes
     assert sorted(p.name for p in folder.iterdir()) == ["a.brep", "a.json", "c.brep",
                                                         "c.json"]
-    toothpair._prune_shared(folder, budget=25)             # within the budget: kept
+    solid_cache._prune_shared(folder, budget=25)             # within the budget: kept
     assert len(list(folder.iterdir())) == 4
 
 
@@ -288,12 +289,12 @@ def test_solids_key_changes_with_the_builders_source(monkeypatch):
 
     gs = default_gearset()
     spec = PairSpec(stage=1, level="coarse")
-    key = toothpair._solids_key(gs, spec)
-    assert toothpair._solids_key(gs, PairSpec(stage=1, level="default",
+    key = solid_cache._solids_key(gs, spec)
+    assert solid_cache._solids_key(gs, PairSpec(stage=1, level="default",
                                               roll_angle_deg=3.0)) == key   # mesh only
-    assert toothpair._solids_key(gs, PairSpec(stage=2, level="coarse")) != key
-    monkeypatch.setattr(toothpair, "_builder_digest", lambda: "other source")
-    assert toothpair._solids_key(gs, spec) != key
+    assert solid_cache._solids_key(gs, PairSpec(stage=2, level="coarse")) != key
+    monkeypatch.setattr(solid_cache, "_builder_digest", lambda: "other source")
+    assert solid_cache._solids_key(gs, spec) != key
 
 
 def test_a_calibrations_solids_go_to_the_users_cache(tmp_path, monkeypatch):
@@ -318,12 +319,12 @@ def test_a_turned_over_element_is_first_refined_at_the_same_stretch(tmp_path, mo
         if len(attempts) == 1:
             # a ball at the contact zone's centre in the stretched space, 20 um elements
             centre = tuple(float(v) for v in design.stretch.origin)
-            raise toothpair._InvertedMesh("the mesh has an element of quality -0.1",
+            raise stretchmesh.InvertedMesh("the mesh has an element of quality -0.1",
                                           [(*centre, 20e-6)])
         return real(model, design, *args, **kwargs)
 
     monkeypatch.setattr(toothpair, "_mesh", mesh)
-    with caplog.at_level(logging.INFO, logger="fe_impact.meshing.toothpair"):
+    with caplog.at_level(logging.INFO, logger="fe_impact.meshing"):
         pair = toothpair.build_pair(default_gearset(), 1, 0.0, "coarse", 2, GAP, SPEED,
                                     tmp_path)
     level = toothpair.LEVELS["coarse"].max_stretch
@@ -358,7 +359,7 @@ def test_many_turned_over_elements_lower_the_stretch(monkeypatch):
     size-field term): no balls, so the retry lowers the stretch."""
     import numpy as np
 
-    n = toothpair.MAX_BALLS + 1
-    monkeypatch.setattr(toothpair, "_qualities",
+    n = stretchmesh.MAX_BALLS + 1
+    monkeypatch.setattr(stretchmesh, "_qualities",
                         lambda model, volumes: (np.arange(n), np.full(n, -0.1)))
-    assert toothpair._turned_balls(None, {}, None) == []
+    assert stretchmesh.turned_balls(None, {}, None) == []

@@ -358,18 +358,18 @@ def test_a_mesh_does_not_depend_on_what_the_process_built_before(gearset, tmp_pa
     position's mesh is the same whether it is the first the process makes or comes
     after another (a sweep's workers take cases in any order, a resumed run makes
     one alone). Checked exactly: the same node coordinates, as read back."""
-    import fe_impact.meshing.toothpair as toothpair
+    import fe_impact.meshing.solids as solids
 
-    saved = dict(toothpair._SOLIDS)
+    saved = dict(solids._SOLIDS)
     try:
-        toothpair._SOLIDS.clear()
+        solids._SOLIDS.clear()
         first = build_pair(gearset, 1, 9.5, "coarse", 2, GAP, SPEED, tmp_path / "a")
-        toothpair._SOLIDS.clear()
+        solids._SOLIDS.clear()
         build_pair(gearset, 1, -6.0, "coarse", 2, GAP, SPEED, tmp_path / "b")
         again = build_pair(gearset, 1, 9.5, "coarse", 2, GAP, SPEED, tmp_path / "c")
     finally:
-        toothpair._SOLIDS.clear()
-        toothpair._SOLIDS.update(saved)
+        solids._SOLIDS.clear()
+        solids._SOLIDS.update(saved)
     a, c = load_mesh(first.mesh_path, unit="mm"), load_mesh(again.mesh_path, unit="mm")
     assert a.points.shape == c.points.shape
     assert np.array_equal(a.points, c.points)
@@ -383,7 +383,7 @@ def test_a_sector_is_turned_exactly_as_the_affine_map_says():
     from scipy.spatial.transform import Rotation
 
     from fe_impact.meshing.session import gmsh_session
-    from fe_impact.meshing.toothpair import _affine, _apply, _rotate
+    from fe_impact.meshing.solids import _affine, _apply, _rotate
 
     axis = np.array([1.0, -2.0, 0.5]) / np.sqrt(5.25)
     rotation = Rotation.from_rotvec(0.3 * axis).as_matrix()

@@ -99,7 +99,7 @@ def level_of(spec: PairSpec) -> MeshLevel:
 #: the positions, 8-31% fewer on the default level's impacts. A mesh that
 #: fails at 4 can pass at 2.5 (the stage-2 ratio switch at 4.2 m/s, whose
 #: ellipse is longer than the face: isotropic, 67k DOFs, at 4; stretch 2.5,
-#: 40k DOFs, at 2.5), so the retries try both (``toothpair._RETRIES``).
+#: 40k DOFs, at 2.5), so the retries try both (:data:`~fe_impact.meshing.stretchmesh.RETRIES`).
 REACH = 4.0
 #: The compensation's end used before :data:`REACH`, tried again when a mesh
 #: at the stretch cap of 2.5 fails with :data:`REACH`.
@@ -194,7 +194,7 @@ def _stretch(design_contact: ContactPoint, spec: PairSpec, ellipse: ContactEllip
 
 
 # -- gmsh size fields ---------------------------------------------------------------------
-def _box_distance(axes: NDArray, centre: NDArray, half: tuple[float, ...]) -> str:
+def box_distance(axes: NDArray, centre: NDArray, half: tuple[float, ...]) -> str:
     """MathEval expression: distance [mm] from the box ``|(x - centre) . axes_i| <= half_i``."""
     terms = []
     for axis, width in zip(axes, half, strict=True):
@@ -251,10 +251,10 @@ def _edge_terms(design: PairDesign, to_space=None) -> list[tuple[float, str]]:
     return terms
 
 
-def _set_size_field(model, terms: list[tuple[float, str]], gradation: float, far: float) -> None:
+def set_size_field(model, terms: list[tuple[float, str]], gradation: float, far: float) -> None:
     """Background size ``min(far, min_i(size_i + gradation d_i))`` [mm], all else off.
 
-    ``terms`` pairs a size [mm] with a distance expression (see :func:`_box_distance`).
+    ``terms`` pairs a size [mm] with a distance expression (see :func:`box_distance`).
     """
     import gmsh
 
@@ -270,7 +270,7 @@ def _set_size_field(model, terms: list[tuple[float, str]], gradation: float, far
         gmsh.option.setNumber(f"Mesh.{name}", value)
 
 
-def _zone_half_widths(design: PairDesign) -> tuple[float, float]:
+def zone_half_widths(design: PairDesign) -> tuple[float, float]:
     """Half-widths [m] of the refined zone across the ellipse and along the normal."""
     return 1.25 * design.ellipse.b, 1.0 * design.ellipse.b
 
@@ -283,10 +283,10 @@ def reference_size_field(model, design: PairDesign) -> None:
     (and isotropic, so much finer along it).
     """
     st, level = design.stretch, level_of(design.analysis.spec)
-    width, depth = _zone_half_widths(design)
+    width, depth = zone_half_widths(design)
     half = (st.half_length * MM, width * MM, depth * MM)
-    distance = _box_distance(st.axes, st.origin * MM, half)
-    _set_size_field(model, [(0.7 * design.sizes["minor"] * MM, distance),
+    distance = box_distance(st.axes, st.origin * MM, half)
+    set_size_field(model, [(0.7 * design.sizes["minor"] * MM, distance),
                             *_edge_terms(design)],
                     0.5 * level.gradation, 0.5 * design.sizes["far"] * MM)
 
@@ -296,11 +296,11 @@ def size_field(model, design: PairDesign) -> None:
     zone (ramps included, so elements stay short where the compression
     changes), graded out to ``far``."""
     st, level, sizes = design.stretch, level_of(design.analysis.spec), design.sizes
-    width, depth = _zone_half_widths(design)
+    width, depth = zone_half_widths(design)
     lo, hi = st.mapped_interval(st.half_length)
     centre = (st.origin + 0.5 * (lo + hi) * st.axes[0]) * MM
     half = (0.5 * (hi - lo) * MM, width * MM, depth * MM)
-    _set_size_field(model, [(sizes["minor"] * MM, _box_distance(st.axes, centre, half)),
+    set_size_field(model, [(sizes["minor"] * MM, box_distance(st.axes, centre, half)),
                             *_edge_terms(design, st.to_mesh), *refine_terms(design.refine)],
                     level.gradation, sizes["far"] * MM)
 

@@ -25,8 +25,12 @@ estimates (:mod:`fe_impact.gears.pairanalysis`, no mesher); the gmsh solids
 and the exact flanks (:mod:`~fe_impact.meshing.pairgeometry`); the element
 sizes, the stretched space and the size fields
 (:mod:`~fe_impact.meshing.sizing`, :mod:`~fe_impact.meshing.contactstretch`);
-the impact case (:mod:`~fe_impact.meshing.paircase`). This module meshes,
-retries, writes the files and reuses them (:func:`pair_key`).
+the impact case (:mod:`~fe_impact.meshing.paircase`); meshing in the
+stretched space and its retries (:mod:`~fe_impact.meshing.stretchmesh`). This
+module builds the pair and writes its files; what it reuses is the cache's:
+the files stored under the pair's key (:func:`pair_key`,
+:mod:`~fe_impact.meshing.cache`) and a stage's solids
+(:mod:`~fe_impact.meshing.solids`).
 
 Geometry (the mesh frame of :mod:`fe_impact.gears.tca`): the contacting
 pinion tooth with ``neighbour_teeth`` (default 1) unloaded teeth on each
@@ -70,7 +74,7 @@ Gmsh's fast 3-D mesher (HXT) is isotropic, so the pair is meshed in a
 
 Step 1's solids depend on the gear set and the sector's make-up only: a
 process builds them once per stage and turns them about each gear's axis
-into place for every other position, speed and retry (:func:`_add_solids`;
+into place for every other position, speed and retry (:func:`~fe_impact.meshing.solids.add_solids`;
 on the seed set at the coarse level a mesh built so takes about half the
 time of one built from the sections).
 
@@ -80,7 +84,8 @@ gmsh (its default tetrahedral optimisation) and a mesh that still comes back
 with a turned-over element gets gmsh's vertex relocation; if an element is
 still below :data:`MIN_SICN` after the flanks are snapped, the mesh is made
 again at the same stretch with smaller elements around it
-(:data:`LOCAL_REFINEMENTS`), then with less stretch (``_RETRIES``), down to
+(:data:`~fe_impact.meshing.stretchmesh.LOCAL_REFINEMENTS`), then with less stretch
+(:data:`~fe_impact.meshing.stretchmesh.RETRIES`), down to
 the isotropic mesh.
 Faces other than the flanks are only as exact as the reference surface
 mesh, and their P2 mid-edge nodes are straight (e.g. up to ~0.1 mm chord on
@@ -89,105 +94,54 @@ the pinion's rim arc, a hub face).
 
 from __future__ import annotations
 
-import contextlib
-import functools
-import hashlib
-import json
 import logging
-import os
 import time
-from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TypeVar
-
-import numpy as np
-from numpy.typing import NDArray
 
 from fe_impact.errors import MeshError
 from fe_impact.fe.case import Case
-from fe_impact.gears.pairanalysis import PairAnalysis, PairSpec, analyse_stage_pair
+from fe_impact.gears.pairanalysis import PairAnalysis, PairSpec
 from fe_impact.gears.tca import ContactEllipse, ContactPoint
+from fe_impact.meshing.cache import MESH_FORMAT, cached_summary, mesh_key
 from fe_impact.meshing.paircase import case_header, impact_case
-from fe_impact.meshing.pairgeometry import MM, add_sectors, free_entities, snap_flanks
-from fe_impact.meshing.session import set_nodes
+from fe_impact.meshing.pairgeometry import add_sectors, snap_flanks
 from fe_impact.meshing.sizing import (
     LEVELS,
-    REACH,
-    SHORT_REACH,
     PairDesign,
     design_pair,
     reference_size_field,
     size_field,
 )
+from fe_impact.meshing.solids import add_solids, share_solids, solids_folder
+from fe_impact.meshing.stretchmesh import (
+    MIN_SICN,
+    InvertedMesh,
+    MeshStats,
+    keep_reference,
+    map_nodes,
+    mesh_statistics,
+    mesh_with_retries,
+    reload_as_discrete,
+    turned_balls,
+    volume_mesh,
+)
 
 logger = logging.getLogger(__name__)
 
-D = TypeVar("D")   # a mesh design (PairDesign, TwoPairDesign)
-
 __all__ = [
     "LEVELS",
+    "MESH_FORMAT",
     "MIN_SICN",
     "MeshStats",
     "PairMesh",
     "build_pair",
     "mesh_key",
     "pair_key",
+    "share_solids",
+    "solids_folder",
 ]
 
-#: Smallest element quality accepted (gmsh's minimum signed inverse condition
-#: number; 0 is a degenerate element). Below it the mesh is made again with
-#: less anisotropy.
-MIN_SICN = 0.01
-
-
-class _InvertedMesh(MeshError):
-    """A mesh with a (nearly) inverted element; :func:`build_pair` retries.
-
-    ``balls``: where the turned-over elements lie in the stretched space and
-    a third of their size there, ``(x, y, z, size)`` [m] each (see
-    :func:`_turned_balls`); empty if unknown.
-    """
-
-    def __init__(self, message: str, balls=()) -> None:
-        super().__init__(message)
-        self.balls = tuple(balls)
-
-
-# -- results -------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class MeshStats:
-    """Size and quality of the written mesh.
-
-    Attributes
-    ----------
-    n_elements : dict
-        Tetrahedra per volume group and ``"total"``.
-    n_nodes : int
-        Nodes of the tetrahedra (P2: vertices and mid-edge nodes).
-    n_dofs : int
-        ``3 n_nodes``.
-    min_sicn, mean_sicn : float
-        Gmsh's signed inverse condition number (minimum over the element's
-        Jacobian for P2); 1 for a regular tetrahedron, <= 0 invalid.
-    min_gamma, mean_gamma : float
-        Inscribed/circumscribed radius ratio of the vertices' tetrahedra.
-    seconds : float
-        Wall time of the whole build.
-    element_sizes : dict
-        Target sizes [m]: ``minor`` (across the ellipse and along the
-        normal), ``major`` (along the major axis) and ``far``.
-    """
-
-    n_elements: dict[str, int]
-    n_nodes: int
-    n_dofs: int
-    min_sicn: float
-    mean_sicn: float
-    min_gamma: float
-    mean_gamma: float
-    seconds: float
-    element_sizes: dict[str, float]
 
 
 @dataclass(frozen=True)
@@ -225,70 +179,11 @@ class PairMesh:
         return self.analysis.design_ellipse
 
 
-#: Version of what a mesh of a given gear set and spec holds; part of every mesh key,
-#: so a change of how the solids or the mesh are made invalidates the caches.
-#: 2: corner meshes' loft stations keep half a fine step from the fine window
-#: (pairgeometry._stations_through); 4: the face-gear flank continued smoothly beyond
-#: the face's ends (_FaceFlank.angle; 3 continued it along its tangent without end);
-#: 5: the keys hash every field of the spec (before, ``contact = "flank"`` and
-#: ``refinement = 1`` were left out) and two-pair meshes carry the format too.
-MESH_FORMAT = 5
-
-
-def mesh_key(gearset, spec: PairSpec, **kind) -> str:
-    """Deterministic hash (16 hex digits) of the gear set, every field of ``spec``,
-    :data:`MESH_FORMAT` and ``kind`` (e.g. ``two_pair=1``: another builder's meshes)."""
-    payload = json.dumps(
-        {"gearset": asdict(gearset), "spec": asdict(spec), "format": MESH_FORMAT, **kind},
-        sort_keys=True, default=repr,
-    )
-    return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
 def pair_key(gearset, spec: PairSpec) -> str:
     """The key of the tooth-pair mesh of ``spec`` (:func:`mesh_key`)."""
     return mesh_key(gearset, spec)
-
-
-# -- meshing --------------------------------------------------------------------------------
-def _map_nodes(model, mapping) -> tuple[NDArray, NDArray]:
-    """Apply ``mapping`` (metres -> metres) to every node; returns tags and new mm coordinates."""
-    tags, coords, _ = model.mesh.getNodes()
-    x = mapping(coords.reshape(-1, 3) / MM) * MM
-    set_nodes(tags, x)
-    return tags, x
-
-
-def _statistics(model, volumes: dict[str, int], seconds: float, sizes: dict) -> MeshStats:
-    counts, all_tags, all_nodes = {}, [], []
-    for name, tag in volumes.items():
-        _, elem_tags, node_tags = model.mesh.getElements(3, tag)
-        counts[name] = int(sum(len(t) for t in elem_tags))
-        all_tags.extend(elem_tags)
-        all_nodes.extend(node_tags)
-    counts["total"] = sum(counts.values())
-    tags = np.concatenate(all_tags)
-    n_nodes = len(np.unique(np.concatenate(all_nodes)))
-    sicn = np.asarray(model.mesh.getElementQualities(tags, "minSICN"))
-    gamma = np.asarray(model.mesh.getElementQualities(tags, "gamma"))
-    return MeshStats(
-        n_elements=counts, n_nodes=n_nodes, n_dofs=3 * n_nodes,
-        min_sicn=float(sicn.min()), mean_sicn=float(sicn.mean()),
-        min_gamma=float(gamma.min()), mean_gamma=float(gamma.mean()),
-        seconds=seconds, element_sizes={k: float(v) for k, v in sizes.items()},
-    )
-
-
-def _qualities(model, volumes: dict[str, int]) -> tuple[NDArray, NDArray]:
-    """Tags and minimum-SICN qualities of the volume elements."""
-    tags = np.concatenate([np.concatenate(model.mesh.getElements(3, tag)[1])
-                           for tag in volumes.values()])
-    return tags, np.asarray(model.mesh.getElementQualities(tags, "minSICN"))
-
-
-def _min_quality(model, volumes: dict[str, int]) -> float:
-    """Smallest minimum-SICN of the volume elements."""
-    return float(np.min(_qualities(model, volumes)[1]))
 
 
 def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
@@ -318,15 +213,15 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
         volumes, groups = reference["volumes"], reference["groups"]
     else:
         volumes, groups = (add_sectors(model, design.pair, design.analysis) if gearset is None
-                           else _add_solids(model, gearset, spec, design))
+                           else add_solids(model, gearset, spec, design))
         reference_size_field(model, design)
         model.mesh.generate(2)
         if reference is not None:
-            reference.update(file=_keep_reference(path), volumes=volumes, groups=groups)
-    _map_nodes(model, design.stretch.to_mesh)
-    _reload_as_discrete(model, path)
+            reference.update(file=keep_reference(path), volumes=volumes, groups=groups)
+    map_nodes(model, design.stretch.to_mesh)
+    reload_as_discrete(model, path)
     size_field(model, design)
-    _volume_mesh(model, volumes, design.stretch)
+    volume_mesh(model, volumes, design.stretch)
     if spec.order == 2:  # mid-edge nodes straight in physical space, then snapped
         model.mesh.setOrder(2)
     moves = snap_flanks(model, design.pair, design.analysis, groups, design.edge_radii)
@@ -336,146 +231,15 @@ def _mesh(model, design: PairDesign, spec: PairSpec, path: Path, started: float,
         model.addPhysicalGroup(3, [tag], name=name)
     for name, faces in _contact_groups(groups).items():
         model.addPhysicalGroup(2, faces, name=name)
-    stats = _statistics(model, volumes, time.perf_counter() - started, design.sizes)
+    stats = mesh_statistics(model, volumes, time.perf_counter() - started, design.sizes)
     if stats.min_sicn <= MIN_SICN:
-        raise _InvertedMesh(
+        raise InvertedMesh(
             f"the {spec.level} mesh has an element of quality {stats.min_sicn:.3g} (minimum "
             f"SICN; {MIN_SICN} required) at stretch factor {design.sizes['factor']:.3g}",
-            _turned_balls(model, volumes, design.stretch))
+            turned_balls(model, volumes, design.stretch))
     write_msh(path)
     return stats
 
-
-def _turned_balls(model, volumes: dict[str, int], stretch) -> list[tuple[float, ...]]:
-    """``(x, y, z, size)`` [m] in the stretched space of each element below
-    :data:`MIN_SICN`: its corners' centroid mapped by ``stretch.to_mesh``, and a
-    third of its longest edge there (the size a retry asks for around it); none
-    if there are more than :data:`MAX_BALLS` of them."""
-    tags, quality = _qualities(model, volumes)
-    bad = tags[quality <= MIN_SICN]
-    if len(bad) > MAX_BALLS:    # not a local defect: the stretch itself is too strong
-        return []
-    balls = []
-    for tag in bad:
-        _, nodes, _, _ = model.mesh.getElement(int(tag))
-        corners = np.array([model.mesh.getNode(int(n))[0] for n in nodes[:4]]) / MM
-        y = stretch.to_mesh(corners)
-        edges = np.linalg.norm(y[:, None, :] - y[None, :, :], axis=2)
-        balls.append((*(float(v) for v in y.mean(axis=0)), float(edges.max()) / 3.0))
-    return balls
-
-
-def _volume_mesh(model, volumes: dict[str, int], stretch) -> None:
-    """Tetrahedra in the stretched space, mapped back by ``stretch.to_physical``, and
-    the elements that come back turned over mended where gmsh can (step 3 of
-    :func:`_mesh`; the two-pair sector's builder takes the same step)."""
-    model.mesh.generate(3)
-    # gmsh's default tetrahedral optimisation of the stretched mesh (0.02 s on
-    # a coarse pair): on the seed set's 27 coarse positions 15 -> 13 meshes
-    # made again, among them the stage-3 position at +13.3 deg that went to
-    # the isotropic mesh (159k DOFs) in the calibration's sweep
-    model.mesh.optimize("")
-    _map_nodes(model, stretch.to_physical)
-    if _min_quality(model, volumes) <= MIN_SICN:
-        # a large element where the map varies fast can come back turned over;
-        # gmsh's vertex relocation mends some (on the seed set's 27 coarse
-        # positions: 2 of the 17 meshes that were made again before)
-        model.mesh.optimize("Relocate3D")
-        _flip_flat_caps(model, volumes)
-
-
-def _flip_flat_caps(model, volumes: dict[str, int]) -> int:
-    """Remove the turned-over tetrahedra that cap a boundary surface; returns how many.
-
-    Such a cap has two faces on one boundary surface and all four nodes on
-    it or its edges (seen on the face gear's flat tip land: curved in the
-    stretched space, where the mesher laid a thin element on it, and flat
-    again once mapped back, where the element turns over). Its nodes are
-    all on the boundary, so no relocation mends it; without it the surface
-    is the same quadrilateral triangulated across the other diagonal (the
-    element's two other faces, oriented as the two it had on the surface).
-    Other turned-over elements are left for the retry with less stretch.
-    """
-    tags, quality = _qualities(model, volumes)
-    bad = tags[quality <= MIN_SICN]
-    if not len(bad):
-        return 0
-    triangles: dict[frozenset, tuple[int, int, list[int]]] = {}
-    for _, surface in model.getEntities(2):
-        types, elem_tags, nodes = model.mesh.getElements(2, surface)
-        for etype, et, nd in zip(types, elem_tags, nodes, strict=True):
-            if etype != 2:   # 3-node triangles: the mesh is still linear here
-                continue
-            for t, tri in zip(et, np.asarray(nd).reshape(-1, 3), strict=True):
-                corners = [int(n) for n in tri]
-                triangles[frozenset(corners)] = (surface, int(t), corners)
-    flipped = 0
-    for tet in bad:
-        _, element_nodes, _, volume = model.mesh.getElement(int(tet))
-        nodes = [int(n) for n in element_nodes[:4]]
-        on = [(triangles.get(frozenset(nodes[:i] + nodes[i + 1:])), nodes[i])
-              for i in range(4)]
-        caps = [(face, missing) for face, missing in on if face is not None]
-        if len(caps) != 2 or caps[0][0][0] != caps[1][0][0]:
-            continue
-        (old1, p), (old2, q) = caps
-        surface = old1[0]
-        u, v = [n for n in nodes if n not in (p, q)]
-        x = {n: np.asarray(model.mesh.getNode(n)[0]) for n in nodes}
-        normal = np.cross(x[old1[2][1]] - x[old1[2][0]], x[old1[2][2]] - x[old1[2][0]])
-        new = []
-        for a, b, c in ((p, q, v), (p, q, u)):
-            if np.dot(np.cross(x[b] - x[a], x[c] - x[a]), normal) < 0.0:
-                b, c = c, b
-            new += [a, b, c]
-        model.mesh.removeElements(3, volume, [int(tet)])
-        model.mesh.removeElements(2, surface, [old1[1], old2[1]])
-        first = int(model.mesh.getMaxElementTag()) + 1
-        model.mesh.addElementsByType(surface, 2, [first, first + 1], new)
-        flipped += 1
-    if flipped:
-        logger.info("%d flat tetrahedra capping a boundary surface removed", flipped)
-    return flipped
-
-
-def _keep_reference(path: Path) -> Path:
-    """Write the physical reference surface mesh next to ``path`` for the retries
-    (binary MSH: the coordinates come back exact)."""
-    return _write_scratch(path.with_name(f".{path.stem}-physical.msh"), binary=True)
-
-
-def _write_scratch(path: Path, binary: bool = False) -> Path:
-    """Write the whole model's mesh (every entity, MSH 4.1) to ``path``, to be merged
-    again."""
-    import gmsh
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    gmsh.option.setNumber("Mesh.SaveAll", 1)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", int(binary))
-    try:
-        gmsh.write(str(path))
-    finally:
-        gmsh.option.setNumber("Mesh.Binary", 0)
-    return path
-
-
-def _reload_as_discrete(model, path: Path) -> None:
-    """Replace the model by its surface mesh, as discrete geometry (step 2 of :func:`_mesh`).
-
-    The mesh goes through a scratch file next to ``path``: gmsh reloads a
-    mesh as discrete entities only from a file.
-    """
-    import gmsh
-
-    reference = path.with_name(f".{path.stem}-reference.msh")
-    try:
-        _write_scratch(reference)
-        gmsh.clear()
-        gmsh.merge(str(reference))
-    finally:
-        reference.unlink(missing_ok=True)
-    model.mesh.createGeometry()
 
 
 # -- building, retries and the cache -------------------------------------------------------
@@ -545,7 +309,7 @@ def build_pair(
     out = Path(out_dir)
     key = pair_key(gearset, spec)
     paths = (out / "pair.msh", out / "case.toml", out / "tca.json")
-    cached = _cached(paths, key) if reuse else None
+    cached = cached_summary(paths[:2], paths[2], key) if reuse else None
     if cached is not None:
         design = design_pair(gearset, spec, cached["stretch_factor"])
         stats = MeshStats(**cached["mesh"])
@@ -566,328 +330,6 @@ def build_pair(
     return PairMesh(*paths, key=key, stats=stats, case=case, analysis=design.analysis)
 
 
-#: Fields of :class:`PairSpec` that shape the sectors' solids (the rest place them
-#: or size the mesh): the key of :data:`_SOLIDS`.
-_SOLID_FIELDS = ("stage", "n_face_teeth", "neighbour_teeth", "rim_modules",
-                 "pinion_axial_position")
-
-
-@dataclass
-class _Solids:
-    """Two sectors' solids as built once (OCC BRep, exact), where they were placed,
-    and the centres of mass [mm] of their volumes and of each group's faces."""
-
-    brep: Path
-    pinion_roll: float             # PairAnalysis.pinion_roll_placed of the build, rad
-    face_angle: float              # contact.face_angle of the build, rad
-    volumes: dict[str, NDArray]
-    faces: dict[str, list[NDArray]]
-    #: Where the first import found them: each volume's place among the imported
-    #: volumes and each group face's among its volume's boundary faces. A BRep
-    #: reads back in the same order, and a turn keeps the topology, so later
-    #: imports take the same places (checked against the bounding boxes).
-    index: tuple[dict[str, int], dict[str, list[int]]] | None = None
-
-
-#: Solids built in this process, by gear set and :data:`_SOLID_FIELDS`: the
-#: positions of a stage, the speeds of an impact and the retries of a mesh
-#: differ only in where the same two solids are placed (a turn of each about
-#: its gear's axis) and in the mesh.
-_SOLIDS: dict[str, _Solids] = {}
-_SOLIDS_DIR: list[Path] = []
-#: A folder the processes of a sweep share their solids through (see
-#: :func:`share_solids`); empty: each process builds its own.
-_SHARED: list[Path] = []
-
-
-#: Most bytes of solids a shared folder keeps: about ten gear sets of three stages
-#: (18-20 MB a stage); the entries used longest ago go first.
-SOLIDS_BUDGET = 500 * 1024 * 1024
-
-
-def share_solids(folder: str | Path | None) -> None:
-    """Share the solids through ``folder`` (None: stop sharing).
-
-    A process that needs a stage's solids takes them from there if another
-    one has built them (``<key>.brep`` and ``<key>.json``, each written
-    whole), and otherwise builds and leaves them there. Building them costs
-    about 4.5 s a stage (two lofts and a cut); a sweep on two workers built
-    each stage twice.
-    """
-    _SHARED.clear()
-    if folder is not None:
-        _SHARED.append(Path(folder))
-
-
-def solids_folder(cache: str | Path) -> Path:
-    """Where a calibration shares its solids: ``fe-impact/solids`` in the user's cache,
-    so that later runs on the same gear set take them (the key holds the gear set,
-    the sector fields and the source of the code that builds them: :func:`_solids_key`),
-    else ``<cache>/solids``."""
-    from fe_impact.runtime import user_cache
-
-    return user_cache("solids") or Path(cache) / "solids"
-
-
-@functools.cache
-def _builder_digest() -> str:
-    """Digest of the source that shapes the solids (the sectors' builder and the gear
-    surfaces), so that solids kept across runs are never those of other code."""
-    from fe_impact import gears
-    from fe_impact.meshing import pairgeometry
-
-    digest = hashlib.sha256()
-    for path in [Path(pairgeometry.__file__), Path(__file__),
-                 *sorted(Path(gears.__file__).parent.glob("*.py"))]:
-        digest.update(path.read_bytes())
-    return digest.hexdigest()
-
-
-def _prune_shared(folder: Path, budget: int = SOLIDS_BUDGET) -> None:
-    """Remove the entries of ``folder`` used longest ago (``<key>.json`` times, set
-    again on every use) while the folder holds more than ``budget`` bytes."""
-    entries = []
-    for meta in folder.glob("*.json"):
-        brep = meta.with_suffix(".brep")
-        try:
-            entries.append((meta.stat().st_mtime, meta, brep,
-                            brep.stat().st_size if brep.is_file() else 0))
-        except OSError:
-            continue
-    total = sum(size for *_, size in entries)
-    for _, meta, brep, size in sorted(entries, key=lambda e: e[0]):
-        if total <= budget:
-            break
-        meta.unlink(missing_ok=True)   # the entry is invalid without it: first
-        brep.unlink(missing_ok=True)
-        total -= size
-
-
-def _shared_solids(key: str) -> _Solids | None:
-    """The solids of ``key`` in the shared folder, if complete there."""
-    if not _SHARED:
-        return None
-    meta, brep = _SHARED[0] / f"{key}.json", _SHARED[0] / f"{key}.brep"
-    try:
-        data = json.loads(meta.read_text())
-    except (OSError, ValueError):
-        return None
-    if not brep.is_file():
-        return None
-    with contextlib.suppress(OSError):
-        os.utime(meta)   # used now: the last to be pruned
-    return _Solids(brep, float(data["pinion_roll"]), float(data["face_angle"]),
-                   {k: np.array(v) for k, v in data["volumes"].items()},
-                   {k: [np.array(c) for c in cs] for k, cs in data["faces"].items()})
-
-
-def _leave_shared(key: str, solids: _Solids) -> None:
-    """Write the metadata that makes freshly built solids, whose BRep is already in
-    the shared folder (:func:`_solids_dir`), a valid entry there."""
-    if not _SHARED:
-        return
-    from fe_impact.atomic import write_json
-
-    write_json(_SHARED[0] / f"{key}.json", {
-        "pinion_roll": solids.pinion_roll, "face_angle": solids.face_angle,
-        "volumes": {k: v.tolist() for k, v in solids.volumes.items()},
-        "faces": {k: [c.tolist() for c in cs] for k, cs in solids.faces.items()}})
-    _prune_shared(_SHARED[0])
-
-
-def _solids_dir() -> Path:
-    """Where built solids are written: the shared folder (:func:`share_solids`), or
-    else this process's scratch folder (removed when it exits)."""
-    if _SHARED:
-        return _SHARED[0]
-    if not _SOLIDS_DIR:
-        import atexit
-        import shutil
-        import tempfile
-
-        folder = Path(tempfile.mkdtemp(prefix="fe_impact_sectors_"))
-        atexit.register(shutil.rmtree, folder, ignore_errors=True)
-        _SOLIDS_DIR.append(folder)
-    return _SOLIDS_DIR[0]
-
-
-def _affine(rotation: NDArray, centre: NDArray) -> NDArray:
-    """The 3 x 4 row-major matrix of ``x -> rotation (x - centre) + centre`` [mm]."""
-    return np.hstack([rotation, (centre - rotation @ centre)[:, None]])
-
-
-def _apply(matrix: NDArray, x: NDArray) -> NDArray:
-    return matrix[:, :3] @ x + matrix[:, 3]
-
-
-def _rotate(occ, tag: int, matrix: NDArray) -> None:
-    """Turn volume ``tag`` by the rotation ``matrix`` of :func:`_affine`.
-
-    As an axis and an angle (OCC's exact placement change), not as a general
-    affine map, which OCC applies by converting every surface to a B-spline
-    (measured: 0.46 s per sector; the seed set's 33 coarse positions at 11
-    per stage meshed in 208 s instead of 228 s, 15 meshes made again with
-    either). The axis passes through the fixed point the matrix keeps (its
-    translation solves ``(I - R) c = t``; the centre given to :func:`_affine`
-    is one).
-    """
-    from scipy.spatial.transform import Rotation
-
-    rotvec = Rotation.from_matrix(matrix[:, :3]).as_rotvec()
-    angle = float(np.linalg.norm(rotvec))
-    if angle <= 1e-14:   # the build's own placement: R R^T, the identity to rounding
-        return
-    axis = rotvec / angle
-    # a point of the axis: the least-squares fixed point (I - R) c = t, made exact
-    # along the axis' normal plane (I - R is singular along the axis only)
-    point = np.linalg.lstsq(np.eye(3) - matrix[:, :3], matrix[:, 3], rcond=None)[0]
-    occ.rotate([(3, tag)], *point, *axis, angle)
-
-
-def _add_solids(model, gearset, spec: PairSpec, design: PairDesign
-                ) -> tuple[dict[str, int], dict[str, list[int]]]:
-    """The sectors of :func:`add_sectors`, built once per process and reused.
-
-    The first call for a gear set and :data:`_SOLID_FIELDS` builds them at
-    the pitch point with no gap (roll angle 0, ``gap = 0``), whatever its own
-    position, and writes them as BRep; every call imports that file, turns
-    the pinion sector about the pinion's axis and the face-gear sector about
-    the face gear's to their places, then finds the volumes and the surface groups'
-    faces by their centres of mass (the first import; later ones take the places
-    it found, :attr:`_Solids.index`). Built at one placement and turned, a
-    sector differs from one built in place only between its loft sections,
-    by the lofts' interpolation (below 0.01 um on the flanks, which the
-    mesh's flank nodes are snapped onto anyway).
-    """
-    import gmsh
-
-    from fe_impact.atomic import atomic_path
-
-    if spec.contact != "flank":
-        # built in place, with sections refined around the corner contact: the solids
-        # of one corner position serve no other
-        return add_sectors(model, design.pair, design.analysis, edge_radii=design.edge_radii)
-
-    key = _solids_key(gearset, spec)
-    pair, analysis, occ = design.pair, design.analysis, model.occ
-    solids = _SOLIDS.get(key)
-    if solids is None or not solids.brep.is_file():
-        solids = _shared_solids(key)
-        if solids is not None:
-            _SOLIDS[key] = solids
-    if solids is None or not solids.brep.is_file():
-        # Built from the sections, written without the lofts' leftover points and
-        # curves (hidden: removing 20k entities from OCC costs seconds), then
-        # read back like any later call: the model holds the two solids alone.
-        # Always at the pitch point with no gap, whatever position asked first:
-        # a mesh then depends on its own parameters only, not on which case
-        # the process happened to build the solids for (measured before: a
-        # coarse stage-3 position meshed to 82.5k or 159k DOFs by the order).
-        home = replace(spec, roll_angle_deg=0.0, gap=0.0)
-        pair_home, analysis_home = ((pair, analysis) if home == spec
-                                    else analyse_stage_pair(gearset, home))
-        volumes, groups = add_sectors(model, pair_home, analysis_home)
-        brep = _solids_dir() / f"{key}.brep"
-        model.setVisibility(free_entities(model, [(3, t) for t in volumes.values()]), 0)
-        gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 1)
-        try:
-            with atomic_path(brep) as tmp:   # whole: another process may read it
-                gmsh.write(str(tmp))
-        finally:
-            gmsh.option.setNumber("Geometry.OCCExportOnlyVisible", 0)
-        solids = _SOLIDS[key] = _Solids(
-            brep, analysis_home.pinion_roll_placed, analysis_home.contact.face_angle,
-            {k: np.array(occ.getCenterOfMass(3, t)) for k, t in volumes.items()},
-            {k: [np.array(occ.getCenterOfMass(2, f)) for f in faces]
-             for k, faces in groups.items()})
-        _leave_shared(key, solids)
-        name = model.getCurrent()
-        gmsh.clear()
-        model.add(name)
-    try:
-        return _turned_solids(model, design, solids)
-    except MeshError as exc:   # not expected; building them costs only time
-        logger.warning("%s; building the sectors again", exc)
-        occ.remove(model.getEntities(3), recursive=True)
-        occ.synchronize()
-        return add_sectors(model, pair, analysis)
-
-
-def _solids_key(gearset, spec: PairSpec) -> str:
-    """Key of a stage's solids: the gear set, the sector fields, the version and the
-    builder's source (solids shared on disk outlive the process and the run)."""
-    from fe_impact import __version__
-
-    blob = json.dumps({"gearset": asdict(gearset), "version": __version__,
-                       "source": _builder_digest(),
-                       **{k: getattr(spec, k) for k in _SOLID_FIELDS}},
-                      sort_keys=True, default=repr)
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
-
-
-def _turned_solids(model, design: PairDesign, solids: _Solids
-                   ) -> tuple[dict[str, int], dict[str, list[int]]]:
-    """Import ``solids`` and turn each sector into the place ``design`` says."""
-    pair, analysis, occ = design.pair, design.analysis, model.occ
-    # OCC's own entities serve until the turns are made: one synchronisation
-    # (0.13 s on a coarse pair) instead of one before and one after them
-    tags = [t for d, t in occ.importShapes(str(solids.brep)) if d == 3]
-    turns = {
-        "pinion": _affine(pair.pinion_rotation(analysis.pinion_roll_placed)
-                          @ pair.pinion_rotation(solids.pinion_roll).T,
-                          np.array([0.0, pair.pinion.pitch_radius, pair.z0]) * MM),
-        "face_gear": _affine(pair.face_rotation(analysis.contact.face_angle)
-                             @ pair.face_rotation(solids.face_angle).T, np.zeros(3)),
-    }
-    if solids.index is not None and len(tags) == len(solids.volumes):
-        volumes = {k: tags[i] for k, i in solids.index[0].items()}
-    else:
-        centres = np.array([occ.getCenterOfMass(3, t) for t in tags])
-        volumes = {k: tags[_nearest(centres, c, k)] for k, c in solids.volumes.items()}
-    for name, tag in volumes.items():
-        _rotate(occ, tag, turns[name])
-    occ.synchronize()
-    faces = {name: [t for _, t in model.getBoundary([(3, tag)], oriented=False)]
-             for name, tag in volumes.items()}
-    boxes = {name: np.array([model.getBoundingBox(2, f) for f in fs]).reshape(-1, 2, 3)
-             for name, fs in faces.items()}
-    turned = {group: [_apply(turns[_body(group)], c) for c in cs]
-              for group, cs in solids.faces.items()}
-    if solids.index is not None:
-        groups = _indexed_groups(solids.index[1], faces, boxes, turned)
-        if groups is not None:
-            return volumes, groups
-        logger.info("the reloaded sectors' faces are not where the first import found "
-                    "them: searching them by their centres")
-        solids.index = None
-        occ.remove(model.getEntities(3), recursive=True)
-        occ.synchronize()
-        return _turned_solids(model, design, solids)
-    centres: dict[tuple[str, int], NDArray] = {}   # computed once, when needed
-
-    def centre(name: str, i: int) -> NDArray:
-        if (name, i) not in centres:
-            centres[name, i] = np.array(occ.getCenterOfMass(2, faces[name][i]))
-        return centres[name, i]
-
-    groups: dict[str, list[int]] = {}
-    places: dict[str, list[int]] = {}
-    for group, cs in turned.items():
-        name = _body(group)
-        groups[group], places[group] = [], []
-        for c in cs:
-            # a face's centre of mass lies in its bounding box (OCC pads the box):
-            # the costly centres are computed for those faces only
-            near = np.flatnonzero(_in_boxes(boxes[name], c))
-            pool = near if len(near) else np.arange(len(faces[name]))
-            d = np.array([centre(name, int(i)) for i in pool])
-            i = int(pool[_nearest(d, c, group)])
-            groups[group].append(faces[name][i])
-            places[group].append(i)
-    solids.index = ({k: tags.index(t) for k, t in volumes.items()}, places)
-    return volumes, groups
-
-
 def _contact_groups(groups: dict[str, list[int]]) -> dict[str, list[int]]:
     """The mesh's surface groups: a rounded tip edge belongs to its flank's group (the
     contact surface), kept apart only for the snapping."""
@@ -896,116 +338,6 @@ def _contact_groups(groups: dict[str, list[int]]) -> dict[str, list[int]]:
         out[f"{body}_flank"] = out[f"{body}_flank"] + groups.get(f"{body}_edge", [])
     return out
 
-
-def _body(group: str) -> str:
-    """The sector a surface group belongs to."""
-    return "pinion" if group.startswith("pinion") else "face_gear"
-
-
-def _in_boxes(boxes: NDArray, c: NDArray) -> NDArray:
-    """Which of the (padded by 1 um) bounding boxes ``boxes`` (n, 2, 3) [mm] hold ``c``."""
-    return np.all((boxes[:, 0] - 1e-3 <= c) & (c <= boxes[:, 1] + 1e-3), axis=1)
-
-
-def _indexed_groups(places: dict[str, list[int]], faces: dict[str, list[int]],
-                    boxes: dict[str, NDArray], turned: dict[str, list[NDArray]]
-                    ) -> dict[str, list[int]] | None:
-    """The groups' faces at the places the first import found them (:attr:`_Solids.index`),
-    or None unless each such face's box holds the group face's turned centre of mass
-    (then the centres are searched again). 0.2 s a mesh less than the search: OCC
-    integrates every centre of mass afresh."""
-    groups = {}
-    for group, where in places.items():
-        name = _body(group)
-        if max(where) >= len(faces[name]):
-            return None
-        if not all(_in_boxes(boxes[name][i:i + 1], c)[0]
-                   for i, c in zip(where, turned[group], strict=True)):
-            return None
-        groups[group] = [faces[name][i] for i in where]
-    return groups
-
-
-def _nearest(centres: NDArray, c: NDArray, name: str) -> int:
-    """Index of the centre nearest ``c`` [mm]: the same exact shapes, read back and
-    turned. OCC integrates the centres of mass numerically (measured: up to about
-    1e-6 mm apart for the same face, turned), so within 1 um, and no other entity
-    within 10 um (distinct faces of a sector are a tenth of a millimetre apart or
-    more)."""
-    d = np.linalg.norm(centres - c, axis=1)
-    order = np.argsort(d)
-    i = int(order[0])
-    second = d[order[1]] if len(d) > 1 else np.inf
-    if d[i] > 1e-3 or second < 1e-2:
-        raise MeshError(f"{name}: the reloaded sectors have no single entity at {c} mm "
-                        f"(nearest {d[i]:.3g} mm, next {second:.3g} mm away)")
-    return i
-
-
-#: Stretch caps and ends of the map's compensation (in zone half-lengths)
-#: tried in turn when a mesh comes out with an element turned inside out by
-#: the map; the last, a cap of 1, is the plain isotropic mesh (no map). At
-#: the cap of 2.5 the shorter compensation is tried too before the isotropic
-#: mesh, which costs 1.5-2 times the DOFs (:data:`~fe_impact.meshing.sizing.REACH`).
-_RETRIES = ((None, REACH), (5.0, REACH), (2.5, REACH), (2.5, SHORT_REACH), (1.0, REACH))
-#: Attempts at one stretch with smaller elements around the elements that came
-#: back turned over (:func:`_turned_balls`), before the stretch is lowered: a
-#: large element where the map varies fast turns over, a smaller one there
-#: does not, and the contact zone keeps its discretisation.
-LOCAL_REFINEMENTS = 2
-#: More turned-over elements than this are not refined one by one (each is a
-#: term of the size field, evaluated at every size query): the stretch is lowered.
-MAX_BALLS = 16
-
-
-def mesh_with_retries(where: str, session: str,
-                      design_for: Callable[[float | None, float], D],
-                      mesh: Callable[[object, D], MeshStats], factor: Callable[[D], float],
-                      verbose: bool, started: float) -> tuple[D, MeshStats]:
-    """Mesh, lowering the anisotropy while an element comes out inverted.
-
-    ``design_for(cap, reach)`` designs the mesh for a stretch cap and an end
-    of the map's compensation of :data:`_RETRIES` (cap None: the level's
-    own); ``mesh(model, design)`` meshes it in a gmsh session named
-    ``session`` and raises :class:`_InvertedMesh` on a turned-over element;
-    ``factor(design)`` is the stretch factor the design took. A design equal
-    to one already tried (a cap above the level's own factor) is skipped:
-    the mesher is deterministic. ``where`` names the pair in the warnings
-    and in the :class:`MeshError` raised when the isotropic mesh fails too.
-    """
-    from fe_impact.meshing.session import gmsh_session
-
-    tried: set[tuple[float, float | None]] = set()
-    failed: tuple[_InvertedMesh, float] | None = None   # the last failure, its reach
-    for cap, reach in _RETRIES:
-        design = design_for(cap, reach)
-        stretch = factor(design)
-        attempt = (stretch, reach if stretch > 1.0 else None)   # no map: no reach
-        if attempt in tried:
-            continue
-        tried.add(attempt)
-        if failed is not None:
-            logger.warning("%s: %s; meshing again with a stretch factor of at most %s%s",
-                           where, failed[0], cap,
-                           "" if reach == failed[1] or stretch <= 1.0 else
-                           f" and the map's compensation ending {reach:g} zone "
-                           "half-lengths from the contact")
-        for refined in range(LOCAL_REFINEMENTS + 1):
-            try:
-                with gmsh_session(session, verbose=verbose) as model:
-                    stats = mesh(model, design)
-            except _InvertedMesh as exc:
-                if stretch <= 1.0:
-                    raise MeshError(f"{where}: {exc}") from exc
-                failed = (exc, reach)
-                if refined == LOCAL_REFINEMENTS or not exc.balls:
-                    break
-                logger.info("%s: %s; meshing again at the same stretch with elements of a "
-                            "third of its size around it", where, exc)
-                design = replace(design, refine=design.refine + exc.balls)
-                continue
-            return design, replace(stats, seconds=time.perf_counter() - started)
-    raise AssertionError("unreachable: the isotropic mesh either passes or raises")
 
 
 def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
@@ -1023,13 +355,3 @@ def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: b
         if reference.get("file") is not None:
             reference["file"].unlink(missing_ok=True)
 
-
-def _cached(paths: tuple[Path, ...], key: str) -> dict | None:
-    """The stored summary if all files exist and were written for ``key``."""
-    if not all(p.is_file() for p in paths):
-        return None
-    try:
-        summary = json.loads(paths[2].read_text())
-    except (OSError, json.JSONDecodeError):
-        return None
-    return summary if summary.get("key") == key and summary.get("mesh") else None

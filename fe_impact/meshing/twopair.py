@@ -23,7 +23,7 @@ away from both contacts, grows (on the seed set from 0.95 to 1.2-1.3;
 without the shortening the overlapping fall-offs turn elements inside out).
 The steeper fall-off leaves more elements near the quality limit: on the
 seed set at the coarse level two of three two-pair meshes come out below
-:data:`~fe_impact.meshing.toothpair.MIN_SICN` at stretch 8 and are made
+:data:`~fe_impact.meshing.stretchmesh.MIN_SICN` at stretch 8 and are made
 again at stretch 5, as a single pair would be (stretch 5 instead of 8
 changes a single pair's load-approach curve by under 1%, measured).
 
@@ -42,7 +42,6 @@ mesh).
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import time
@@ -63,29 +62,29 @@ from fe_impact.fe.case import (
 )
 from fe_impact.gears.pairanalysis import PairAnalysis, PairSpec
 from fe_impact.gears.tca import GearPair
+from fe_impact.meshing.cache import cached_summary, mesh_key
 from fe_impact.meshing.contactstretch import ContactStretch
 from fe_impact.meshing.pairgeometry import MM, add_sectors, snap_flanks
 from fe_impact.meshing.sizing import (
     REACH,
     PairDesign,
-    _box_distance,
-    _set_size_field,
-    _zone_half_widths,
+    box_distance,
     design_pair,
     level_of,
     refine_terms,
+    set_size_field,
+    zone_half_widths,
 )
-from fe_impact.meshing.toothpair import (
+from fe_impact.meshing.stretchmesh import (
     MIN_SICN,
+    InvertedMesh,
     MeshStats,
-    _InvertedMesh,
-    _map_nodes,
-    _reload_as_discrete,
-    _statistics,
-    _turned_balls,
-    _volume_mesh,
-    mesh_key,
+    map_nodes,
+    mesh_statistics,
     mesh_with_retries,
+    reload_as_discrete,
+    turned_balls,
+    volume_mesh,
 )
 
 logger = logging.getLogger(__name__)
@@ -284,10 +283,10 @@ def _reference_size_field(model, design: TwoPairDesign) -> None:
     terms = []
     for d in design.designs:
         st = d.stretch
-        width, depth = _zone_half_widths(d)
+        width, depth = zone_half_widths(d)
         half = (st.half_length * MM, width * MM, depth * MM)
-        terms.append((0.7 * d.sizes["minor"] * MM, _box_distance(st.axes, st.origin * MM, half)))
-    _set_size_field(model, terms, 0.5 * level.gradation, 0.5 * design.designs[0].sizes["far"] * MM)
+        terms.append((0.7 * d.sizes["minor"] * MM, box_distance(st.axes, st.origin * MM, half)))
+    set_size_field(model, terms, 0.5 * level.gradation, 0.5 * design.designs[0].sizes["far"] * MM)
 
 
 def _size_field(model, design: TwoPairDesign) -> None:
@@ -297,12 +296,12 @@ def _size_field(model, design: TwoPairDesign) -> None:
     terms = []
     for d in design.designs:
         st = d.stretch
-        width, depth = _zone_half_widths(d)
+        width, depth = zone_half_widths(d)
         lo, hi = st.mapped_interval(st.half_length)
         centre = (st.origin + 0.5 * (lo + hi) * st.axes[0]) * MM
         half = (0.5 * (hi - lo) * MM, width * MM, depth * MM)
-        terms.append((d.sizes["minor"] * MM, _box_distance(st.axes, centre, half)))
-    _set_size_field(model, [*terms, *refine_terms(design.refine)], level.gradation,
+        terms.append((d.sizes["minor"] * MM, box_distance(st.axes, centre, half)))
+    set_size_field(model, [*terms, *refine_terms(design.refine)], level.gradation,
                     design.designs[0].sizes["far"] * MM)
 
 
@@ -339,12 +338,12 @@ class TwoPairMesh:
 
 
 def two_pair_key(gearset, spec: PairSpec) -> str:
-    """The key of the two-pair mesh of ``spec`` (:func:`~fe_impact.meshing.toothpair.mesh_key`)."""
+    """The key of the two-pair mesh of ``spec`` (:func:`~fe_impact.meshing.cache.mesh_key`)."""
     return mesh_key(gearset, spec, two_pair=1)
 
 
 def _mesh(model, design: TwoPairDesign, spec: PairSpec, path: Path, started: float) -> MeshStats:
-    """The steps of :func:`fe_impact.meshing.toothpair._mesh`, for two contacts."""
+    """The steps of :mod:`~fe_impact.meshing.stretchmesh`, for two contacts."""
     from fe_impact.meshing.session import write_msh
 
     d1 = design.designs[0]
@@ -352,10 +351,10 @@ def _mesh(model, design: TwoPairDesign, spec: PairSpec, path: Path, started: flo
                                   pinion_groups=PINION_GROUPS, face_groups=FACE_GROUPS)
     _reference_size_field(model, design)
     model.mesh.generate(2)
-    _map_nodes(model, design.stretch.to_mesh)
-    _reload_as_discrete(model, path)
+    map_nodes(model, design.stretch.to_mesh)
+    reload_as_discrete(model, path)
     _size_field(model, design)
-    _volume_mesh(model, volumes, design.stretch)
+    volume_mesh(model, volumes, design.stretch)
     if spec.order == 2:
         model.mesh.setOrder(2)
     for k, d in enumerate(design.designs, 1):
@@ -368,19 +367,19 @@ def _mesh(model, design: TwoPairDesign, spec: PairSpec, path: Path, started: flo
         model.addPhysicalGroup(3, [tag], name=name)
     for name, faces in groups.items():
         model.addPhysicalGroup(2, faces, name=name)
-    stats = _statistics(model, volumes, time.perf_counter() - started, design.sizes())
+    stats = mesh_statistics(model, volumes, time.perf_counter() - started, design.sizes())
     if stats.min_sicn <= MIN_SICN:
-        raise _InvertedMesh(
+        raise InvertedMesh(
             f"the {spec.level} two-pair mesh has an element of quality {stats.min_sicn:.3g} "
             f"(minimum SICN; {MIN_SICN} required) at stretch factor {design.factor:.3g}",
-            _turned_balls(model, volumes, design.stretch))
+            turned_balls(model, volumes, design.stretch))
     write_msh(path)
     return stats
 
 
 def _mesh_with_retries(gearset, spec: PairSpec, path: Path, key: str, verbose: bool,
                        started: float) -> tuple[TwoPairDesign, MeshStats]:
-    """:func:`~fe_impact.meshing.toothpair.mesh_with_retries` for two tooth pairs."""
+    """:func:`~fe_impact.meshing.stretchmesh.mesh_with_retries` for two tooth pairs."""
     return mesh_with_retries(
         f"stage {spec.stage} two pairs at {spec.roll_angle_deg:+.3f} deg roll",
         f"two_pair_{key}", lambda cap, reach: design_two_pair(gearset, spec, cap, reach),
@@ -444,7 +443,7 @@ def build_two_pair(gearset, stage: int = 1, roll_angle_deg: float = 10.0,
     out = Path(out_dir)
     key = two_pair_key(gearset, spec)
     mesh_path, summary_path = out / "two_pair.msh", out / "two_pair.json"
-    cached = _cached(mesh_path, summary_path, key) if reuse else None
+    cached = cached_summary((mesh_path,), summary_path, key) if reuse else None
     if cached is not None:
         design = design_two_pair(gearset, spec, max(cached["stretch_factors"]))
         stats = MeshStats(**cached["mesh"])
@@ -457,17 +456,6 @@ def build_two_pair(gearset, stage: int = 1, roll_angle_deg: float = 10.0,
         logger.info("wrote %s (%d elements, %d DOFs, %.1f s)", mesh_path,
                     stats.n_elements["total"], stats.n_dofs, stats.seconds)
     return TwoPairMesh(mesh_path, summary_path, key, stats, design)
-
-
-def _cached(mesh_path: Path, summary_path: Path, key: str) -> dict | None:
-    """The stored summary if both files exist and were written for ``key``."""
-    if not (mesh_path.is_file() and summary_path.is_file()):
-        return None
-    try:
-        summary = json.loads(summary_path.read_text())
-    except (OSError, json.JSONDecodeError):
-        return None
-    return summary if summary.get("key") == key and summary.get("mesh") else None
 
 
 # -- the static case ---------------------------------------------------------------------------

@@ -117,12 +117,37 @@ def test_cycle_needs_a_two_pair_zone():
         mesh_cycle(recs, 20.0, 1.0)
 
 
+def rack_contact_ratio(pinion) -> float:
+    """Contact ratio of an involute pinion on a face gear, in closed form (sharp tips).
+
+    The contact stays on the pinion's line of action, which it leaves at the
+    pinion's tip circle, ``sqrt(r_a^2 - r_b^2) - r_p sin a`` beyond the pitch
+    point, and where it reaches the face gear's tip plane, the addendum ``m``
+    above the pitch plane, ``m / sin a`` before it; over the base pitch
+    ``pi m cos a`` (Litvin and Fuentes, Gear Geometry and Applied Theory,
+    2nd ed., ch. 10 for the rack; the face gear's tip is such a plane).
+    """
+    m, a = pinion.module, math.radians(pinion.pressure_angle_deg)
+    r_p = pinion.pitch_radius
+    r_b, r_a = r_p * math.cos(a), r_p + pinion.addendum_coeff * m
+    path = math.sqrt(r_a ** 2 - r_b ** 2) - r_p * math.sin(a) + \
+        pinion.addendum_coeff * m / math.sin(a)
+    return path / (math.pi * m * math.cos(a))
+
+
+#: The path's ends from the tooth contact analysis (numerical root searches on
+#: the crowned 3-D flanks) against the closed form: 1e-4 relative, a tenth of
+#: the smallest share of the path the studies resolve (the coarse level's end
+#: inset, 0.5%, is fifty times larger). Measured 1.8e-5 on the seed set.
+CONTACT_RATIO_TOL = 1e-4
+
+
 def test_positions_span_the_path():
     gs = default_gearset()
     first, last = meshcycle.path_of_contact(gs, 1)
-    # The path of contact over the angular pitch is the contact ratio
-    # (1.7622, the geometry command's figure for the seed set).
-    assert abs(first - last) / (360.0 / gs.pinion.teeth) == pytest.approx(1.7622, abs=1e-4)
+    # The path of contact over the angular pitch is the contact ratio.
+    assert abs(first - last) / (360.0 / gs.pinion.teeth) == pytest.approx(
+        rack_contact_ratio(gs.pinion), rel=CONTACT_RATIO_TOL)
     for level, inset in (("coarse", 0.005), ("default", 0.05), ("fine", 0.05), (None, 0.05)):
         cases = meshcycle.plan_positions(gs, [1], 9, forces=(50.0, 100.0), level=level)
         rolls = [c.roll_angle_deg for c in cases]

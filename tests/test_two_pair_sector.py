@@ -21,6 +21,7 @@ from fe_impact.meshing.twopair import (
     pair_roll_angles,
     two_pair_zone,
 )
+from tests.test_meshcycle import CONTACT_RATIO_TOL, rack_contact_ratio
 
 ROLL = 11.5   # deg, inside the seed stage 1's two-pair zone (4.32 .. 18.76 deg)
 
@@ -49,8 +50,10 @@ def _ry(angle: float) -> np.ndarray:
 def test_pair_roll_angles_are_one_pitch_apart_on_the_path(gearset):
     lo, hi = two_pair_zone(gearset, 1)
     pitch = 360.0 / gearset.pinion.teeth
-    # the zone is the path less one pitch: the seed's contact ratio 1.7622
-    assert (hi - lo) / pitch == pytest.approx(0.7622, abs=1e-4)
+    # the zone is the path less one pitch: the contact ratio less one, the
+    # contact ratio in closed form (tests/test_meshcycle.py)
+    eps = rack_contact_ratio(gearset.pinion)
+    assert (hi - lo) / pitch == pytest.approx(eps - 1.0, abs=CONTACT_RATIO_TOL * eps)
     for roll in (lo + 0.1, ROLL, hi - 0.1, ROLL - pitch):
         r1, r2 = pair_roll_angles(gearset, 1, roll)
         assert r1 - r2 == pytest.approx(pitch, abs=1e-12)

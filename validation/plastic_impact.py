@@ -85,8 +85,10 @@ def thornton(ratio: float) -> float:
 
 
 def seed_eq14(ratio: float) -> float:
-    """The seed's eq. 14 at V/V_y (:func:`fe_impact.physics.hertz.seed_restitution`)."""
-    return hertz.seed_restitution(ratio)
+    """The seed's eq. 14 at V/V_y (:func:`fe_impact.physics.seed.restitution`)."""
+    from fe_impact.physics import seed
+
+    return seed.restitution(ratio)
 
 
 def jgm(ratio: float) -> float:

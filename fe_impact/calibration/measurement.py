@@ -281,7 +281,7 @@ def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -
     reaches the yield-onset pressure ``p0 = 1.6 Y``
     (`fe_impact.physics.hertz.ellipse_yield_speed`).
     """
-    from fe_impact.physics import hertz
+    from fe_impact.physics import hertz, seed
 
     vy15 = hertz.yield_onset_speed(material.yield_strength, material.density,
                                    tca.effective_modulus)
@@ -291,6 +291,6 @@ def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -
                                     material.yield_strength)
     return {"v_y_eq15": vy15, "v_y_tooth": vyt,
             "yield_ratio_eq15": speed / vy15, "yield_ratio_tooth": speed / vyt,
-            "seed_eq14": hertz.seed_restitution(speed / vy15),
-            "seed_eq14_tooth": hertz.seed_restitution(speed / vyt)}
+            "seed_eq14": seed.restitution(speed / vy15),
+            "seed_eq14_tooth": seed.restitution(speed / vyt)}
 

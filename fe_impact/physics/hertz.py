@@ -20,6 +20,8 @@ from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 from scipy.special import beta, elliprd, elliprf
 
+from fe_impact.physics.checks import require_poisson, require_positive
+
 logger = logging.getLogger(__name__)
 
 #: ``t_c v / delta_max`` for a Hertz impact: ``2 * (2/5) B(2/5, 1/2) = 2.94328``.
@@ -31,22 +33,6 @@ HERTZ_CONTACT_TIME_FACTOR: float = float(2.0 * 0.4 * beta(0.4, 0.5))
 # cancellation; its asymptotic series then converges like (a/z)^2 <= 1/4 per term.
 _SERIES_FROM = 2.0
 _SERIES_TERMS = 30
-
-
-def _require_positive(name: str, value: float) -> float:
-    """Return ``value`` as a float, or raise ValueError naming it when not > 0."""
-    value = float(value)
-    if not np.isfinite(value) or value <= 0.0:
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    return value
-
-
-def _require_poisson(name: str, value: float) -> float:
-    """Return ``value`` as a float, or raise ValueError when outside (-1, 0.5]."""
-    value = float(value)
-    if not -1.0 < value <= 0.5:
-        raise ValueError(f"{name} must lie in (-1, 0.5], got {value!r}")
-    return value
 
 
 def effective_modulus(
@@ -73,10 +59,10 @@ def effective_modulus(
     >>> round(effective_modulus(212e9, 0.289) / 1e9, 2)  # two 20CrMnTi bodies
     115.66
     """
-    E1 = _require_positive("E1", E1)
-    nu1 = _require_poisson("nu1", nu1)
-    E2 = E1 if E2 is None else _require_positive("E2", E2)
-    nu2 = nu1 if nu2 is None else _require_poisson("nu2", nu2)
+    E1 = require_positive("E1", E1)
+    nu1 = require_poisson("nu1", nu1)
+    E2 = E1 if E2 is None else require_positive("E2", E2)
+    nu2 = nu1 if nu2 is None else require_poisson("nu2", nu2)
     return 1.0 / ((1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2)
 
 
@@ -132,9 +118,9 @@ def sphere_contact(force: float, R: float, E_star: float) -> HertzContact:
     >>> round(c.a * 1e6, 2), round(c.p0 / 1e6), round(c.delta * 1e6, 3)
     (401.75, 2958, 16.141)
     """
-    force = _require_positive("force", force)
-    R = _require_positive("R", R)
-    E_star = _require_positive("E_star", E_star)
+    force = require_positive("force", force)
+    R = require_positive("R", R)
+    E_star = require_positive("E_star", E_star)
     a = (3.0 * force * R / (4.0 * E_star)) ** (1.0 / 3.0)
     p0 = 3.0 * force / (2.0 * np.pi * a**2)
     return HertzContact(a=a, b=a, p0=p0, delta=sphere_approach(force, R, E_star), force=force)
@@ -155,9 +141,9 @@ def sphere_approach(force: float, R: float, E_star: float) -> float:
     E_star : float
         Effective modulus [Pa].
     """
-    force = _require_positive("force", force)
-    R = _require_positive("R", R)
-    E_star = _require_positive("E_star", E_star)
+    force = require_positive("force", force)
+    R = require_positive("R", R)
+    E_star = require_positive("E_star", E_star)
     return (9.0 * force**2 / (16.0 * R * E_star**2)) ** (1.0 / 3.0)
 
 
@@ -173,8 +159,8 @@ def sphere_stiffness(R: float, E_star: float) -> float:
     E_star : float
         Effective modulus [Pa].
     """
-    R = _require_positive("R", R)
-    E_star = _require_positive("E_star", E_star)
+    R = require_positive("R", R)
+    E_star = require_positive("E_star", E_star)
     return 4.0 / 3.0 * E_star * float(np.sqrt(R))
 
 
@@ -280,10 +266,10 @@ def ellipse_contact(force: float, Rx: float, Ry: float, E_star: float) -> HertzC
     >>> round(c.a * 1e6, 1), round(c.b * 1e6, 1), round(c.p0 / 1e6, 1)
     (1172.2, 260.5, 1563.6)
     """
-    force = _require_positive("force", force)
-    Rx = _require_positive("Rx", Rx)
-    Ry = _require_positive("Ry", Ry)
-    E_star = _require_positive("E_star", E_star)
+    force = require_positive("force", force)
+    Rx = require_positive("Rx", Rx)
+    Ry = require_positive("Ry", Ry)
+    E_star = require_positive("E_star", E_star)
     if Rx == Ry:
         return sphere_contact(force, Rx, E_star)
     A = 0.5 / max(Rx, Ry)
@@ -321,9 +307,9 @@ def ellipse_layer_compression(z: float, a: float, b: float, p0: float, E: float,
     z = float(z)
     if not (np.isfinite(z) and z > 0.0):
         raise ValueError(f"z must be finite and > 0, got {z!r}")
-    a, b = _require_positive("a", a), _require_positive("b", b)
-    p0, E = _require_positive("p0", p0), _require_positive("E", E)
-    nu = _require_poisson("nu", nu)
+    a, b = require_positive("a", a), require_positive("b", b)
+    p0, E = require_positive("p0", p0), require_positive("E", E)
+    nu = require_poisson("nu", nu)
     surface = (1.0 - nu**2) / (np.pi * E)
     depth = (1.0 + nu) / (2.0 * np.pi * E)
 
@@ -395,10 +381,10 @@ def axial_displacement(
     float or ndarray
         Displacement into the body [m], positive, same shape as ``z``.
     """
-    a = _require_positive("a", a)
-    p0 = _require_positive("p0", p0)
-    E = _require_positive("E", E)
-    nu = _require_poisson("nu", nu)
+    a = require_positive("a", a)
+    p0 = require_positive("p0", p0)
+    E = require_positive("E", E)
+    nu = require_poisson("nu", nu)
     zeta = np.asarray(z, dtype=float) / a
     if np.any(zeta < 0.0) or not np.all(np.isfinite(zeta)):
         raise ValueError(f"z must be finite and >= 0, got min {np.min(zeta) * a!r}")
@@ -485,8 +471,8 @@ def impact_from_stiffness(mass: float, speed: ArrayLike, k: float) -> HertzImpac
         Fields are floats for a scalar speed, arrays shaped like ``speed``
         otherwise (one impact per speed).
     """
-    mass = _require_positive("mass", mass)
-    k = _require_positive("k", k)
+    mass = require_positive("mass", mass)
+    k = require_positive("k", k)
     speed = np.asarray(speed, dtype=float)
     if not np.all(np.isfinite(speed)) or np.any(speed <= 0.0):
         raise ValueError(f"speed must be a positive finite number, got {speed!r}")
@@ -520,7 +506,7 @@ def hunter_wave_loss(speed: ArrayLike, E: float, rho: float) -> np.ndarray | flo
     float or ndarray
         Energy fraction [-].
     """
-    c0 = np.sqrt(_require_positive("E", E) / _require_positive("rho", rho))
+    c0 = np.sqrt(require_positive("E", E) / require_positive("rho", rho))
     speed = np.asarray(speed, dtype=float)
     if np.any(speed < 0.0):
         raise ValueError(f"speed must be >= 0, got min {np.min(speed)!r}")
@@ -550,9 +536,9 @@ def yield_onset_speed(Y: float, rho: float, E_star: float) -> float:
     float
         Speed [m/s].
     """
-    Y = _require_positive("Y", Y)
-    rho = _require_positive("rho", rho)
-    E_star = _require_positive("E_star", E_star)
+    Y = require_positive("Y", Y)
+    rho = require_positive("rho", rho)
+    E_star = require_positive("E_star", E_star)
     return float(np.sqrt(26.0 * Y**5 / (rho * E_star**4)))
 
 
@@ -571,25 +557,13 @@ def ellipse_yield_speed(mass: float, Rx: float, Ry: float, E_star: float, Y: flo
     a tooth pair's effective mass is not its contact's sphere, so its yield
     onset depends on the geometry.
     """
-    mass = _require_positive("mass", mass)
-    Y = _require_positive("Y", Y)
+    mass = require_positive("mass", mass)
+    Y = require_positive("Y", Y)
     unit = ellipse_contact(1.0, Rx, Ry, E_star)
     k = 1.0 / unit.delta**1.5
     force = (pressure * Y / unit.p0) ** 3
     delta = (force / k) ** (2.0 / 3.0)
     return float(np.sqrt(4.0 * k * delta**2.5 / (5.0 * mass)))
-
-
-def seed_restitution(yield_ratio: ArrayLike) -> np.ndarray | float:
-    """The seed's restitution law, eq. 14: `fe_impact.physics.seed.restitution`.
-
-    ``e = 1`` for ``j <= 1`` and ``e = 1 - 0.035 ln(j) j^0.1645`` above, with
-    ``j = v / v_y`` the impact speed over the yield-onset speed (eq. 15),
-    never below `fe_impact.physics.seed.RESTITUTION_FLOOR`.
-    """
-    from fe_impact.physics.seed import restitution  # seed imports this module
-
-    return restitution(yield_ratio)
 
 
 def thornton_restitution(yield_ratio: ArrayLike) -> np.ndarray | float:
@@ -659,11 +633,11 @@ def thornton_impact(mass: float, speed: float, R: float, E_star: float,
     ``p_y`` is the limiting contact pressure (Thornton takes the pressure of
     first yield, 1.6 Y for Y the tensile yield strength).
     """
-    mass = _require_positive("mass", mass)
-    speed = _require_positive("speed", speed)
-    R = _require_positive("R", R)
-    E_star = _require_positive("E_star", E_star)
-    p_y = _require_positive("p_y", p_y)
+    mass = require_positive("mass", mass)
+    speed = require_positive("speed", speed)
+    R = require_positive("R", R)
+    E_star = require_positive("E_star", E_star)
+    p_y = require_positive("p_y", p_y)
     k = sphere_stiffness(R, E_star)
     d_y = R * (np.pi * p_y / (2.0 * E_star)) ** 2
     F_y = k * d_y ** 1.5
@@ -691,7 +665,7 @@ def jackson_green_factor(poisson: float) -> float:
     2005, 343-354, with their critical interference
     ``delta_c = (pi C S_y / (2 E'))^2 R``.
     """
-    return 1.295 * float(np.exp(0.736 * _require_poisson("poisson", poisson)))
+    return 1.295 * float(np.exp(0.736 * require_poisson("poisson", poisson)))
 
 
 def jgm_restitution(
@@ -743,7 +717,7 @@ def jgm_restitution(
     >>> round(jgm_restitution(5.0, 835e6, 115.66e9), 3)
     0.888
     """
-    group = _require_positive("yield_strength", yield_strength) / _require_positive(
+    group = require_positive("yield_strength", yield_strength) / require_positive(
         "E_star", E_star)
     if poisson is not None:
         group *= jackson_green_factor(poisson)

@@ -32,7 +32,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import OptimizeResult, minimize_scalar
 
 from fe_impact.errors import SolverError
-from fe_impact.physics.hertz import _require_positive
+from fe_impact.physics.checks import require_positive
 from fe_impact.physics.impact_law import impact_force_ufunc, step_ufunc
 
 logger = logging.getLogger(__name__)
@@ -178,10 +178,10 @@ class ImpactLaw:
     d: float
 
     def __post_init__(self) -> None:
-        _require_positive("k", self.k)
-        _require_positive("exponent", self.exponent)
+        require_positive("k", self.k)
+        require_positive("exponent", self.exponent)
         _require_non_negative("cmax", self.cmax)
-        _require_positive("d", self.d)
+        require_positive("d", self.d)
 
     def force(self, penetration: ArrayLike, penetration_rate: ArrayLike) -> FloatOrArray:
         """Contact force [N] for penetration [m] and closing rate [m/s]."""
@@ -258,10 +258,10 @@ class HysteresisLaw:
     impact_speed: float
 
     def __post_init__(self) -> None:
-        _require_positive("k", self.k)
-        _require_positive("exponent", self.exponent)
+        require_positive("k", self.k)
+        require_positive("exponent", self.exponent)
         _require_non_negative("chi", self.chi)
-        _require_positive("impact_speed", self.impact_speed)
+        require_positive("impact_speed", self.impact_speed)
 
     @classmethod
     def from_model(
@@ -441,8 +441,8 @@ def simulate_impact(
     SolverError
         If the bodies have not parted after 1e6 undamped time scales.
     """
-    mass = _require_positive("mass", mass)
-    speed = _require_positive("speed", speed)
+    mass = require_positive("mass", mass)
+    speed = require_positive("speed", speed)
     if n_samples < 3:
         raise ValueError(f"n_samples must be >= 3, got {n_samples!r}")
     length, scale = _scales(law, mass, speed)

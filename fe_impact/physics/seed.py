@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fe_impact.physics import hertz, laws
+from fe_impact.physics.checks import require_positive
 
 __all__ = [
     "RESTITUTION_FLOOR",
@@ -78,9 +79,9 @@ def damping(k: float, e: float, impact_speed: float, delta: float,
     exponent : float, optional
         Power ``a`` of ``delta``.
     """
-    k = hertz._require_positive("k", k)
-    impact_speed = hertz._require_positive("impact_speed", impact_speed)
-    delta = hertz._require_positive("delta", delta)
+    k = require_positive("k", k)
+    impact_speed = require_positive("impact_speed", impact_speed)
+    delta = require_positive("delta", delta)
     chi = laws.hysteresis_factor("zhiying-qishao", e)
     return chi * k * delta**exponent / impact_speed
 

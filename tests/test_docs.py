@@ -28,8 +28,10 @@ _LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)|!\[[^\]]*\]
 _FENCE = re.compile(r"^(```|~~~).*?^\1", re.MULTILINE | re.DOTALL)
 _HEADING = re.compile(r"^#{1,6}\s+(.+?)\s*#*\s*$", re.MULTILINE)
 _DATE = re.compile(r"\b20\d\d-[01]\d-[0-3]\d\b")
-#: A commit hash: 7-40 hex digits holding both a digit and a letter.
-_HASH = re.compile(r"\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,40}\b")
+#: A commit hash: 7-40 hex digits holding both a digit and a letter, not part of a
+#: number (the mantissa digits of 6.967920282539917e-05 are no hash).
+_HASH = re.compile(r"(?<![\w.])(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,40}"
+                   r"(?!\w|[-+]\d)")
 
 
 def _text(path: Path) -> str:

@@ -218,8 +218,8 @@ def test_corner_rows_are_taken_where_the_planar_gap_is_the_reported_one(rows, ge
     closed form of its frame, not the table the row was inverted from) equals
     CORNER_REPORT_GAP: within the table's spline error, 1e-4 relative; the
     three-dimensional gaps are positive and the touch lies on the rounding."""
+    from fe_impact.gears.kinematics import _RackPinionFrame
     from fe_impact.gears.report import CORNER_REPORT_GAP
-    from fe_impact.switching.geometry import _RackPinionFrame
 
     p = gearset.pinion
     a = math.radians(p.pressure_angle_deg)

@@ -22,6 +22,7 @@ from scipy.optimize import brentq
 from fe_impact.cli.switching import register
 from fe_impact.errors import CalibrationError, CaseError
 from fe_impact.gears import default_gearset
+from fe_impact.gears.kinematics import _RackPinionFrame
 from fe_impact.physics import laws
 from fe_impact.switching import (
     PRESETS,
@@ -39,7 +40,6 @@ from fe_impact.switching import (
     simulate,
     switching_speed,
 )
-from fe_impact.switching.geometry import _RackPinionFrame
 from fe_impact.switching.seed_tables import SEED_TABLES
 
 RPM = 2.0 * math.pi / 60.0
@@ -589,8 +589,8 @@ def test_three_dimensional_corner_tables_follow_the_first_touch():
     # leaves room for the kinks where the touch moves between separate places of the edge
     # (with 65 samples one point, 1.58 um, was off by 2e-4).
     from fe_impact.gears.corner import corner_gaps, face_edge_rounding, pinion_edge_rounding
+    from fe_impact.gears.kinematics import SOLID_CORNER_SECTIONS
     from fe_impact.gears.tca import GearPair
-    from fe_impact.switching.geometry import SOLID_CORNER_SECTIONS
 
     flat = mesh_geometry(GEARSET)
     model = DriveModel(corners="3d")

@@ -12,7 +12,7 @@ consistent); with ``w_f r_f = w_c r_c`` this is ``w_c r_c (sqrt 2 - sqrt(1 +
 cos^2 a))``, the same for every stage. A ratio switch into stage ``i``
 (``--switch``) is struck at two speeds: eq. 5's ``v_s``, and the rigid
 kinematics' ``r_bp w_p |N_i / N_(i-1) - 1|`` with which the torsional model's
-teeth close after a switch (`fe_impact.switching.geometry.switching_speed`),
+teeth close after a switch (`fe_impact.gears.kinematics.switching_speed`),
 some 8 times lower.
 """
 
@@ -126,7 +126,7 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
         switch = "both"
     if switch not in (False, None, "eq5", "kinematic", "both"):
         raise CalibrationError(f"--switch {switch!r}: pick eq5, kinematic or both")
-    from fe_impact.switching.geometry import mesh_geometry, seed_switching_speed, switching_speed
+    from fe_impact.gears.kinematics import mesh_geometry, seed_switching_speed, switching_speed
 
     n = len(gearset.stages)
     stages = list(stages or range(1, n + 1))
@@ -216,11 +216,11 @@ def case_hash(case: ImpactCase | PositionCase, settings: Settings, gearset_text:
 def case_contact(case: ImpactCase, settings: Settings, gearset) -> tuple[str, float]:
     """Where an impact strikes: ``("flank", the case's or settings' roll angle)``, or for a corner
     kind the rounded tip edge's first touch at the closed-form corner laws' roll
-    angle (:func:`~fe_impact.switching.calibration.corner_reference_roll`, deg)."""
+    angle (:func:`~fe_impact.gears.kinematics.corner_reference_roll`, deg)."""
     if not case.kind.startswith("corner-"):
         return "flank", (settings.roll_angle_deg if case.roll_angle_deg is None
                          else case.roll_angle_deg)
-    from fe_impact.switching.calibration import corner_reference_roll
+    from fe_impact.gears.kinematics import corner_reference_roll
 
     return case.kind, math.degrees(corner_reference_roll(gearset, case.kind.removeprefix(
         "corner-")))

@@ -63,6 +63,7 @@ import numpy as np
 from fe_impact.calibration.records import KINDS, SCHEMA, CalibrationRecord, read_calibration
 from fe_impact.errors import CalibrationError
 from fe_impact.gears.gearset import GearSet
+from fe_impact.gears.kinematics import corner_reference_roll
 from fe_impact.inputs import Reader
 from fe_impact.physics import hertz, laws, seed
 
@@ -280,19 +281,6 @@ def contact_radii(gearset: GearSet, stage_index: int) -> tuple[float, float]:
             "and no crowning): line contact has no Hertz point-contact stiffness"
         )
     return r_p * math.sin(alpha), 1.0 / curvature
-
-
-@lru_cache(maxsize=64)
-def corner_reference_roll(gearset: GearSet, side: str) -> float:
-    """Pinion roll angle [rad] at which a tip edge's first touch stands for the corner
-    of ``side``: where the torsional model's planar corner gap is
-    `fe_impact.gears.corner.REFERENCE_GAP` (the same for every stage: the pinion's
-    line of action)."""
-    from fe_impact.gears.corner import REFERENCE_GAP
-    from fe_impact.switching.geometry import mesh_geometry
-
-    line = mesh_geometry(gearset)
-    return float(line.corner_roll(side, getattr(line, side).delta_at(REFERENCE_GAP)))
 
 
 @lru_cache(maxsize=64)

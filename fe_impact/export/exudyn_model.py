@@ -231,9 +231,10 @@ class MeshForce:
             (av - vs) / (f["transition_speed"] - vs))
         return mu if v > 0.0 else -mu
 
-    def pairs(self, t, qp, qdp, qr, qdr):
-        """Every tooth pair in reach: ``(flank, pair, s, h, hd, force)`` per mesh, and the
-        generalized torques on the pinion and the ring of all meshes [N m]."""
+    def pairs(self, t, qp, qdp, qr, qdr, collect=True):
+        """Every tooth pair in reach: ``(flank, pair, s, h, hd, force)`` per mesh (an empty
+        list unless ``collect``), and the generalized torques on the pinion and the ring
+        of all meshes [N m]."""
         rbp, rb, pb = self.rbp, self.rb, self.pb
         wp, we = qdp + self.omega, qdr + self.ratio * self.omega
         x = rbp * qp - rb * qr + self.x0
@@ -267,7 +268,8 @@ class MeshForce:
                         mu = self.friction_coefficient(wp * s - we * self.friction_lever)
                         q_p -= mu * f * s
                         q_r += mu * f * self.friction_lever
-                out.append((fl, k, s, h, hd, f))
+                if collect:
+                    out.append((fl, k, s, h, hd, f))
         return out, self.pinions * q_p, self.pinions * q_r
 
     def static_offset(self, load):
@@ -485,7 +487,7 @@ def build(data, *, atol=None, rtol=None):
     ring = rings[engaged][0]
 
     def mesh_torques(mbs, t, item, q, q_t):
-        _, q_p, q_r = mesh.pairs(t, q[0], q_t[0], q[1], q_t[1])
+        _, q_p, q_r = mesh.pairs(t, q[0], q_t[0], q[1], q_t[1], False)
         return [q_p, q_r]
 
     mbs.AddObject(ObjectGenericODE2(nodeNumbers=[pinion, ring], massMatrix=[[0.0, 0.0],

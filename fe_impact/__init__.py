@@ -15,9 +15,11 @@ function imports the numerical modules it needs when called.
 __version__ = "0.3.1"
 
 from fe_impact.api import (  # noqa: E402 (after the version, which the API's modules read)
+    ExportResult,
     calibrate,
     calibration_summary,
     default_gearset,
+    export_calibration,
     geometry_report,
     mesh_pair,
     pair_picture,
@@ -25,6 +27,7 @@ from fe_impact.api import (  # noqa: E402 (after the version, which the API's mo
     read_calibration,
     read_case,
     read_gearset,
+    read_schedule,
     run_switching,
     seed_studies,
     simulate_switching,
@@ -33,9 +36,11 @@ from fe_impact.api import (  # noqa: E402 (after the version, which the API's mo
 
 __all__ = [
     "__version__",
+    "ExportResult",
     "calibrate",
     "calibration_summary",
     "default_gearset",
+    "export_calibration",
     "geometry_report",
     "mesh_pair",
     "pair_picture",
@@ -43,6 +48,7 @@ __all__ = [
     "read_calibration",
     "read_case",
     "read_gearset",
+    "read_schedule",
     "run_switching",
     "seed_studies",
     "simulate_switching",

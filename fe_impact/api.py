@@ -42,6 +42,8 @@ from typing import TYPE_CHECKING, Union
 
 from fe_impact.defaults import SAMPLE_INTERVAL
 from fe_impact.errors import CalibrationError, FeImpactError, GeometryError
+from fe_impact.export import FORMATS as EXPORT_FORMATS
+from fe_impact.export import ExportResult, export_calibration
 
 if TYPE_CHECKING:
     from fe_impact.calibration.planning import ImpactCase, Settings
@@ -54,15 +56,19 @@ if TYPE_CHECKING:
     from fe_impact.switching.demand import Demand
     from fe_impact.switching.model import StageSchedule
     from fe_impact.switching.presets import Preset
+    from fe_impact.switching.schedule import DutyCycle
     from fe_impact.switching.simulation import SwitchingRun
 
 __all__ = [
+    "EXPORT_FORMATS",
     "MAX_FRAMES",
     "MIN_STEPS_PER_CONTACT",
     "calibrate",
     "calibration_summary",
     "cores",
     "default_gearset",
+    "export_calibration",
+    "ExportResult",
     "geometry_report",
     "mesh_pair",
     "pair_picture",
@@ -70,6 +76,7 @@ __all__ = [
     "read_calibration",
     "read_case",
     "read_gearset",
+    "read_schedule",
     "run_switching",
     "seed_load_torque",
     "seed_studies",
@@ -193,6 +200,33 @@ def presets() -> dict[str, Preset]:
     from fe_impact.switching.presets import PRESETS
 
     return dict(PRESETS)
+
+
+def read_schedule(path: PathLike) -> DutyCycle:
+    """Read a schedule file (TOML): the drive's duty cycle, segment by segment.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file: per segment the engaged stage, the pinion speed (constant or
+        ramped), the output load (constant, ramped or a CSV series) and the
+        duration; a segment on another stage is a ratio switch.
+
+    Returns
+    -------
+    DutyCycle
+        ``name``, ``description`` and ``schedule`` (the segments as the model
+        runs them), for :func:`run_switching` and :func:`simulate_switching`.
+
+    Raises
+    ------
+    CaseError
+        One line naming the file, the key (with the segment's index), the value
+        and what is allowed.
+    """
+    from fe_impact.switching.schedule import read_schedule as read
+
+    return read(path)
 
 
 def seed_load_torque() -> float:
@@ -822,16 +856,26 @@ def calibration_summary(path: PathLike) -> list[str]:
 
 
 # -- switching -----------------------------------------------------------------------------------
-def _preset(schedule: str | Preset) -> Preset:
-    from fe_impact.switching.presets import get_preset
+def _preset(schedule: str | PathLike | Preset | DutyCycle, gearset: GearSet) -> Preset:
+    """A study's cases from a preset (or its name), a schedule file or a read schedule."""
+    from fe_impact.switching.presets import Preset, get_preset, schedule_preset
+    from fe_impact.switching.schedule import DutyCycle
 
-    return get_preset(schedule) if isinstance(schedule, str) else schedule
+    if isinstance(schedule, Preset):
+        return schedule
+    if isinstance(schedule, str) and not schedule.endswith(".toml"):
+        return get_preset(schedule)
+    duty = schedule if isinstance(schedule, DutyCycle) else read_schedule(schedule)
+    duty.check_stages(len(gearset.stages), f"the gear set {gearset.name!r}")
+    return schedule_preset(duty)
 
 
-def run_switching(schedule: str | Preset, gearset: GearSet | PathLike | None = None,
+def run_switching(schedule: str | PathLike | Preset | DutyCycle,
+                  gearset: GearSet | PathLike | None = None,
                   calibration: PathLike | None = None, *, out: PathLike,
                   duration: float | None = None, sample_interval: float = SAMPLE_INTERVAL,
                   corners: str = "auto", baseline: bool = True, search: bool = False,
+                  notes: Sequence[str] = (),
                   on_case: Callable[[object], Callable | None] | None = None) -> dict:
     """A switching study: the lumped torsional model run through a schedule, with files.
 
@@ -843,8 +887,10 @@ def run_switching(schedule: str | Preset, gearset: GearSet | PathLike | None = N
 
     Parameters
     ----------
-    schedule : str or Preset
-        A preset's name (:func:`presets`) or a preset.
+    schedule : str, path-like, Preset or DutyCycle
+        A preset's name (:func:`presets`) or a preset; a schedule file (a path,
+        or a string ending in ``.toml``) or a schedule read
+        (:func:`read_schedule`).
     gearset : GearSet, str or path-like, optional
         None: the seed set. The calibration must be of it.
     calibration : str or path-like, optional
@@ -862,6 +908,8 @@ def run_switching(schedule: str | Preset, gearset: GearSet | PathLike | None = N
         Also run the cases on the laws reduced to the pitch point, for comparison.
     search : bool
         Look for ``./calibration.json`` when ``calibration`` is None.
+    notes : sequence of str
+        Lines heading the study's report (e.g. why its statistics are short).
     on_case : callable, optional
         ``on_case(case)`` may return a step hook ``(t, t_end)`` for the case's progress.
 
@@ -875,15 +923,16 @@ def run_switching(schedule: str | Preset, gearset: GearSet | PathLike | None = N
     from fe_impact.switching.study import run_study
 
     check_output_dir(out)
-    preset = _preset(schedule)
+    gs = _gearset(gearset)
+    preset = _preset(schedule, gs)
     if duration is not None:
         preset = preset.scaled(duration)
-    return run_study(preset, _gearset(gearset), calibration, out, corners=corners,
-                     sample_interval=sample_interval, search=search, on_case=on_case,
-                     baseline=baseline)
+    return run_study(preset, gs, calibration, out, corners=corners,
+                     sample_interval=sample_interval, notes=notes, search=search,
+                     on_case=on_case, baseline=baseline)
 
 
-def simulate_switching(schedule: str | Preset | StageSchedule,
+def simulate_switching(schedule: str | PathLike | Preset | DutyCycle | StageSchedule,
                        gearset: GearSet | PathLike | None = None,
                        calibration: PathLike | None = None, *,
                        duration: float | None = None,
@@ -893,8 +942,8 @@ def simulate_switching(schedule: str | Preset | StageSchedule,
 
     Parameters
     ----------
-    schedule : str, Preset or StageSchedule
-        A schedule, or a one-case preset (or its name).
+    schedule : str, path-like, Preset, DutyCycle or StageSchedule
+        As in :func:`run_switching` (a preset of one case), or the segments.
     gearset, calibration, duration, sample_interval, corners
         As in :func:`run_switching` (``calibration`` None: closed-form laws).
 
@@ -909,8 +958,9 @@ def simulate_switching(schedule: str | Preset | StageSchedule,
     from fe_impact.switching.model import DriveModel, StageSchedule
     from fe_impact.switching.simulation import simulate
 
+    gs = _gearset(gearset)
     if not isinstance(schedule, StageSchedule):
-        preset = _preset(schedule)
+        preset = _preset(schedule, gs)
         if len(preset.cases) != 1:
             raise FeImpactError(f"schedule {preset.name!r}: has {len(preset.cases)} cases; "
                                 f"give one of them ({', '.join(c.name for c in preset.cases)})"
@@ -918,7 +968,6 @@ def simulate_switching(schedule: str | Preset | StageSchedule,
         schedule = preset.cases[0].schedule
     if duration is not None:
         schedule = schedule.scaled(duration)
-    gs = _gearset(gearset)
     model = DriveModel(gearset=gs, corners=corners)
     masses = [model.effective_mass(s) for s in range(1, model.n_stages + 1)]
     model = model.with_laws(laws_for(gs, masses, calibration, search=False))

@@ -4,6 +4,7 @@ fe-impact's switching model, and bad input in one line."""
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import re
 import subprocess
@@ -173,3 +174,48 @@ def test_exported_script_runs_on_its_own(exported, tmp_path):
         assert next(csv.reader(fh)) == ["time_s", "mesh_force_N", "approach_m"]
     text = script.read_text()
     assert "import fe_impact" not in text and "from fe_impact" not in text
+
+
+def test_exudyn_model_gives_the_first_impacts(exported):
+    # The deterministic part of the 5 s comparison (validation/exudyn_export.py): up to
+    # 0.42 s, before runs that differ by round-off part (about 0.45 s), the impacts of
+    # more than 1 N are as many on both sides and their peak forces agree within the
+    # issue's 2%.
+    cal, module = exported
+    fe = study.fe_run(study.drive_model(cal), study.STUDY_TIME)
+    ex = study.exudyn_run(module, study.STUDY_TIME)
+    first = study.first_impacts(fe["impacts"], ex["impacts"])
+    assert first["impacts"] >= 3
+    assert first["exudyn_impacts"] == first["impacts"]
+    assert first["largest_force_difference"] <= study.HISTORY_TOL
+
+
+def test_exudyn_model_of_a_loaded_stage(tmp_path):
+    # Another stage, speed and a load: stage 2 at 1000 r/min under 0.5 N m, the first
+    # three mesh cycles (9.5 ms, the loaded start and its mesh-in impacts); the mesh
+    # force within 2% of its peak, as the issue's first check.
+    from fe_impact.export import export_calibration
+    from fe_impact.switching import Segment, StageSchedule, simulate
+
+    cal = study.calibration_file(tmp_path / "calibration.json")
+    stage, rpm, load = 2, 1000.0, 0.5
+    duration = 3 * 60.0 / (rpm * 19)
+    script = export_calibration(cal, "exudyn", tmp_path / "x", stage=stage, speed_rpm=rpm,
+                                load=load, duration=duration).files[0]
+    spec = importlib.util.spec_from_file_location("loaded_stage", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    run = simulate(study.drive_model(cal), StageSchedule((Segment(duration, stage, rpm, load),)),
+                   sample_interval=study.HISTORY_SAMPLE)
+    a = run.series["impact_force_N"]
+    b = np.array(module.simulate(module.DATA, duration,
+                                 sample_interval=study.HISTORY_SAMPLE).series)[:, 1]
+    n = min(a.size, b.size)
+    assert n > 900
+    # the start is static: the mesh force at t = 0 carries the load and the drag,
+    # (T + drag) / (n r_b) per mesh (the script's bisection: to round-off, 1e-6)
+    lever = module.DATA["geometry"]["lever"]
+    static = (load + module.DATA["operation"]["drag"]) / (module.DATA["inertia"]["pinions"]
+                                                          * lever)
+    assert b[0] == pytest.approx(static, rel=1e-6)
+    assert np.abs(a[:n] - b[:n]).max() <= 0.02 * np.abs(a[:n]).max()

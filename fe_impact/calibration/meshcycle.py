@@ -158,7 +158,10 @@ class PositionRecord:
     nominal_force: float           # N (the smallest force of the curve)
     nominal_stiffness: float       # secant F/delta at the nominal force, N/m
     lever: float                   # |pinion lever arm| at the contact point, m
-    edge: str                      # "" or which flank edge the pressure reaches
+    #: "" or, in one line, which flank edge the pressure reaches and from which force,
+    #: the load steps the law is fitted to and its fit error, and the face ends the Hertz
+    #: ellipse runs past (:func:`edge_note`)
+    edge: str
     ellipse_outline: list[list[float]]   # Hertz ellipse at the largest force, (L, y) m
     footprint: list[list[float]]   # pressured slave nodes at the largest force: L, y, p
     flank_edges: list[list[float]]  # face-flank boundary segments: L0, y0, L1, y1
@@ -173,6 +176,14 @@ class PositionRecord:
     resolved: list[bool] = field(default_factory=list)
     #: The FE's compliance beyond Hertz at the smallest resolved force, m/N.
     linear_compliance: float = 0.0
+    #: Which flank edge the pressure reaches at each load step ("" none).
+    step_edges: list[str] = field(default_factory=list)
+    #: The load steps' forces (N) the law ``F = K delta^e`` is fitted to.
+    fit_forces: list[float] = field(default_factory=list)
+    #: How far (m) the Hertz ellipse of the contact analysis at the largest force runs
+    #: past each edge of the working flanks (negative: inside;
+    #: :func:`~fe_impact.gears.report.ellipse_edges`); empty for a corner.
+    ellipse_overhang: dict = field(default_factory=dict)
 
     @property
     def nominal_modelled(self) -> bool:
@@ -187,7 +198,8 @@ class PositionRecord:
     def from_dict(cls, data: dict) -> PositionRecord:
         names = {f.name for f in fields(cls)}
         missing = names - set(data) - {"hash", "timings_s", "contact", "fe_approaches",
-                                       "resolved", "linear_compliance"}
+                                       "resolved", "linear_compliance", "step_edges",
+                                       "fit_forces", "ellipse_overhang"}
         if data.get("schema") != SCHEMA or missing:
             raise CalibrationError(f"not a {SCHEMA} record (missing {sorted(missing)})")
         return cls(**{k: v for k, v in data.items() if k in names})
@@ -304,12 +316,12 @@ def plan_corner_positions(gearset, stages: list[int] | None = None,
     """The corner cases: per stage, each rounded tip edge at its first touch.
 
     The roll angle is where the closed-form corner laws take the touch
-    (:func:`~fe_impact.switching.calibration.corner_reference_roll`); the
+    (:func:`~fe_impact.gears.kinematics.corner_reference_roll`); the
     forces are those of the flank positions (:func:`plan_positions`). A sharp
     edge (radius 0) has no corner case.
     """
     from fe_impact.gears.corner import CORNER_SIDES, touching_edge
-    from fe_impact.switching.calibration import corner_reference_roll
+    from fe_impact.gears.kinematics import corner_reference_roll
 
     stages = list(stages or range(1, len(gearset.stages) + 1))
     cases = []
@@ -362,8 +374,11 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
     timings["fe"] = time.perf_counter() - t
     timings.update({f"fe_{k}": v for k, v in result.timings.items()})
     record = _measure(case, solver, result, pair_mesh.analysis, key,
-                      pair_mesh.stats.element_sizes["minor"])
+                      pair_mesh.stats.element_sizes["minor"], gearset)
     timings["total"] = time.perf_counter() - t0
+    if record.edge:
+        logger.warning("stage %d, roll %+.3f deg%s: %s", case.stage, case.roll_angle_deg,
+                       f" ({case.end} end)" if case.end else "", record.edge)
     return PositionRecord(**{**asdict(record), "timings_s": timings})
 
 
@@ -392,9 +407,10 @@ def hub_approaches(result, analysis) -> np.ndarray:
 
 
 def _measure(case: PositionCase, solver, result, analysis, key: str,
-             across: float) -> PositionRecord:
+             across: float, gearset=None) -> PositionRecord:
     """Approach, fit, edge contact and the footprint of a solved position; ``across``
-    the mesh's element size across the ellipse at the contact (m)."""
+    the mesh's element size across the ellipse at the contact (m); ``gearset`` (if
+    given) for the Hertz ellipse's overhang of the flank edges (:func:`ellipse_overhang`)."""
     from fe_impact.gears.tca import contact_ellipse
 
     steps = result.steps
@@ -406,7 +422,11 @@ def _measure(case: PositionCase, solver, result, analysis, key: str,
     resolved = np.array([patch_resolved(h.b, across) for h in hertz])
     approach, compliance = complete_curve(force, fe_approach,
                                           np.array([h.approach for h in hertz]), resolved)
-    K, e, err = fit_load_steps(case.forces, force, approach)
+    step_edges = [_edge_contact(solver, s) for s in steps]
+    fitted = fit_steps(case.forces, step_edges)
+    K, e, err = fit_power_law(force[fitted], approach[fitted])
+    overhang = ({} if gearset is None or case.contact != "flank"
+                else ellipse_overhang(gearset, case.stage, analysis, hertz[-1]))
     i_nom = int(np.argmin(force))
     top = steps[int(np.argmax(force))]
     mesh = solver.mesh
@@ -420,12 +440,66 @@ def _measure(case: PositionCase, solver, result, analysis, key: str,
         stiffness=K, exponent=e, fit_error=err, nominal_force=float(force[i_nom]),
         nominal_stiffness=float(force[i_nom] / approach[i_nom]),
         lever=abs(analysis.masses.pinion_lever),
-        edge=_edge_contact(solver, top),
+        edge=edge_note(case.forces, step_edges, fitted, err, overhang),
         ellipse_outline=_cylindrical(_ellipse_points(analysis.contact.point, hertz[-1])),
         footprint=_footprint(mesh, top.pressure),
         flank_edges=_flank_edges(mesh), n_dofs=int(result.info["n_dofs"]), hash=key,
         contact=case.contact, fe_approaches=fe_approach.tolist(),
-        resolved=[bool(r) for r in resolved], linear_compliance=compliance)
+        resolved=[bool(r) for r in resolved], linear_compliance=compliance,
+        step_edges=step_edges, fit_forces=force[fitted].tolist(), ellipse_overhang=overhang)
+
+
+def fit_steps(requested, step_edges: list[str]) -> np.ndarray:
+    """The load steps the law ``F = K delta^e`` is fitted to (a boolean mask).
+
+    Those asked for :data:`FIT_MIN_FORCE` or more (:func:`fit_load_steps`) where the
+    pressure stays off the flanks' edges: a power law describes a contact patch that
+    grows on whole flanks, not one cut off by an edge (where the pair stiffens or
+    softens by the edge's own compliance; an exponent of 0.88 with a 13.6% fit error
+    was seen on such an end position). If fewer than two such steps remain, every
+    step from :data:`FIT_MIN_FORCE` up (the note then says the fit holds edge loading).
+    """
+    fitted = np.asarray(requested, dtype=float) >= FIT_MIN_FORCE
+    clean = fitted & ~np.array([bool(e) for e in step_edges])
+    return clean if clean.sum() >= 2 else fitted
+
+
+def edge_note(requested, step_edges: list[str], fitted: np.ndarray, fit_error: float,
+              overhang: dict[str, float]) -> str:
+    """One line on a position's edge loading, "" where there is none: which flank edge the
+    pressure reaches from which load step, the steps the law is fitted to and its fit
+    error, and which edge of the working flanks (a face end of the pinion or the ring,
+    a tip) the Hertz ellipse of the largest force runs past and by how much."""
+    forces = np.asarray(requested, dtype=float)
+    parts = []
+    reached = [i for i, e in enumerate(step_edges) if e]
+    if reached:
+        first = reached[0]
+        kept = forces[fitted]
+        whole = bool(np.all([step_edges[i] for i in np.flatnonzero(fitted)]))
+        span = (f"{kept.min():.4g}-{kept.max():.4g} N" if kept.size else "-")
+        parts.append(
+            f"the pressure reaches the {step_edges[first]} from {forces[first]:.4g} N; "
+            + (f"the law is fitted to all {kept.size} steps {span}, every one with edge "
+               "loading" if whole else
+               f"the law is fitted to the {kept.size} steps {span} without it")
+            + f" (fit error {fit_error:.1%})")
+    past = {name: v for name, v in overhang.items() if v > 0.0}
+    if past:
+        parts.append("the Hertz ellipse of the largest force runs past the " + ", ".join(
+            f"{name} by {v * 1e3:.3g} mm" for name, v in sorted(past.items(),
+                                                               key=lambda kv: -kv[1])))
+    return "; ".join(parts)
+
+
+def ellipse_overhang(gearset, stage: int, analysis, ellipse) -> dict[str, float]:
+    """:func:`~fe_impact.gears.report.ellipse_edges` of ``ellipse`` at the position's
+    contact (``analysis.contact``), m per edge (> 0: past it)."""
+    from fe_impact.gears.report import ellipse_edges
+    from fe_impact.gears.tca import GearPair
+
+    pair = GearPair.from_gearset(gearset, stage)
+    return ellipse_edges(pair, analysis.contact, ellipse.a, ellipse.b)
 
 
 def patch_resolved(b: float, across: float) -> bool:
@@ -589,10 +663,27 @@ def pair_force(record: PositionRecord, approach: float) -> tuple[float, float]:
 
 
 def _log_curve(record: PositionRecord) -> tuple[np.ndarray, np.ndarray]:
-    """``(log delta, log F)`` of a position's FE points, in increasing approach."""
-    order = np.argsort(record.approaches)
-    return (np.log(np.asarray(record.approaches)[order]),
-            np.log(np.asarray(record.forces)[order]))
+    """``(log delta, log F)`` of a position's FE points with a positive approach, in
+    increasing approach.
+
+    A point at or below zero approach is left out: where the pair first touches at a
+    flank's edge rather than at the contact analysis' point (a position at the path's
+    end), the smallest forces close less than the gap to that point.
+
+    Raises
+    ------
+    CalibrationError
+        If fewer than two points remain.
+    """
+    approach, force = np.asarray(record.approaches, float), np.asarray(record.forces, float)
+    ok = (approach > 0.0) & (force > 0.0)
+    if ok.sum() < 2:
+        raise CalibrationError(
+            f"{record.id}: fewer than two load steps with a positive approach (the pair "
+            "touches at an edge before the contact point at every force); it cannot enter "
+            "the mesh cycle")
+    order = np.argsort(approach[ok])
+    return np.log(approach[ok][order]), np.log(force[ok][order])
 
 
 def _power_pieces(curve: tuple[np.ndarray, np.ndarray], x: np.ndarray

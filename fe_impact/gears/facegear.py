@@ -463,45 +463,86 @@ class FaceGearTooth:
         The height fixes ``r_bs (cos g + theta sin g) = r_ps - h``, hence
         ``theta(g)``; Newton on ``g`` then matches ``x^2 + z^2 = L^2``,
         starting from the rack angle ``cos(alpha_L) = r_2 cos(alpha0) / L``.
-        With ``strict=False`` a point where Newton does not converge gets
-        ``theta = NaN`` (its sample is not ``valid``) instead of the error.
+        Along a line of constant height the squared radius has a minimum where
+        the flank folds back, at the limiting line of singular points (undercut);
+        the flank is the branch beyond it, where the radius grows with ``g``. A
+        point where Newton does not converge or lands on the other branch (near
+        the undercut limit the two roots lie close together) is solved again by
+        bracketing on that branch (:meth:`_bracket_gamma`).
+        With ``strict=False`` a point with no flank point gets ``theta = NaN``
+        (its sample is not ``valid``) instead of the error.
 
         Raises
         ------
         GeometryError
-            If Newton does not converge (a point far outside the tooth) and
-            ``strict``.
+            If there is no flank point (a point far outside the tooth, or inside
+            the undercut) and ``strict``.
         """
         radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
-        r_b, k = self.shaper_base_radius, self.ratio
+        r_b = self.shaper_base_radius
         rho = (self.shaper_pitch_radius - height) / r_b
         target = (radius / r_b) ** 2
         cos_start = np.clip(self.pitch_radius * np.cos(self.pressure_angle) / radius, 0.05, 0.999)
         gamma = np.arccos(cos_start)
-        for _ in range(_NEWTON_MAXITER):
-            c, s = np.cos(gamma), np.sin(gamma)
-            theta = (rho - c) / s
-            dtheta = (1.0 - rho * c) / s**2
-            x = s - theta * c
-            dx = c - dtheta * c + theta * s
-            f = x**2 + (k / c) ** 2 - target
-            df = 2.0 * x * dx + 2.0 * k**2 * s / c**3
-            step = f / df
-            gamma = np.clip(gamma - step, 1e-6, 0.5 * np.pi - 1e-6)
-            if np.all(np.abs(step) < _NEWTON_TOL):
-                break
-        else:
-            if not strict:    # no flank point there (the root fillet, say)
-                lost = ~(np.abs(step) < _NEWTON_TOL)
-                theta = (rho - np.cos(gamma)) / np.sin(gamma)
-                return np.where(lost, np.nan, theta), gamma
-            worst = int(np.argmax(np.abs(step)))
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            for _ in range(_NEWTON_MAXITER):
+                f, df = self._radius_mismatch(gamma, rho, target)
+                step = f / df
+                gamma = np.clip(gamma - step, 1e-6, 0.5 * np.pi - 1e-6)
+                if np.all(np.abs(step) < _NEWTON_TOL):
+                    break
+            f, df = self._radius_mismatch(gamma, rho, target)
+        lost = ~((np.abs(step) < _NEWTON_TOL) & (df > 0.0))
+        if np.any(lost):
+            gamma = np.array(gamma, copy=True)
+            for index in zip(*np.nonzero(lost), strict=True):
+                gamma[index] = self._bracket_gamma(float(rho[index]), float(target[index]))
+        missing = np.isnan(gamma)
+        if np.any(missing) and strict:
+            worst = int(np.argmax(missing.ravel()))
             raise GeometryError(
                 f"face-gear flank point not found at L = {radius.flat[worst] * 1e3:.4f} mm, "
-                f"h = {height.flat[worst] * 1e3:.4f} mm (Newton did not converge)"
+                f"h = {height.flat[worst] * 1e3:.4f} mm: no flank there (inside the undercut "
+                "or beyond the tooth)"
             )
         theta = (rho - np.cos(gamma)) / np.sin(gamma)
         return theta, gamma
+
+    def _radius_mismatch(self, gamma: NDArray, rho: NDArray,
+                         target: NDArray) -> tuple[NDArray, NDArray]:
+        """``(x^2 + z^2)/r_bs^2 - (L/r_bs)^2`` at constant height and its ``g``-derivative."""
+        k = self.ratio
+        c, s = np.cos(gamma), np.sin(gamma)
+        theta = (rho - c) / s
+        dtheta = (1.0 - rho * c) / s**2
+        x = s - theta * c
+        dx = c - dtheta * c + theta * s
+        return x**2 + (k / c) ** 2 - target, 2.0 * x * dx + 2.0 * k**2 * s / c**3
+
+    def _bracket_gamma(self, rho: float, target: float) -> float:
+        """``g`` of the flank point at one height and radius on the flank's branch (NaN if
+        none): the mismatch's minimum over ``g`` (the fold, :meth:`solve_parameters`), then
+        its root beyond it."""
+        from scipy.optimize import minimize_scalar
+
+        def mismatch(g: float) -> float:
+            return float(self._radius_mismatch(np.asarray(g), np.asarray(rho),
+                                               np.asarray(target))[0])
+
+        high = 0.5 * np.pi - 1e-3
+        grid = np.linspace(1e-4, high, 400)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            values = self._radius_mismatch(grid, np.full_like(grid, rho),
+                                           np.full_like(grid, target))[0]
+        if not np.isfinite(values).any():     # a NaN height or radius
+            return float("nan")
+        i = int(np.nanargmin(values))
+        low = grid[max(i - 1, 0)]
+        fold = minimize_scalar(mismatch, bounds=(low, grid[min(i + 1, grid.size - 1)]),
+                               method="bounded", options={"xatol": 1e-15}).x
+        if not (mismatch(fold) <= 0.0 < mismatch(high)):
+            return float("nan")
+        return float(brentq(mismatch, fold, high, xtol=1e-15))
 
     def flank(self, radius: ArrayLike, height: ArrayLike, side: int = 1,
               strict: bool = True) -> FlankSample:

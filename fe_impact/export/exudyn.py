@@ -175,6 +175,11 @@ sums the IMPACT forces of the tooth pairs (backlash, tip-corner gaps,
 transmission error, position law, Coulomb friction). Coordinates are angles
 relative to the nominal rotation [rad]. Integrator: DOPRI5 with automatic step
 size, tolerances 1/32 of fe-impact's switching model's (see the script).
+
+An unloaded mesh rattles chaotically: runs that differ by round-off (another
+tolerance, a 1e-11 m change of the start) part after some tenths of a second,
+and their impact counts over 5 s can differ by a factor of four. Compare such
+statistics over ensembles of runs, not run by run.
 """
 
 

@@ -52,6 +52,10 @@ of the flank was in contact, ``mesh-in`` when the flank already carried
 load. The recorder detects onsets after every accepted step (PostStep user
 function) on the cubic Hermite of each pair's approach, and keeps the peak
 force of the flank (rattle) or of the pair (mesh-in) over the contact.
+
+An unloaded mesh rattles chaotically: runs that differ by round-off part
+after some tenths of a second, and their 5 s impact statistics can differ by
+a factor of four. Compare such statistics over ensembles of runs.
 """
 
 from __future__ import annotations
@@ -521,7 +525,8 @@ def settings(data, duration, *, atol, rtol, max_step):
 #: first impact's peak force 0.1% high, the third impact 28 us early after 0.3 s of
 #: free flight); halving its largest step changes nothing, 1/32 of the tolerances
 #: brings both within 0.05% and 7 us of fe-impact's converged values
-#: (validation/exudyn_export.py). One absolute tolerance serves angles and rates.
+#: (fe-impact's validation/exudyn_export.py). One absolute tolerance serves angles
+#: and rates.
 TOLERANCE_FACTOR = 1.0 / 32.0
 
 

@@ -163,3 +163,19 @@ def test_explicit_step_that_cannot_resolve_stick_is_refused(tmp_path):
     text = str(err.value)
     assert "[contacts[0]] friction" in text and "time_step" in text
     assert "cannot resolve stick" in text and f"{dt_stick:.4g} s" in text
+
+
+def test_newmark_oblique_impact_and_energy_balance(tmp_path):
+    # The same coarse impact by Newmark with the condensed frictional contact
+    # (zone condensed on all three coordinates of its nodes): against the theory
+    # for the meshed sphere (5%, the study's tolerance) and the energy balance,
+    # with the friction's dissipation, closed to 1e-3 (the issue's).
+    from validation import friction_oblique
+
+    r = friction_oblique.run(quick=True, out=tmp_path, integrator="newmark", angles=(62.0,))
+    a = r["angles"][0]
+    ref = a["reference_mesh_sphere"]
+    assert a["tangential_restitution"] == pytest.approx(ref["tangential_restitution"], rel=0.05)
+    assert a["tan_rebound"] == pytest.approx(ref["tan_rebound"], rel=0.05)
+    assert a["energy_error"] <= 1e-3
+    assert a["friction_dissipation_J"] > 0.05 * 0.5 * 0.0329 / 2 * 1.0

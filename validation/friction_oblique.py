@@ -92,7 +92,8 @@ def mbf_gross_slip(alpha_deg: float, inertia_ratio: float = 2.5) -> dict:
             "tan_rebound": p2 / p1 * math.tan(math.radians(alpha_deg))}
 
 
-def oblique_case(mesh_file: Path, alpha_deg: float, duration: float) -> Case:
+def oblique_case(mesh_file: Path, alpha_deg: float, duration: float,
+                 integrator: str = "explicit") -> Case:
     vt = V_N * math.tan(math.radians(alpha_deg))
     return Case(path=Path(mesh_file).with_suffix(".case"), mesh_file=Path(mesh_file),
                 unit="m", materials=(MaterialSpec(("sphere", "block"), E, NU, RHO),),
@@ -100,32 +101,48 @@ def oblique_case(mesh_file: Path, alpha_deg: float, duration: float) -> Case:
                                       mu_dynamic=MU),),
                 supports=(SupportSpec("block_bottom", (0, 1, 2)), SupportSpec("sym_y", (1,))),
                 initial_velocities=(InitialVelocitySpec(("sphere",), (vt, 0.0, -V_N)),),
-                analysis=AnalysisSpec(type="dynamic", integrator="explicit",
+                analysis=AnalysisSpec(type="dynamic", integrator=integrator,
                                       duration=duration, output_interval=duration / 20,
                                       stop_after_separation=0.1))
 
 
 def sphere_motion(solver: DynamicSolver, v: np.ndarray, z: np.ndarray) -> dict:
-    """The sphere's mass, centre velocity, spin about y and inertia from its nodes."""
+    """The sphere's mass, centre velocity, spin about y and inertia from its nodes.
+
+    With the solver's own mass (lumped or consistent: the sphere shares no node
+    with the block, so ``M v`` on its DOFs is its momentum, and ``x`` lies in the
+    element space, so the sums are the integrals of ``rho v`` and ``rho x x``).
+    """
     mesh, kin = solver.mesh, solver.kin
     pts = np.unique(mesh.cells[mesh.volume("sphere")])
     red = -np.ones(solver.model.n_dofs, dtype=np.int64)
     red[kin.free] = np.arange(kin.n_free)
     idx = red[3 * mesh.point_dof[pts][:, None] + np.arange(3)]        # (n, 3), all free
-    m = solver.m[idx]                                                   # (n, 3)
-    vel = v[idx]
+
+    def times_mass(w: np.ndarray) -> np.ndarray:
+        return solver.m * w if solver.explicit else solver.scheme.M_product @ w
+
+    def field(values: np.ndarray) -> np.ndarray:   # (n, 3) -> reduced vector
+        out = np.zeros(kin.n)
+        out[idx.ravel()] = values.ravel()
+        return out
+
     x = mesh.points[pts] + z[idx]
-    mass = float(m[:, 0].sum())
-    xc = (m[:, [0]] * x).sum(axis=0) / mass
-    vc = (m * vel).sum(axis=0) / mass
+    ones = [times_mass(field(np.tile(np.eye(3)[c], (len(pts), 1))))[idx] for c in range(3)]
+    mass = float(ones[0][:, 0].sum())
+    p = times_mass(v)[idx]                                              # (n, 3) momenta
+    vc = p.sum(axis=0) / mass
+    xc = np.array([(ones[c][:, c] * x[:, c]).sum() for c in range(3)]) / mass
     r = x - xc
-    L = np.cross(r, m[:, [0]] * (vel - vc)).sum(axis=0)
-    Iyy = float((m[:, 0] * (r[:, 0] ** 2 + r[:, 2] ** 2)).sum())
+    L = np.cross(r, p).sum(axis=0)            # about the centre (sum of M r vanishes)
+    Mr = times_mass(field(r))[idx]
+    Iyy = float((r[:, 0] * Mr[:, 0] + r[:, 2] * Mr[:, 2]).sum())
     return {"mass": mass, "vc": vc, "omega_y": L[1] / Iyy, "Iyy": Iyy}
 
 
-def run_angle(mesh_file: Path, alpha_deg: float, t_c: float) -> dict:
-    case = oblique_case(mesh_file, alpha_deg, GAP / V_N + 2.0 * t_c)
+def run_angle(mesh_file: Path, alpha_deg: float, t_c: float,
+              integrator: str = "explicit") -> dict:
+    case = oblique_case(mesh_file, alpha_deg, GAP / V_N + 2.0 * t_c, integrator)
     solver = DynamicSolver(case, load_mesh(mesh_file))
     last = {}
 
@@ -155,7 +172,8 @@ def run_angle(mesh_file: Path, alpha_deg: float, t_c: float) -> dict:
             "seconds": res.timings["integration"]}
 
 
-def run(quick: bool = False, out: str | Path = "out/friction_oblique") -> dict:
+def run(quick: bool = False, out: str | Path = "out/friction_oblique",
+        integrator: str = "explicit", angles: tuple[float, ...] = ANGLES) -> dict:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     h, order = LEVELS["quick" if quick else "full"]
@@ -166,8 +184,9 @@ def run(quick: bool = False, out: str | Path = "out/friction_oblique") -> dict:
             r_fine=2.0e-3, h_far=3e-3 if quick else 2.5e-3), mesh_file)
     mass = RHO * 4.0 / 3.0 * math.pi * R ** 3
     t_c = hertz.impact(mass, V_N, R, hertz.effective_modulus(E, NU)).contact_time
-    angles = [run_angle(mesh_file, a, t_c) for a in ANGLES]
-    record = {"quick": quick, "mu": MU, "h_contact": h, "order": order, "angles": angles}
+    results = [run_angle(mesh_file, a, t_c, integrator) for a in angles]
+    record = {"quick": quick, "integrator": integrator, "mu": MU, "h_contact": h,
+              "order": order, "angles": results}
     write_json(out / "friction_oblique.json", record)
     return record
 
@@ -187,8 +206,9 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("out/friction_oblique"))
     p.add_argument("--quick", action="store_true", help="coarse mesh")
+    p.add_argument("--integrator", choices=("explicit", "newmark"), default="explicit")
     args = p.parse_args(argv)
-    r = run(args.quick, args.out)
+    r = run(args.quick, args.out, args.integrator)
     print(json.dumps(r, indent=2, default=float))
     return ck.finish("friction_oblique", check(r), args.out)
 

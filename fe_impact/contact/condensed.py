@@ -92,6 +92,7 @@ class StepContact(NamedTuple):
     lam: np.ndarray                 # penalty forces (N) on the contact model's rows
     z: np.ndarray                   # reduced displacement (m)
     active: np.ndarray | None       # rows in compression (the next solve's warm start)
+    t: np.ndarray | None = None     # friction: the rows' tangential forces (r, 2), N
 
 
 def rotate(K: sp.csr_matrix, R: sp.csr_matrix) -> sp.csr_matrix:
@@ -325,8 +326,13 @@ class CondensedContact:
 
     def __init__(self, mesh: FEMesh, kin: Kinematics, contact: ContactModel,
                  K_eff: sp.csr_matrix, force_factor: float,
-                 schur_solves: int = SCHUR_SOLVES) -> None:
+                 schur_solves: int = SCHUR_SOLVES, friction=None) -> None:
         self.mesh, self.kin, self.contact = mesh, kin, contact
+        #: :class:`~fe_impact.contact.friction.ImplicitFriction` of a contact model with
+        #: friction: the zone is condensed on all three coordinates of its nodes
+        self.friction = friction
+        self._fdelassus: tuple | None = None   # (projection, rows, S^-1 B^T) of the last step
+        self._fjac: tuple | None = None        # (projection, the rows' condensed Jacobian)
         self.K_eff = K_eff
         self.solver = ZoneSolver(K_eff, schur_solves)
         self.force_factor = force_factor
@@ -346,6 +352,7 @@ class CondensedContact:
         """Condense anew after the contact zone changed."""
         self.frames, self.compliance = self._condensation()
         self._delassus_at = self._jacobian_at = -1
+        self._fdelassus = self._fjac = None
 
     def _condensation(self) -> tuple[ZoneFrames, ZoneCompliance]:
         """Schur complement of ``K_eff`` on the zone nodes' normal coordinates.
@@ -361,7 +368,8 @@ class CondensedContact:
         """
         t, c = time.perf_counter(), time.process_time()
         factor_t, factor_c = self.solver.factor_seconds, self.solver.factor_cpu_seconds
-        frames = zone_frames(self.mesh, self.kin, self.contact)
+        frames = zone_frames(self.mesh, self.kin, self.contact,
+                             all_components=self.friction is not None)
         self.contact.set_projector(frames.projector)
         compliance = ZoneCompliance(self.solver.condense(frames.R, frames.condensed))
         logger.info("contact zone: %d reduced coordinates condensed", len(frames.condensed))
@@ -402,6 +410,56 @@ class CondensedContact:
                                        None if active is None or len(active) != len(ok)
                                        else active[ok], C=self._delassus_matrix())
         return lam
+
+    def solve_frictional(self, rhs: np.ndarray, z_n: np.ndarray) -> StepContact:
+        """The step's displacement and normal and tangential contact forces (friction).
+
+        The contact-free solve gives the rows' gaps and slip increments from the
+        step's start ``z_n``; the frictional problem
+        (:func:`~fe_impact.contact.friction.solve_frictional`) is solved on the
+        compliance ``f B_c S^-1 B_c^T`` of the normal and tangential rows near
+        contact (formed for those rows, kept while the projection and the rows
+        stay the same); a second solve adds the forces. The coefficient is taken
+        at the contact-free slip speed.
+        """
+        from fe_impact.contact.friction import solve_frictional
+
+        c, fr, f = self.contact, self.friction, self.force_factor
+        z_star = self.solver.solve(rhs)
+        r = len(c.active_rows)
+        h = np.where(c.active_rows, c.gaps(z_star), np.inf)
+        t_old = fr.start(c)
+        if not np.any(h < 0) and not np.any(t_old):
+            return StepContact(np.zeros(r), z_star, None, np.zeros((r, 2)))
+        s0 = (c.Bt @ (z_star - z_n)).reshape(2, r).T
+        mu = c.row_coefficients(np.linalg.norm(s0, axis=1) / fr.dt)
+        B_all = self._frictional_jacobian()
+
+        def block(idx, other=None):
+            rows = np.concatenate([idx, r + idx, 2 * r + idx])
+            kept = self._fdelassus
+            if kept is not None and kept[0] == c.n_projections and np.array_equal(kept[1], rows):
+                X = kept[2]
+            else:
+                X = self.compliance.apply(B_all[rows].T.toarray())
+                self._fdelassus = (c.n_projections, rows, X)
+            return f * np.asarray(B_all[rows if other is None else other] @ X)
+
+        sol = solve_frictional(block, h, s0, c.eps_w, c.eps_w, mu, t_old)
+        force = c.BT @ sol.lam + c.Bt.T @ np.concatenate([sol.t[:, 0], sol.t[:, 1]])
+        if not force.any():
+            return StepContact(sol.lam, z_star, None, sol.t)
+        z_new = self.solver.solve(rhs + f * force)
+        return StepContact(sol.lam, z_new, sol.lam > 0, sol.t)
+
+    def _frictional_jacobian(self) -> sp.csr_matrix:
+        """The normal then the two tangential rows on the condensed coordinates."""
+        c = self.contact
+        kept = self._fjac
+        if kept is None or kept[0] != c.n_projections:
+            B = (sp.vstack([c.B, c.Bt]) @ self.frames.R)[:, self.frames.condensed].tocsr()
+            self._fjac = (c.n_projections, B)
+        return self._fjac[1]
 
     def solve(self, rhs: np.ndarray, active: np.ndarray | None) -> StepContact:
         """The step's displacement and contact forces; ``active`` warm-starts the LCP.

@@ -389,3 +389,44 @@ class ExplicitFriction:
         self.dissipation += dissipated
         self.stored = stored_energy(t, eps_t)
         return t
+
+
+class ImplicitFriction(ExplicitFriction):
+    """Friction of an implicit (Newmark) step: the step's frictional problem is solved
+    with the condensed contact (:meth:`~fe_impact.contact.condensed.CondensedContact.solve`),
+    and :meth:`commit` stores its forces once the step is final.
+
+    Attributes
+    ----------
+    dt : float
+        The time step (s): slip speeds for the coefficient are slip increments over it.
+    """
+
+    def __init__(self, dt: float) -> None:
+        super().__init__()
+        self.dt = dt
+
+    def start(self, contact) -> np.ndarray:
+        """The rows' forces at the step's start, in the current frames (r, 2)."""
+        return self.history.get(contact.row_keys(), contact.t1, contact.t2)
+
+    def commit(self, contact, lam: np.ndarray, t: np.ndarray, z: np.ndarray,
+               z_old: np.ndarray) -> None:
+        """Store the step's forces and add the energy the friction dissipated in it.
+
+        The dissipation is the work the friction forces did on the step's slip, by
+        the integrator's own trapezoidal rule (``-(t_n + t_n+1) / 2 . ds``), less
+        the change of the tangential springs' energy: the energy the step's
+        mechanical balance lost to friction. (The return mapping's ``mu lambda
+        |ds_p|`` agrees with it to first order in the step; on a coarse oblique
+        impact of 200 steps it left 1.5e-3 of the energy unaccounted.)
+        """
+        r = len(lam)
+        t_old = self.start(contact)
+        ds = (contact.Bt @ (z - z_old)).reshape(2, r).T
+        work = -0.5 * float(np.sum((t_old + t) * ds))
+        eps = contact.eps_w
+        stored = stored_energy(t, eps)
+        self.dissipation += work - (stored - stored_energy(t_old, eps))
+        self.history.put(contact.row_keys(), contact.t1, contact.t2, t)
+        self.stored = stored

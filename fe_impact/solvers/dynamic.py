@@ -43,7 +43,7 @@ import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from fe_impact.contact.condensed import CondensedContact, StepContact
-from fe_impact.contact.friction import ExplicitFriction, pair_laws
+from fe_impact.contact.friction import ExplicitFriction, ImplicitFriction, pair_laws
 from fe_impact.contact.linearised import ContactModel, SurfaceMonitor
 from fe_impact.contact.zone import (
     PENALTY_FACTOR_EXPLICIT,
@@ -202,12 +202,8 @@ class DynamicSolver:
         h_min = min(face_size(self.mesh, p.slave) for p in self.pairs)
         self.contact = ContactModel(self.mesh, self.model, self.kin, self.zone,
                                     REPROJECT_FRACTION * h_min, pair_laws(case.contacts))
-        #: the explicit integrator's friction (None: frictionless, or Newmark)
+        #: the integrator's friction (None: frictionless); Newmark's is made with its step
         self.friction = ExplicitFriction() if self.contact.friction and self.explicit else None
-        if self.contact.friction and not self.explicit:
-            raise CaseError(f"{case.path.name}: [[contacts]] friction needs [analysis] "
-                            "integrator = \"explicit\" (Newmark with friction is not "
-                            "available yet)")
         self.monitor = SurfaceMonitor(self.mesh, self.kin, self.zone, setup.reach, setup.states)
         clock.lap("contact_setup")
         self.probe = ImpactProbe.build(case, self.mesh, self.kin, self.M, self.contact.states[0])
@@ -234,9 +230,16 @@ class DynamicSolver:
         if self.explicit:
             return ti.CentralDifference(self.dt, self.K, self.m), None
         nm = ti.Newmark(self.dt, self.K, self.M, self.case.analysis.hht_alpha)
+        if self.contact.friction:
+            if self.plastic is not None:
+                raise CaseError(f"{self.case.path.name}: [[contacts]] friction with a yielding "
+                                "material needs [analysis] integrator = \"explicit\" (Newmark "
+                                "with friction and plasticity is not available)")
+            self.friction = ImplicitFriction(self.dt)
         # One factorisation serves the solves and the condensation (see ZoneSolver).
         return nm, CondensedContact(self.mesh, self.kin, self.contact,
-                                    nm.effective_stiffness(), nm.force_factor)
+                                    nm.effective_stiffness(), nm.force_factor,
+                                    friction=self.friction)
 
     @property
     def initial_gap(self) -> float:
@@ -326,10 +329,12 @@ class DynamicSolver:
             return ti.central_difference_step(s, self.scheme, self.contact, self.plastic,
                                               self._watch_zone, self.friction)
         return ti.newmark_step(s, self.scheme, self.contact, self._newmark_solve, self.plastic,
-                               self.case.analysis.max_iterations)
+                               self.case.analysis.max_iterations, self.friction)
 
     def _newmark_solve(self, rhs: np.ndarray, active: np.ndarray | None,
                        z_n: np.ndarray) -> StepContact:
+        if self.friction is not None:
+            return self.condensed.solve_frictional(rhs, z_n)
         if self.plastic is None:
             return self.condensed.solve(rhs, active)
         return ti.plastic_newmark_solve(rhs, active, z_n, self.condensed, self.plastic,

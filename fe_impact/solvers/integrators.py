@@ -310,14 +310,16 @@ def newmark_free_step(s: State, nm: Newmark, contact: ContactModel) -> State | N
 
 def newmark_step(s: State, nm: Newmark, contact: ContactModel,
                  solve: Callable[[np.ndarray, np.ndarray | None, np.ndarray], StepContact],
-                 plastic=None, max_projections: int = 30) -> State:
+                 plastic=None, max_projections: int = 30, friction=None) -> State:
     """One Newmark step.
 
     ``solve(rhs, active, z_n)`` returns the step's contact forces and
     displacement for the right-hand side ``rhs`` (see
     :meth:`CondensedContact.solve` and :func:`plastic_newmark_solve`); it is
     called again after each re-projection of the contact, until the zone has
-    not moved.
+    not moved. ``friction``: the
+    :class:`~fe_impact.contact.friction.ImplicitFriction` whose forces the
+    final solve's tangential forces become.
     """
     n, dt, alpha, beta = s.n + 1, nm.dt, nm.alpha, nm.beta
     c0, c1, c2 = 1.0 / (beta * dt ** 2), 1.0 / (beta * dt), 1.0 / (2.0 * beta) - 1.0
@@ -326,7 +328,7 @@ def newmark_step(s: State, nm: Newmark, contact: ContactModel,
             + alpha * (Kz - s.f_plastic - s.f_contact))
     active = s.active
     for _ in range(max_projections):
-        lam, z_new, active = solve(rhs0, active, s.z)
+        lam, z_new, active, t = solve(rhs0, active, s.z)
         if not contact.moved(z_new):
             break
         contact.update(z_new)
@@ -340,8 +342,12 @@ def newmark_step(s: State, nm: Newmark, contact: ContactModel,
     acc = c0 * (z_new - s.z) - c1 * s.v - c2 * s.a
     v = s.v + dt * ((1.0 - nm.gamma) * s.a + nm.gamma * acc)
     Kz_new = nm.K_product @ z_new
+    f_c = contact.BT @ lam
+    if friction is not None:
+        friction.commit(contact, lam, t, z_new, s.z)
+        contact.add_tangential(t, f_c)
     return State(n, z_new, v, acc, lam, 0.5 * float(z_new @ Kz_new),
-                 contact.BT @ lam, f_p, active, Kz_new)
+                 f_c, f_p, active, Kz_new, t)
 
 
 # -- plasticity in a Newmark step --------------------------------------------------

@@ -85,6 +85,37 @@ MAX_LOAD_ITERATIONS = 60
 ROW_BLOCK = 128
 
 
+@dataclass(frozen=True, eq=False)
+class FrictionRows:
+    """The contact rows (weighted slave nodes) of a step with friction, all pairs.
+
+    Attributes
+    ----------
+    pair : ndarray of int
+        The row's contact pair.
+    point : ndarray, shape (r, 3)
+        The slave node, deformed (m).
+    weight : ndarray
+        Its tributary area (m^2).
+    normal_force : ndarray
+        ``lambda`` (N).
+    tangential_force : ndarray, shape (r, 3)
+        The friction force on the slave node (N).
+    mu : ndarray
+        The coefficient it was limited by.
+    slipping : ndarray of bool
+        In contact and on the friction cone.
+    """
+
+    pair: np.ndarray
+    point: np.ndarray
+    weight: np.ndarray
+    normal_force: np.ndarray
+    tangential_force: np.ndarray
+    mu: np.ndarray
+    slipping: np.ndarray
+
+
 @dataclass(frozen=True)
 class StepResult:
     """Outcome of one load step (SI units)."""
@@ -113,6 +144,8 @@ class StepResult:
     stick_area: list[float] = field(default_factory=list)
     friction_contact_area: list[float] = field(default_factory=list)
     friction_dissipation: float = 0.0
+    #: friction: the rows of every pair at the step (positions, forces, stick or slip)
+    friction_rows: FrictionRows | None = field(default=None, repr=False)
 
 
 @dataclass
@@ -454,11 +487,14 @@ class StaticSolver:
             logger.debug("frictional projection %d: change %.3g of %.3g, %d in contact, "
                          "%d slipping", it, change, scale, int(new_state[0].sum()),
                          int(new_state[1].sum()))
-            if state is not None and all(np.array_equal(x, y) for x, y in
-                                         zip(state, new_state, strict=True)) and \
-                    change <= a.tolerance * max(scale, 1e-30):
+            # Converged when the displacement has settled and the rows in contact
+            # repeat; a row exactly at the friction cone may flip between stick and
+            # slip within the round-off of its force, which moves nothing.
+            settled = change <= a.tolerance * max(scale, 1e-30)
+            if settled and state is not None and (np.array_equal(state, new_state[0])
+                                                  or change <= 1e-12 * max(scale, 1e-30)):
                 return _Equilibrium(z, sol.lam, 0.0, it, total, sol.t, sol.slipping)
-            state = new_state if len(new_state[0]) == r else None
+            state = new_state[0]
         raise ContactError(
             f"frictional contact did not converge in {a.max_iterations} iterations (last "
             f"change of the zone's displacement {change:.3g} m, "
@@ -493,8 +529,12 @@ class StaticSolver:
             forces.append([float(v) for v in t_vec[sl].sum(axis=0)])
             touching.append(float(st.weight[on].sum()))
             stick.append(float(st.weight[on & ~eq.slipping[sl]].sum()))
+        rows = FrictionRows(c.row_law.copy(), np.concatenate([st.point for st in c.states]),
+                            np.concatenate([st.weight for st in c.states]),
+                            eq.lam.copy(), t_vec, c.row_coefficients(), eq.slipping.copy())
         return replace(step, friction_force=forces, stick_area=stick,
-                       friction_contact_area=touching, friction_dissipation=self._dissipation)
+                       friction_contact_area=touching, friction_dissipation=self._dissipation,
+                       friction_rows=rows)
 
     def _contact_response(self, Bc: sp.csr_matrix, lam: np.ndarray) -> np.ndarray:
         """``K^-1 B^T lambda``, the displacement of the contact forces ``lambda``.

@@ -224,3 +224,33 @@ def test_a_schedule_file_is_a_study(tmp_path):
     assert (preset.name, preset.seed_table, len(preset.cases)) == ("climb", None, 1)
     assert study_folder(str(path)) == "climb" and study_folder("table1") == "table1"
     assert study_preset("table1").seed_table == "table1"
+
+
+@pytest.mark.parametrize("schema", ["fe-impact/calibration/99", "fe-impact/mesh-cycle/1", 2])
+def test_a_calibration_of_another_schema_is_refused(tmp_path, schema):
+    # a file this version cannot read must not be run on: one line naming the key, the
+    # value and the schemas read; nothing written
+    import argparse
+    import json
+
+    from fe_impact.cli.switching import register
+    from fe_impact.errors import CalibrationError
+    from fe_impact.gears import default_gearset
+    from fe_impact.switching.calibration import load_calibration
+
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps({"schema": schema, "cases": [
+        {"stage": 1, "kind": "mesh", "impact_speed": 0.05,
+         "impact": {"k": 6.5e10, "exponent": 1.5, "cmax": 1.5e3, "d": 1e-6}}]}))
+    with pytest.raises(CalibrationError) as info:
+        load_calibration(path, default_gearset())
+    text = str(info.value)
+    assert "\n" not in text and f"schema = {schema!r}" in text
+    assert "'fe-impact/calibration/2'" in text
+    parser = argparse.ArgumentParser(prog="fe-impact")
+    register(parser.add_subparsers())
+    args = parser.parse_args(["switching", "--preset", "table1-100rpm", "--duration", "0.05",
+                              "--calibration", str(path), "--out", str(tmp_path / "out")])
+    with pytest.raises(CalibrationError, match="schema"):
+        args.func(args)
+    assert not (tmp_path / "out").exists()

@@ -3,46 +3,47 @@
 Each study's ``run(quick=True)`` computes on the coarse setting and its
 ``check`` compares the headline figures with the tolerances written (with
 their reasons) in the study; the same checks make ``make validate`` fail.
-The benchmarks' checks are ratios to baselines timed in the same run, so a
-loaded machine moves them less than absolute times, but they are still
-timings on a shared machine: here a missed timing target is reported as an
-expected failure (``make validate`` fails on it). The explicit step against
-the bandwidth bound is reported, not asserted (docs/tolerances.md).
+
+The benchmarks' checks are all timings (ratios to baselines timed in the
+same run). The default tests share their cores with other tests, so they
+assert no timing: a benchmark here is run on its quick setting for what
+it must do whatever the clock says, run its case through the solver's
+step path with its counting wrappers (which must keep up with the solver's
+interface) and report each ratio as a finite positive number; `make
+validate`, run alone on the machine, asserts the timing targets.
 """
 
 from __future__ import annotations
 
 import importlib
+import math
 
 import pytest
 
-BENCHMARKS = {"bench_static", "bench_dynamic", "bench_switching", "bench_tooth_impact"}
 STUDIES = [
     "hertz_impact",
-    "bench_switching",
     "corner_gaps",
     pytest.param("hertz_static", marks=pytest.mark.slow),
     pytest.param("plastic_impact", marks=pytest.mark.slow),
-    pytest.param("bench_static", marks=pytest.mark.slow),
-    pytest.param("bench_dynamic", marks=pytest.mark.slow),
     # its check counts projections, not seconds: a failure is not the machine's
     pytest.param("bench_static_pair", marks=pytest.mark.slow),
-    # one coarse calibration impact from mesh to fit, about 15 s: it runs the
-    # solver's step path with its counting wrappers, which must keep up with
-    # the zone solver's interface
+]
+BENCHMARKS = [
+    "bench_switching",
+    # one coarse calibration impact from mesh to fit, about 15 s
     pytest.param("bench_tooth_impact", marks=pytest.mark.slow),
 ]
 # Not here: validation/corner_contact.py, whose quick setting (the finest refinement
 # alone, 257k DOFs) takes eight minutes and 10.3 GB; `make validate
 # VALIDATE_FLAGS=--quick` asserts it. Nor validation/calculix_pair.py, which needs
 # CalculiX (a Debian package, not a pip one) and about five minutes of it;
-# tests/test_calculix_deck.py checks the deck it writes. Nor validation/mesh_cycle.py,
-# which tests/test_validation_mesh_cycle.py runs. Nor validation/time_step.py, whose
-# quick setting fails its energy check at 30-40 steps per contact (1.04e-3 against
-# 1e-3: the coarser steps the calibration does not use; docs/tolerances.md), nor
-# validation/two_pair.py (about a minute of two-pair sectors) and
-# validation/bench_sweep.py (whole sweeps on one and two workers): `make validate`
-# runs them.
+# tests/test_calculix_deck.py checks the deck it writes. Nor validation/patch_test.py,
+# whose four cases tests/test_contact_defects.py asserts. Nor validation/mesh_cycle.py,
+# which tests/test_validation_mesh_cycle.py runs. Nor validation/time_step.py (half
+# a minute of tooth impacts at three step counts; tests/test_time_step_study.py
+# checks its arithmetic), validation/two_pair.py (about a minute of two-pair
+# sectors), validation/bench_sweep.py (whole sweeps on one and two workers) and the
+# timing-only benchmarks bench_static and bench_dynamic: `make validate` runs them.
 
 
 @pytest.mark.parametrize("name", STUDIES)
@@ -51,9 +52,16 @@ def test_study_passes_its_checks_on_the_quick_setting(name, tmp_path):
     checks = study.check(study.run(quick=True, out=tmp_path))
     assert checks, "a study must assert something"
     failed = [c.line() for c in checks if not c.passed]
-    if failed and name in BENCHMARKS:
-        pytest.xfail(f"timing target missed on this machine: {failed}")
     assert not failed, failed
+
+
+@pytest.mark.parametrize("name", BENCHMARKS)
+def test_benchmark_runs_and_reports_its_ratios(name, tmp_path):
+    study = importlib.import_module(f"validation.{name}")
+    checks = study.check(study.run(quick=True, out=tmp_path))
+    assert checks, "a benchmark must report something"
+    for c in checks:
+        assert math.isfinite(c.value) and c.value > 0.0, c.line()
 
 
 def test_plastic_impact_states_its_reference(tmp_path):

@@ -186,8 +186,9 @@ def run_one(folder: Path, coarse: str, slave: str, order: int = 1,
                        float(step.contact_force[0] / (exact * WIDTH ** 2) - 1.0))
 
 
-def run(out: Path | None = None, order: int = 1) -> list[PatchResult]:
-    """The four patch tests: each block coarse in turn, each taken as the slave."""
+def run(quick: bool = False, out: Path | None = None, order: int = 1) -> list[PatchResult]:
+    """The four patch tests: each block coarse in turn, each taken as the slave
+    (``quick``: the same, the study is small)."""
     folder = Path(out) if out is not None else Path("out/patch_test")
     return [run_one(folder, coarse, slave, order)
             for coarse in ("upper", "lower") for slave in ("upper", "lower")]
@@ -206,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--order", type=int, default=1, choices=(1, 2))
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
-    results = run(args.out, args.order)
+    results = run(args.quick, args.out, args.order)
     for r in results:
         print(f"{r.coarse} coarse, {r.slave} slave: {r.n_nodes} nodes, exact {r.exact:.6g} Pa,"
               f" largest nodal error {r.max_error:.3e}, force error {r.force_error:+.2e}")

@@ -20,10 +20,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDIES = ("hertz_static", "hertz_impact", "plastic_impact", "time_step", "mesh_cycle",
-           "two_pair", "corner_gaps", "corner_contact", "bench_static", "bench_dynamic",
-           "bench_static_pair", "bench_tooth_impact", "bench_switching", "bench_sweep",
-           "calculix_pair")
+STUDIES = ("hertz_static", "hertz_impact", "patch_test", "plastic_impact", "time_step",
+           "mesh_cycle", "two_pair", "corner_gaps", "corner_contact", "bench_static",
+           "bench_dynamic", "bench_static_pair", "bench_tooth_impact", "bench_switching",
+           "bench_sweep", "calculix_pair")
 #: Exit status of a study that could not run here (a peer program missing).
 SKIPPED = 2
 

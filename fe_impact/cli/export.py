@@ -6,8 +6,7 @@
         [--gearset FILE] [--stage N] [--speed RPM] [--load NM] [--duration S]
 
 `register` adds the subcommand to the CLI's subparsers; `run` calls
-`fe_impact.export.export_calibration` (through `fe_impact.api` when it
-re-exports it) and prints what was written.
+`fe_impact.api.export_calibration` and prints what was written.
 """
 
 from __future__ import annotations
@@ -17,6 +16,7 @@ from pathlib import Path
 
 __all__ = ["register", "run"]
 
+#: The formats, for --help without importing the API (`fe_impact.api.EXPORT_FORMATS`).
 _FORMATS = ("adams", "tables", "exudyn")
 
 _DESCRIPTION = (
@@ -48,29 +48,19 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     return p
 
 
-def _exporter():
-    """`fe_impact.api.export_calibration` (the export package's until the API has it)."""
-    import fe_impact.api as api
-
-    if hasattr(api, "export_calibration"):
-        return api.export_calibration
-    from fe_impact.export import export_calibration
-
-    return export_calibration
-
-
 def run(args: argparse.Namespace) -> int:
     """Handler of ``fe-impact export``; returns the exit status."""
+    from fe_impact.api import EXPORT_FORMATS, export_calibration
     from fe_impact.errors import FeImpactError
     from fe_impact.output.files import check_output_dir
 
-    if args.to not in _FORMATS:
+    if args.to not in EXPORT_FORMATS:
         raise FeImpactError(f"--to {args.to!r}: unknown format; pick one of "
-                            f"{', '.join(_FORMATS)}")
+                            f"{', '.join(EXPORT_FORMATS)}")
     check_output_dir(args.out)
-    result = _exporter()(args.calibration, args.to, args.out, gearset=args.gearset,
-                         stage=args.stage, speed_rpm=args.speed, load=args.load,
-                         duration=args.duration)
+    result = export_calibration(args.calibration, args.to, args.out, gearset=args.gearset,
+                                stage=args.stage, speed_rpm=args.speed, load=args.load,
+                                duration=args.duration)
     for note in result.notes:
         print(f"note: {note}")
     for path in result.files:

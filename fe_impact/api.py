@@ -82,6 +82,7 @@ __all__ = [
     "seed_studies",
     "simulate_switching",
     "solve",
+    "study_preset",
 ]
 
 logger = logging.getLogger(__name__)
@@ -101,6 +102,16 @@ MAX_FRAMES = 1000
 #: contact, get a warning: the peak force and the contact time are not resolved
 #: (the impact benchmark needs some 60 for 0.4 %).
 MIN_STEPS_PER_CONTACT = 20
+
+
+def __getattr__(name: str):
+    """``TOP_LAND_MIN``: the narrowest top land the seed file's outer radii leave [m]
+    (imported when asked: it lives with the geometry report's numerical code)."""
+    if name == "TOP_LAND_MIN":
+        from fe_impact.gears.report import TOP_LAND_MIN
+
+        return TOP_LAND_MIN
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _say(echo: Echo | None) -> Echo:
@@ -232,7 +243,7 @@ def read_schedule(path: PathLike) -> DutyCycle:
 def seed_load_torque() -> float:
     """The largest load torque of the seed's presets on the output [N m] (1 N m): the
     default load of :func:`geometry_report`."""
-    from fe_impact.gears.report import seed_load_torque as largest
+    from fe_impact.switching.presets import seed_load_torque as largest
 
     return largest()
 
@@ -772,8 +783,9 @@ def _first_pass(gearset: GearSet, presets_run: Sequence[str], out: Path, numba: 
     """The loop's first pass: the seed presets on the closed-form laws, their closing
     speeds and places written to ``out/preset_demand.json``
     (:func:`fe_impact.switching.demand.preset_demand`)."""
+    from fe_impact.calibration.planning import TOP_MARGIN
     from fe_impact.output.files import write_json
-    from fe_impact.switching.demand import TOP_MARGIN, preset_demand
+    from fe_impact.switching.demand import preset_demand
 
     say(f"switching presets {', '.join(presets_run)} on the closed-form laws: their closing "
         "speeds ...")
@@ -787,8 +799,8 @@ def _first_pass(gearset: GearSet, presets_run: Sequence[str], out: Path, numba: 
 
 def _covered(demand: Demand, cases: list, gearset: GearSet, say: Echo) -> list:
     """The planned impacts adjusted to the presets' closing speeds
-    (:func:`fe_impact.switching.demand.cover`), each change said."""
-    from fe_impact.switching.demand import cover
+    (:func:`fe_impact.calibration.planning.cover`), each change said."""
+    from fe_impact.calibration.planning import cover
 
     covered, lines = cover(demand, cases, gearset)
     for line in lines:
@@ -798,8 +810,8 @@ def _covered(demand: Demand, cases: list, gearset: GearSet, say: Echo) -> list:
 
 def _placed_switches(demand: Demand, cases: list, gearset: GearSet, say: Echo) -> list:
     """The switch impacts struck where the presets' first contacts after a switch
-    touched (:func:`fe_impact.switching.demand.place_switches`)."""
-    from fe_impact.switching.demand import place_switches
+    touched (:func:`fe_impact.calibration.planning.place_switches`)."""
+    from fe_impact.calibration.planning import place_switches
 
     placed, lines = place_switches(demand, cases, gearset)
     for line in lines:
@@ -809,8 +821,8 @@ def _placed_switches(demand: Demand, cases: list, gearset: GearSet, say: Echo) -
 
 def _corner_impacts(demand: Demand | None, gearset: GearSet, cases: list, say: Echo) -> list:
     """The FE impacts on the rounded tip edges at the presets' closing speeds
-    (:func:`fe_impact.switching.demand.corner_impacts`)."""
-    from fe_impact.switching.demand import corner_impacts
+    (:func:`fe_impact.calibration.planning.corner_impacts`)."""
+    from fe_impact.calibration.planning import corner_impacts
 
     if demand is None:
         raise CalibrationError("--corner-impacts and --no-preset-speeds: the corner "
@@ -830,14 +842,17 @@ def _sweep(text: str, impacts: list, cycle: list, settings: Settings, out: Path,
            numba: Path | None, say: Echo) -> Path:
     """Run the planned cases (:func:`fe_impact.calibration.execution.calibrate`) and say
     what was written; returns the path of calibration.json."""
+    from fe_impact.calibration.execution import Studies
     from fe_impact.calibration.execution import calibrate as run
+    from fe_impact.switching.study import seed_study_job, study_folder
 
     cases = impacts + cycle
     levels = settings.level if settings.position_level == settings.level or not cycle \
         else f"{settings.level} / {settings.position_level}"
     say(f"calibrating {len(impacts)} impacts and {len(cycle)} mesh-cycle positions "
         f"({levels} meshes, {settings.integrator}) -> {out}")
-    path = run(text, cases, settings, out, cache, workers, scheduler, progress, studies, numba)
+    path = run(text, cases, settings, out, cache, workers, scheduler, progress,
+               Studies(tuple(studies), seed_study_job, study_folder), numba)
     say(f"wrote {path}, {out / 'calibration.csv'} and {out / 'report.md'}")
     for line in calibration_summary(path):
         say(f"  {line}")
@@ -856,6 +871,32 @@ def calibration_summary(path: PathLike) -> list[str]:
 
 
 # -- switching -----------------------------------------------------------------------------------
+def study_preset(schedule: str | PathLike | Preset | DutyCycle,
+                 gearset: GearSet | PathLike | None = None, *,
+                 duration: float | None = None) -> Preset:
+    """The cases a switching study runs, from a preset or a schedule.
+
+    Parameters
+    ----------
+    schedule : str, path-like, Preset or DutyCycle
+        A preset's name (:func:`presets`) or a preset; a schedule file (a path,
+        or a string ending in ``.toml``) or a schedule read
+        (:func:`read_schedule`), checked against the gear set's stages.
+    gearset : GearSet, str or path-like, optional
+        None: the seed set.
+    duration : float, optional
+        Simulated time of each case [s]; segments are scaled in proportion.
+
+    Returns
+    -------
+    Preset
+        ``name``, ``cases`` (each a name and a ``schedule`` of segments) and
+        ``duration`` (all cases) [s].
+    """
+    preset = _preset(schedule, _gearset(gearset))
+    return preset if duration is None else preset.scaled(duration)
+
+
 def _preset(schedule: str | PathLike | Preset | DutyCycle, gearset: GearSet) -> Preset:
     """A study's cases from a preset (or its name), a schedule file or a read schedule."""
     from fe_impact.switching.presets import Preset, get_preset, schedule_preset

@@ -8,7 +8,7 @@ Prints one column per face-gear stage: the face-width limits (undercut,
 conjugate tip, pointing) and the chosen radii, the path of contact in pinion
 roll angle and the contact ratio, the Hertz contact at the pitch point under
 the nominal load, and the rotor masses reduced to the contact normal
-(:func:`fe_impact.gears.report.stage_geometry`). ``--json`` writes the same
+(:func:`fe_impact.api.geometry_report`). ``--json`` writes the same
 numbers in SI units. `register` adds the subcommand; bad input raises
 `fe_impact.errors.FeImpactError` subclasses (the CLI prints them as one line).
 """
@@ -169,10 +169,10 @@ def _check(args: argparse.Namespace) -> None:
 
 def _load(path: Path | None):
     """The gear set at ``path``, or the built-in seed set; errors name GEARSET."""
-    from fe_impact.gears import default_gearset, load_gearset
+    from fe_impact.api import read_gearset
 
     if path is None:
-        return default_gearset()
+        return read_gearset(None)
     if path.is_dir():
         raise GeometryError(f"GEARSET {path}: is a folder; give a gear-set TOML file, or "
                             "none for the built-in seed set")
@@ -180,7 +180,7 @@ def _load(path: Path | None):
         raise GeometryError(f"GEARSET {path}: no such file; give a gear-set TOML file, or "
                             "none for the built-in seed set")
     try:
-        return load_gearset(path)
+        return read_gearset(path)
     except GeometryError as exc:
         raise GeometryError(f"GEARSET {exc}") from exc
 
@@ -200,7 +200,7 @@ def _cell(row: dict, section: str, key: str, scale: float, spec: str) -> str:
 
 
 def format_table(rows: list[dict]) -> str:
-    """The aligned table of :func:`fe_impact.gears.report.stage_geometry`'s rows:
+    """The aligned table of :func:`fe_impact.api.geometry_report`'s rows:
     one column per stage, a titled block per section, units in the labels."""
     lines = [("", [f"stage {r['stage']}" for r in rows]),
              ("face-gear teeth / shaper teeth", [f"{r['teeth']} / {r['shaper_teeth']}"
@@ -222,8 +222,8 @@ def format_table(rows: list[dict]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``fe-impact geometry``; returns the exit status."""
+    from fe_impact.api import TOP_LAND_MIN, geometry_report, seed_load_torque
     from fe_impact.atomic import write_json
-    from fe_impact.gears.report import TOP_LAND_MIN, seed_load_torque, stage_geometry
 
     _check(args)
     gearset = _load(args.gearset)
@@ -231,7 +231,7 @@ def run(args: argparse.Namespace) -> int:
     torque = seed_load_torque() if default else args.torque
     source = ("the largest load of the seed presets\n(table4, variable-load; --torque "
               "changes it)" if default else "from --torque")
-    rows = stage_geometry(gearset, torque)
+    rows = geometry_report(gearset, torque)
     print(f"{gearset.name}: {len(rows)} stage(s), pinion {gearset.pinion.teeth} teeth, "
           f"module {gearset.module * 1e3:g} mm, {gearset.n_pinions} pinion(s)")
     print(format_table(rows))

@@ -83,10 +83,8 @@ def _run(args: argparse.Namespace) -> int:
         print(f"fe-impact: error: numerical failure ({type(exc).__name__}: {exc}); check "
               "the input values", file=sys.stderr)
         return 2
-    except ValueError as exc:
-        import numpy as np
-
-        if args.debug or not isinstance(exc, np.linalg.LinAlgError):
+    except ValueError as exc:   # numpy.linalg.LinAlgError, told by name (numpy not loaded here)
+        if args.debug or type(exc).__name__ != "LinAlgError":
             raise
         print(f"fe-impact: error: a linear solve failed ({exc}); check the input values "
               "(a body held in too few directions, or a penalty or modulus far out of "

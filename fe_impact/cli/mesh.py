@@ -18,14 +18,12 @@ import math
 import time
 from pathlib import Path
 
-import numpy as np
-
 from fe_impact.defaults import LEVEL_NAMES, REFINEMENT_RANGE
 from fe_impact.errors import MeshError
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["register", "run", "write_picture"]
+__all__ = ["register", "run"]
 
 LEVEL_CHOICES = LEVEL_NAMES
 
@@ -101,32 +99,27 @@ def _check_options(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``fe-impact mesh``; returns the exit status."""
-    from fe_impact.errors import GeometryError
-    from fe_impact.gears import default_gearset, load_gearset
-    from fe_impact.meshing.toothpair import build_pair
-    from fe_impact.output.files import check_output_dir, removed_if_left_empty
+    from fe_impact.api import mesh_pair, pair_picture, read_gearset
+    from fe_impact.output.files import check_output_dir
 
     _check_options(args)
     check_output_dir(args.out)
-    gearset = default_gearset() if args.gearset is None else load_gearset(args.gearset)
-    n = len(gearset.stages)
-    if not 1 <= args.stage <= n:
-        raise GeometryError(f"--stage {args.stage}: gear set {gearset.name!r} has stages 1..{n}")
+    gearset = read_gearset(args.gearset)
     t0 = time.perf_counter()
-    stage = gearset.stages[args.stage - 1]
-    print(f"{gearset.name}: stage {args.stage} ({stage.teeth} teeth), roll angle "
-          f"{args.roll_angle:g} deg, level {args.level}"
-          f"{'' if args.refinement == 1.0 else f' / {args.refinement:g}'}, P{args.order}",
-          flush=True)
-    print("  tooth contact analysis, geometry and mesh ...", flush=True)
-    with removed_if_left_empty(args.out) as out:    # a pair not made leaves no empty --out
-        pair = build_pair(gearset, args.stage, args.roll_angle, args.level, args.order,
-                          args.gap * 1e-6, args.impact_speed, out, reuse=args.reuse,
-                          n_face_teeth=args.face_teeth, neighbour_teeth=args.neighbour_teeth,
-                          contact=args.contact, refinement=args.refinement)
+    if 1 <= args.stage <= len(gearset.stages):
+        stage = gearset.stages[args.stage - 1]
+        print(f"{gearset.name}: stage {args.stage} ({stage.teeth} teeth), roll angle "
+              f"{args.roll_angle:g} deg, level {args.level}"
+              f"{'' if args.refinement == 1.0 else f' / {args.refinement:g}'}, P{args.order}",
+              flush=True)
+        print("  tooth contact analysis, geometry and mesh ...", flush=True)
+    pair = mesh_pair(gearset, args.stage, out=args.out, roll_angle_deg=args.roll_angle,
+                     level=args.level, order=args.order, gap=args.gap * 1e-6,
+                     impact_speed=args.impact_speed, face_teeth=args.face_teeth,
+                     neighbour_teeth=args.neighbour_teeth, contact=args.contact,
+                     refinement=args.refinement, reuse=args.reuse)
     c, e, s = pair.contact, pair.ellipse, pair.stats
-    print(f"  contact point {np.round(c.point * 1e3, 4).tolist()} mm, normal "
-          f"{np.round(c.normal, 5).tolist()}", flush=True)
+    print(f"  contact point {_mm(c.point)} mm, normal {_rounded(c.normal, 5)}", flush=True)
     print(f"  Hertz ellipse at {e.force:.4g} N: a = {e.a * 1e3:.4g} mm, b = {e.b * 1e3:.4g} mm "
           f"(b/a = {e.slenderness:.3f}), p0 = {e.p0 / 1e6:.4g} MPa", flush=True)
     hit = pair.analysis.impact
@@ -138,143 +131,18 @@ def run(args: argparse.Namespace) -> int:
           f"min SICN {s.min_sicn:.3f} (mean {s.mean_sicn:.3f}), stretch factor "
           f"{s.element_sizes['factor']:.3g} ({s.seconds:.1f} s)", flush=True)
     if not args.no_picture:
-        picture, how = write_picture(pair, Path(args.out) / "pair.png", gearset)
+        picture, how = pair_picture(pair, Path(args.out) / "pair.png", gearset)
         print(f"  picture {picture} ({how})", flush=True)
     print(f"wrote {pair.mesh_path}, {pair.case_path}, {pair.tca_path} "
           f"({time.perf_counter() - t0:.1f} s)")
     return 0
 
 
-# -- picture -----------------------------------------------------------------------------------
-def _surfaces(mesh_path: Path) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
-    """Points [mm], corner triangles of the surface groups and corner tetrahedra of
-    the volume groups of the mesh file."""
-    import meshio
-
-    m = meshio.read(mesh_path)
-    tri = "triangle6" if "triangle6" in m.cells_dict else "triangle"
-    tet = "tetra10" if "tetra10" in m.cells_dict else "tetra"
-    surfaces, volumes = {}, {}
-    for name, blocks in m.cell_sets_dict.items():
-        if name.startswith("gmsh:"):
-            continue
-        if tri in blocks:
-            surfaces[name] = m.cells_dict[tri][blocks[tri]][:, :3]
-        if tet in blocks:
-            volumes[name] = m.cells_dict[tet][blocks[tet]][:, :4]
-    return m.points, surfaces, volumes
+def _rounded(values, digits: int) -> list[float]:
+    """``values`` rounded to ``digits`` decimals, as a list (printed like numpy's)."""
+    return [round(float(v), digits) for v in values]
 
 
-def _ellipse_outline(pair, gearset=None, n: int = 400) -> np.ndarray:
-    """Contact ellipse at the design force [mm], laid on the face-gear flank.
-
-    The outline is drawn in the tangent plane and, when the gear set is given,
-    moved onto the face flank (at the same radius and height), so the curved
-    flank does not hide it; then lifted by 2 um towards the pinion.
-    """
-    t = np.linspace(0.0, 2 * np.pi, n)
-    e, c = pair.ellipse, pair.contact
-    pts = c.point + np.outer(e.a * np.cos(t), e.major) + np.outer(e.b * np.sin(t), e.minor)
-    if gearset is not None:
-        from fe_impact.gears.tca import GearPair
-
-        face = GearPair.from_gearset(gearset, pair.analysis.spec.stage).face
-        ca, sa = np.cos(c.face_angle), np.sin(c.face_angle)
-        local = np.stack([ca * pts[:, 0] - sa * pts[:, 2], pts[:, 1],
-                          sa * pts[:, 0] + ca * pts[:, 2]], axis=1)
-        radius = np.clip(np.hypot(local[:, 0], local[:, 2]), face.face_inner, face.face_outer)
-        on = face.flank(radius, local[:, 1]).points
-        pts = np.stack([ca * on[:, 0] + sa * on[:, 2], on[:, 1],
-                        -sa * on[:, 0] + ca * on[:, 2]], axis=1)
-    return (pts + 2e-6 * c.normal) * 1e3
-
-
-_COLOURS = {"pinion_flank": "tomato", "face_flank": "royalblue", "pinion_hub": "grey",
-            "face_hub": "grey"}
-
-
-def write_picture(pair, path: Path, gearset=None) -> tuple[Path, str]:
-    """Picture of the pair and the contact ellipse; pyvista, else matplotlib.
-
-    ``gearset`` (optional) lets the ellipse be drawn on the curved face flank.
-    Returns the path and which renderer drew it.
-    """
-    from fe_impact.output.files import atomic_path
-
-    points, surfaces, volumes = _surfaces(pair.mesh_path)
-    ellipse = _ellipse_outline(pair, gearset)
-    with atomic_path(path) as tmp:   # a stopped run leaves no half-written picture
-        try:
-            _pyvista_picture(points, surfaces, volumes, ellipse, pair, tmp)
-            how = "pyvista, off-screen"
-        except Exception as exc:  # no OpenGL context, missing VTK pieces, ...
-            logger.warning("pyvista off-screen rendering failed (%s); using matplotlib", exc)
-            _matplotlib_picture(points, surfaces, ellipse, tmp)
-            how = f"matplotlib 3-D: pyvista failed ({type(exc).__name__})"
-    return path, how
-
-
-def _pyvista_picture(points, surfaces, volumes, ellipse, pair, path: Path) -> None:
-    """Left: both sectors (outer surfaces, flanks coloured); right: the face flank's
-    mesh around the contact seen along the normal, with the Hertz ellipse."""
-    import pyvista as pv
-
-    def poly(tris: np.ndarray):
-        return pv.PolyData(points, np.hstack([np.full((len(tris), 1), 3), tris]).ravel())
-
-    def solid(tets: np.ndarray):
-        cells = np.hstack([np.full((len(tets), 1), 4), tets]).ravel()
-        kinds = np.full(len(tets), pv.CellType.TETRA, dtype=np.uint8)
-        return pv.UnstructuredGrid(cells, kinds, points).extract_surface(
-            algorithm="dataset_surface")
-
-    normal, minor = pair.contact.normal, pair.ellipse.minor
-    centre = pair.contact.point * 1e3
-    lifted = ellipse
-    plotter = pv.Plotter(off_screen=True, shape=(1, 2), window_size=(1600, 800))
-    plotter.subplot(0, 0)
-    for name, colour in (("pinion", "mistyrose"), ("face_gear", "lightsteelblue")):
-        if name in volumes:
-            plotter.add_mesh(solid(volumes[name]), color=colour, opacity=0.35)
-    for name, tris in surfaces.items():
-        plotter.add_mesh(poly(tris), color=_COLOURS.get(name, "lightgrey"))
-    plotter.add_mesh(pv.lines_from_points(lifted), color="gold", line_width=5)
-    plotter.add_text("pinion tooth and face-gear sector (mm)", font_size=10)
-    plotter.view_vector(normal + 0.8 * minor + 0.4 * pair.ellipse.major, viewup=[0, 1, 0])
-    plotter.reset_camera()
-    plotter.subplot(0, 1)
-    if "face_flank" in surfaces:
-        plotter.add_mesh(poly(surfaces["face_flank"]), color=_COLOURS["face_flank"],
-                         show_edges=True)
-    plotter.add_mesh(pv.lines_from_points(lifted), color="gold", line_width=4)
-    plotter.add_text(f"face flank mesh and Hertz ellipse at {pair.ellipse.force:.0f} N "
-                     f"(a = {pair.ellipse.a * 1e3:.2f} mm, b = {pair.ellipse.b * 1e3:.3f} mm)",
-                     font_size=10)
-    plotter.camera.focal_point = centre
-    plotter.camera.position = centre + 50.0 * normal
-    plotter.camera.up = minor
-    plotter.camera.parallel_projection = True
-    plotter.camera.parallel_scale = 1.25 * pair.ellipse.a * 1e3
-    plotter.screenshot(str(path))
-    plotter.close()
-
-
-def _matplotlib_picture(points, groups, ellipse, path: Path) -> None:
-    """The two flanks and the ellipse as a 3-D matplotlib plot (no OpenGL needed)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig = plt.figure(figsize=(8, 7))
-    ax = fig.add_subplot(projection="3d")
-    for name in ("pinion_flank", "face_flank"):
-        if name in groups:
-            ax.plot_trisurf(points[:, 0], points[:, 1], points[:, 2], triangles=groups[name],
-                            color=_COLOURS[name], alpha=0.6, linewidth=0.1)
-    ax.plot(*ellipse.T, color="gold", linewidth=2)
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm]")
-    ax.set_zlabel("z [mm]")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+def _mm(point) -> list[float]:
+    """A point [m] in mm, to 0.1 um."""
+    return _rounded([1e3 * float(v) for v in point], 4)

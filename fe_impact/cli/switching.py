@@ -84,10 +84,11 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
 
 
 def _list_presets() -> int:
-    from fe_impact.switching.presets import PRESETS
+    from fe_impact.api import presets
 
-    width = max(len(name) for name in PRESETS)
-    for name, preset in PRESETS.items():
+    known = presets()
+    width = max(len(name) for name in known)
+    for name, preset in known.items():
         print(f"{name:<{width}}  {preset.duration:5.1f} s  {preset.description}")
     return 0
 
@@ -159,26 +160,21 @@ def run(args: argparse.Namespace) -> int:
     if args.list:
         return _list_presets()
     _check(args)
-    from fe_impact.gears import default_gearset, load_gearset
-    from fe_impact.switching.presets import get_preset, schedule_preset
-    from fe_impact.switching.schedule import read_schedule
-    from fe_impact.switching.study import run_study
+    from fe_impact.api import read_gearset, read_schedule, run_switching, study_preset
 
     duty = None if args.schedule is None else read_schedule(args.schedule)
-    preset = get_preset(args.preset) if duty is None else schedule_preset(duty)
-    if args.duration is not None:
-        preset = preset.scaled(args.duration)
-    gearset = default_gearset() if args.gearset is None else load_gearset(args.gearset)
-    if duty is not None:
-        duty.check_stages(len(gearset.stages), f"the gear set {gearset.name!r}")
+    gearset = read_gearset(args.gearset)
+    preset = study_preset(args.preset if duty is None else duty, gearset,
+                          duration=args.duration)
     notes = _check_preset(args, preset, gearset.pinion.teeth)
     print(f"{preset.name}: {len(preset.cases)} case(s), {preset.duration:g} s simulated",
           flush=True)
     t0 = time.perf_counter()
     try:
-        summary = run_study(preset, gearset, args.calibration, args.out, corners=args.corners,
-                            sample_interval=args.sample_interval, notes=notes,
-                            on_case=_progress, baseline=not args.no_baseline)
+        summary = run_switching(preset, gearset, args.calibration, out=args.out,
+                                corners=args.corners, sample_interval=args.sample_interval,
+                                notes=notes, on_case=_progress, baseline=not args.no_baseline,
+                                search=True)
     except CalibrationError as exc:
         raise CalibrationError(f"--calibration: {exc}") from exc
     for name, info in summary["cases"].items():

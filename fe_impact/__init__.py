@@ -12,9 +12,7 @@ set's checks (:func:`geometry_report`). Importing the package is cheap: each
 function imports the numerical modules it needs when called.
 """
 
-__version__ = "0.3.1"
-
-from fe_impact.api import (  # noqa: E402 (after the version, which the API's modules read)
+from fe_impact.api import (
     ExportResult,
     calibrate,
     calibration_summary,
@@ -33,6 +31,7 @@ from fe_impact.api import (  # noqa: E402 (after the version, which the API's mo
     simulate_switching,
     solve,
 )
+from fe_impact.version import __version__
 
 __all__ = [
     "__version__",

@@ -168,14 +168,13 @@ def test_the_seed_studies_run_are_those_the_calibration_has_laws_for():
     assert _seed_studies(gearset, [1, 3]) == ("table1", "table3")
 
 
-def test_an_interrupted_study_leaves_the_calibration_complete(tmp_path, monkeypatch):
+def test_an_interrupted_study_leaves_the_calibration_complete(tmp_path):
     # Ctrl-C while the studies run: the calibration stays "completed" in summary.json,
     # the switching entry says "stopped", and the interrupt goes on to the CLI (130).
     import json
 
     from fe_impact.calibration import execution
     from fe_impact.output.drawing import draw_here
-    from fe_impact.switching import study
 
     (tmp_path / "summary.json").write_text(json.dumps({"status": "completed",
                                                        "calibration": "calibration.json"}))
@@ -188,10 +187,10 @@ def test_an_interrupted_study_leaves_the_calibration_complete(tmp_path, monkeypa
             raise KeyboardInterrupt
         return {}
 
-    monkeypatch.setattr(study, "seed_study_job", job)
     with pytest.raises(KeyboardInterrupt):
         execution._run_studies(tmp_path, tmp_path / "calibration.json", "",
-                               ("table1", "table2", "table3"), draw_here)
+                               execution.Studies(("table1", "table2", "table3"), job),
+                               draw_here)
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary == {"status": "completed", "calibration": "calibration.json",
                        "switching": "stopped"}
@@ -199,7 +198,7 @@ def test_an_interrupted_study_leaves_the_calibration_complete(tmp_path, monkeypa
     assert "Switching runs" not in (tmp_path / "report.md").read_text()
 
 
-def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeypatch):
+def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path):
     # On the workers the studies start as soon as calibration.json is written, before
     # report.md and summary.json: starting must not read them, and the wait tables
     # the studies into the summary written meanwhile; a Ctrl-C in the wait marks
@@ -207,17 +206,16 @@ def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeyp
     import json
 
     from fe_impact.calibration import execution
-    from fe_impact.switching import study
 
-    monkeypatch.setattr(study, "seed_study_job", lambda *args: {})
+    studies = execution.Studies(("table1", "table2"), lambda *args: {})
     queued = []
 
     def later(jobs):        # an asynchronous Draw: the jobs run when waited for
         queued.extend(jobs)
         return lambda: [name for name, fn, args in jobs if fn(*args) is not None]
 
-    finish = execution._start_studies(tmp_path, tmp_path / "calibration.json", "",
-                                      ("table1", "table2"), later)
+    finish = execution._start_studies(tmp_path, tmp_path / "calibration.json", "", studies,
+                                      later)
     assert [name for name, *_ in queued] == ["switching study table1",
                                              "switching study table2"]
     assert not (tmp_path / "summary.json").exists()
@@ -234,7 +232,8 @@ def test_studies_started_before_the_summary_are_tabled_into_it(tmp_path, monkeyp
         return wait
 
     finish = execution._start_studies(tmp_path, tmp_path / "calibration.json", "",
-                                      ("table3",), interrupted)
+                                      execution.Studies(("table3",), lambda *args: {}),
+                                      interrupted)
     with pytest.raises(KeyboardInterrupt):
         finish()
     assert json.loads((tmp_path / "summary.json").read_text())["switching"] == "stopped"

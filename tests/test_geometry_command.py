@@ -34,7 +34,9 @@ def gearset():
 
 @pytest.fixture(scope="module")
 def rows(gearset):
-    return stage_geometry(gearset)
+    from fe_impact.switching.presets import seed_load_torque
+
+    return stage_geometry(gearset, seed_load_torque())
 
 
 def _seed_limits_table() -> dict[int, tuple[float, ...]]:

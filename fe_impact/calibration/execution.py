@@ -31,11 +31,10 @@ import logging
 import threading
 import time
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fe_impact import __version__
 from fe_impact.calibration import meshcycle
 from fe_impact.calibration.cluster import (
     CaseStopped,
@@ -62,6 +61,7 @@ from fe_impact.inputs import Reader, read_document
 from fe_impact.interrupts import Interrupted, handle_signals, ignore_signals
 from fe_impact.output.drawing import Draw, draw_here, draw_on
 from fe_impact.output.files import folder_lock, remove_temporaries, removed_if_left_empty
+from fe_impact.version import __version__
 
 logger = logging.getLogger(__name__)
 
@@ -72,6 +72,32 @@ SUMMARY_SCHEMA = "fe-impact/calibration-run/1"
 #: STOP_POLL s and stops at the next Python statement, which in a tooth
 #: impact is well within a second (one Newmark step is 0.1-0.5 s).
 STOP_GRACE = 20.0
+
+
+@dataclass(frozen=True)
+class Studies:
+    """Switching studies to run on a finished calibration, each into ``switching/<folder>/``.
+
+    The lumped model is downstream of the calibration, so the calibration does not
+    import it: the caller hands its studies in (:func:`fe_impact.api.calibrate` with
+    :func:`fe_impact.switching.study.seed_study_job` and
+    :func:`~fe_impact.switching.study.study_folder`).
+
+    Attributes
+    ----------
+    names : tuple of str
+        Each study as ``job`` takes it: a seed condition set's name or a schedule
+        file's path.
+    job : callable
+        ``job(gearset_text, name, calibration_json, out_folder) -> dict``: one study,
+        run on a worker (picklable).
+    folder : callable
+        ``folder(name) -> str``: the study's folder under ``switching/``.
+    """
+
+    names: tuple[str, ...]
+    job: Callable[[str, str, str, str], dict]
+    folder: Callable[[str], str] = str
 
 
 @dataclass
@@ -118,14 +144,12 @@ def finished_record(out: Path, case: ImpactCase, settings: Settings,
 def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,
               cache: Path, workers: int | None = None, scheduler: str | None = None,
               progress: Callable[[int, int, str], None] | None = None,
-              studies: Sequence[str] = (), numba: Path | None = None) -> Path:
+              studies: Studies | None = None, numba: Path | None = None) -> Path:
     """Run the sweep (resuming), then write calibration.json/.csv, the report and summary.json.
 
-    ``studies``: the seed's switching condition sets
-    (:data:`~fe_impact.switching.study.SEED_STUDIES`), or schedule files' paths
-    (`fe_impact.switching.study.study_preset`), to run on the finished
-    calibration, each into ``switching/<name>/`` (on the sweep's workers while
-    the report is written); the report lists them. ``numba``: the folder of the
+    ``studies``: the switching studies to run on the finished calibration, each
+    into ``switching/<folder>/`` (on the sweep's workers while the report is
+    written); the report lists them. ``numba``: the folder of the
     local workers' compiled kernels, held by the caller (:func:`numba_folder`);
     None: one is taken for the run.
 
@@ -144,7 +168,7 @@ def calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, ou
 
 
 def _calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, out: Path,
-               cache, workers, scheduler, progress, studies: Sequence[str],
+               cache, workers, scheduler, progress, studies: Studies | None,
                numba: Path | None) -> Path:
     """:func:`calibrate` in its ``out`` folder."""
     t0 = time.perf_counter()
@@ -241,7 +265,7 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
     return path or summary_path
 
 
-def _run_studies(out: Path, calibration: Path, gearset_text: str, studies: Sequence[str],
+def _run_studies(out: Path, calibration: Path, gearset_text: str, studies: Studies | None,
                  draw: Draw) -> None:
     """Run the switching ``studies`` on the finished ``calibration`` (one ``draw`` job
     each), table them in report.md and list them in summary.json. A study that fails
@@ -256,21 +280,19 @@ def _run_studies(out: Path, calibration: Path, gearset_text: str, studies: Seque
     finish()
 
 
-def _start_studies(out: Path, calibration: Path, gearset_text: str, studies: Sequence[str],
+def _start_studies(out: Path, calibration: Path, gearset_text: str, studies: Studies | None,
                    draw: Draw) -> Callable[[], None]:
     """Hand the ``studies`` to ``draw``; returns what waits for them and then tables
     them (:func:`_run_studies`: summary.json must exist by then)."""
-    if not studies:
+    if studies is None or not studies.names:
         return lambda: None
     from fe_impact.calibration.report import add_switching_section
     from fe_impact.output.files import write_json
-    from fe_impact.switching.study import seed_study_job, study_folder
 
-    # a study is a preset's name or a schedule file's path; its folder, the schedule's name
-    folders = [study_folder(name) for name in studies]
-    wait = draw([(f"switching study {folder}", seed_study_job,
+    folders = [studies.folder(name) for name in studies.names]
+    wait = draw([(f"switching study {folder}", studies.job,
                   (gearset_text, name, str(calibration), str(out / "switching" / folder)))
-                 for name, folder in zip(studies, folders, strict=True)])
+                 for name, folder in zip(studies.names, folders, strict=True)])
 
     def finish() -> None:
         try:

@@ -60,8 +60,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fe_impact import __version__
 from fe_impact.errors import CalibrationError
+from fe_impact.version import __version__
 
 logger = logging.getLogger(__name__)
 

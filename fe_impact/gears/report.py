@@ -22,7 +22,7 @@
 - the tip edges: the rounding radii, the largest the face gear's top land
   takes and where, what the pinion's roundings leave of its tip land, and
   the line of action as the torsional model sees it
-  (:func:`~fe_impact.switching.geometry.mesh_geometry`): where the flanks end
+  (:func:`~fe_impact.gears.kinematics.mesh_geometry`): where the flanks end
   with sharp and with rounded edges, and the contact ratio of each;
 - the first touch of a pair entering mesh (the face gear's rounded tip edge
   on the pinion's involute) and leaving it (the pinion's rounded tip edge on
@@ -37,8 +37,8 @@ Nominal load: a torque on the output (all rings sit on it), shared by the
 ``F = T / (n_pinions |l_2|)`` with ``l_2`` the face gear's lever arm about
 its axis at the contact (``r_2 cos(alpha0)`` at the pitch point; the
 torsional model's ``base_levers``, :mod:`fe_impact.switching.model`). The
-default torque is the largest load of the seed presets
-(:func:`seed_load_torque`).
+command's default torque is the largest load of the seed presets
+(:func:`fe_impact.switching.presets.seed_load_torque`).
 """
 
 from __future__ import annotations
@@ -61,7 +61,6 @@ __all__ = [
     "contact_path_ends",
     "pitch_point",
     "radius_at_top_land",
-    "seed_load_torque",
     "stage_geometry",
     "top_land",
 ]
@@ -301,15 +300,6 @@ def ellipse_edges(pair: GearPair, contact: ContactPoint, a: float, b: float) -> 
                                                      strict=True)}
 
 
-def seed_load_torque() -> float:
-    """Largest load torque [N m] on the output among the seed presets (1 N m: the
-    seed's 1000 N mm, presets ``table4`` and ``variable-load``)."""
-    from fe_impact.switching.presets import PRESETS
-
-    return max(seg.load for preset in PRESETS.values() for case in preset.cases
-               for seg in case.schedule.segments)
-
-
 def pitch_point(gearset: GearSet, number: int, torque: float) -> tuple[GearPair, dict]:
     """The stage's pair and its pitch-point rows of :func:`stage_geometry` (``pitch_point``,
     ``masses``, and ``_contact``: the contact there) under ``torque`` on the output."""
@@ -362,14 +352,15 @@ def pitch_point(gearset: GearSet, number: int, torque: float) -> tuple[GearPair,
     return pair, {"pitch_point": hertz, "masses": reduced, "_contact": contact}
 
 
-def stage_geometry(gearset: GearSet, torque: float | None = None) -> list[dict]:
+def stage_geometry(gearset: GearSet, torque: float) -> list[dict]:
     """Pre-FE checks of every stage of ``gearset`` (module docstring), SI units.
 
     Parameters
     ----------
     gearset : GearSet
-    torque : float, optional
-        Load torque on the output [N m], > 0; default :func:`seed_load_torque`.
+    torque : float
+        Load torque on the output [N m], > 0 (the command's default:
+        :func:`fe_impact.switching.presets.seed_load_torque`).
 
     Returns
     -------
@@ -379,12 +370,11 @@ def stage_geometry(gearset: GearSet, torque: float | None = None) -> list[dict]:
         ``masses`` (keys carry their units: ``_m``, ``_rad``, ``_Pa``, ``_N``,
         ``_kg``, ``_Nm``, ``_1_m``).
     """
-    torque = seed_load_torque() if torque is None else torque
-    if not (math.isfinite(torque) and torque > 0.0):
+    if torque is None or not (math.isfinite(torque) and torque > 0.0):
         raise GeometryError(f"load torque = {torque!r} N m; must be a number > 0")
     from dataclasses import replace
 
-    from fe_impact.switching.geometry import mesh_geometry
+    from fe_impact.gears.kinematics import mesh_geometry
 
     # the torsional model's line of action, with the gear set's tip edges and sharp:
     # the same for every stage

@@ -283,7 +283,7 @@ def add_solids(model, gearset, spec: PairSpec, design: PairDesign
 def _solids_key(gearset, spec: PairSpec) -> str:
     """Key of a stage's solids: the gear set, the sector fields, the version and the
     builder's source (solids shared on disk outlive the process and the run)."""
-    from fe_impact import __version__
+    from fe_impact.version import __version__
 
     blob = json.dumps({"gearset": asdict(gearset), "version": __version__,
                        "source": _builder_digest(),

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from fe_impact import __version__
 from fe_impact.fe.case import Case
 from fe_impact.output.files import remove_stale, write_array_csv, write_json, write_pvd, write_vtu
 from fe_impact.solvers.static import StaticResult, StepResult
+from fe_impact.version import __version__
 
 SUMMARY_SCHEMA = "fe-impact/static-summary/1"
 

@@ -32,6 +32,13 @@ from pathlib import Path
 
 import numpy as np
 
+from fe_impact.calibration.planning import (  # noqa: F401 (planning from a Demand: importable here)
+    TOP_MARGIN,
+    corner_impacts,
+    cover,
+    place_switches,
+    top_speed,
+)
 from fe_impact.gears.gearset import GearSet
 from fe_impact.switching.model import StageSchedule
 
@@ -39,14 +46,6 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["FORCE_MARGIN", "Demand", "LawDemand", "corner_impacts", "cover", "curve_top_force",
            "place_switches", "preset_demand", "top_speed"]
-
-#: The closing speed of an FE case added at the top of a stage's range is the
-#: largest the closed-form presets produce times this margin, rounded up to two
-#: significant digits: the presets rerun on the calibrated laws close somewhat
-#: faster or slower (measured on the seed set: 175-183 mm/s on the coarse
-#: calibration against 196 mm/s with the closed forms).
-TOP_MARGIN = 1.2
-
 
 @dataclass(frozen=True)
 class LawDemand:
@@ -255,117 +254,3 @@ def curve_top_force(demand: Demand) -> float | None:
     f = top * FORCE_MARGIN
     scale = 10.0 ** (math.floor(math.log10(f)) - 1)
     return math.ceil(f / scale - 1e-9) * scale
-
-
-def top_speed(speed: float) -> float:
-    """``speed`` times `TOP_MARGIN`, rounded up to two significant digits [m/s]."""
-    v = speed * TOP_MARGIN
-    scale = 10.0 ** (math.floor(math.log10(v)) - 1)
-    return math.ceil(v / scale - 1e-9) * scale
-
-
-def cover(demand: Demand, planned: Sequence, gearset: GearSet) -> tuple[list, list[str]]:
-    """The planned FE impacts adjusted to the closing speeds the presets produce.
-
-    A stage whose flank impacts (mesh and switch laws) close faster than its fastest
-    planned impact gets an impact at `top_speed` of their fastest, in place of its
-    fastest planned one when it has three or more (the main job's 100, 300 and
-    1000 r/min: the calibration then spans 100 r/min to what the presets ask, at
-    the same cost), else beside them. Returns the cases and one line per change.
-    """
-    from fe_impact.calibration.sweep import ImpactCase
-
-    cases, lines = list(planned), []
-    for stage in sorted({c.stage for c in planned}):
-        need = demand.top_speed(stage)
-        mesh = [c for c in cases if c.stage == stage and c.kind == "mesh"]
-        if need is None or not mesh or need <= max(c.impact_speed for c in mesh):
-            continue
-        case = ImpactCase(stage, gearset.stages[stage - 1].teeth, "mesh", top_speed(need))
-        fastest = max(mesh, key=lambda c: c.impact_speed)
-        what = f"stage {stage}: flank impacts up to {need * 1e3:.4g} mm/s: an FE impact at " \
-               f"{case.impact_speed * 1e3:.4g} mm/s"
-        if len(mesh) >= 3:
-            cases[cases.index(fastest)] = case
-            what += f" in place of {fastest.id} ({fastest.impact_speed * 1e3:.4g} mm/s)"
-        else:
-            cases.append(case)
-        lines.append(what)
-    return cases, lines
-
-
-def _two_digits(speed: float) -> float:
-    """``speed`` rounded to two significant digits [m/s]."""
-    return float(f"{speed:.2g}")
-
-
-def corner_impacts(demand: Demand, gearset: GearSet, stages: Sequence[int]
-                   ) -> tuple[list, list[str]]:
-    """FE impacts on the rounded tip edges at the closing speeds the presets produce
-    there: per stage and edge, the median and the largest closing speed of the
-    impacts whose onset took that edge's corner law, to two significant digits
-    (one case when they round alike). An edge the presets never struck, or a
-    sharp one, gets none. Returns the cases and one line per stage and edge."""
-    from fe_impact.calibration.sweep import ImpactCase
-    from fe_impact.gears.corner import CORNER_SIDES, touching_edge
-
-    cases, lines = [], []
-    for stage in stages:
-        teeth = gearset.stages[stage - 1].teeth
-        for side in CORNER_SIDES:
-            kind = f"corner-{side}"
-            if touching_edge(gearset, side)[0] <= 0.0:
-                lines.append(f"stage {stage}, {kind}: sharp edge, no corner impact")
-                continue
-            row = demand.stages.get(stage, {}).get(kind)
-            if row is None or row.count == 0:
-                lines.append(f"stage {stage}, {kind}: the presets never struck it, no FE "
-                             "impact")
-                continue
-            speeds = sorted({_two_digits(row.speed_median), _two_digits(row.speed_max)})
-            cases += [ImpactCase(stage, teeth, kind, v) for v in speeds]
-            lines.append(f"stage {stage}, {kind}: {row.count} impacts in the presets, "
-                         f"median {row.speed_median * 1e3:.3g} and largest "
-                         f"{row.speed_max * 1e3:.3g} mm/s: FE impacts at "
-                         f"{', '.join(f'{v * 1e3:.2g}' for v in speeds)} mm/s")
-    return cases, lines
-
-
-def place_switches(demand: Demand, planned: Sequence, gearset: GearSet
-                   ) -> tuple[list, list[str]]:
-    """The planned switch impacts moved to where the presets' first contacts after a
-    ratio switch touched: the median place of a stage's switch impacts on the line of
-    action, as a pinion roll angle (`fe_impact.switching.geometry.MeshGeometry.roll_at`;
-    the coast flank's place is the mirror of
-    the drive flank's, which the FE pair models). A place beyond the path's ends
-    (a first touch on a tip edge) is taken at the nearest end of the FE path
-    (`fe_impact.calibration.meshcycle.path_positions`' ends at the inset that every
-    mesh level can make), and said so. Returns
-    the cases and one line per stage moved."""
-    from dataclasses import replace
-
-    from fe_impact.calibration.meshcycle import path_positions
-    from fe_impact.switching.geometry import mesh_geometry
-
-    line = mesh_geometry(gearset)
-    cases, lines = list(planned), []
-    for stage in sorted({c.stage for c in planned if c.kind == "switch"}):
-        row = demand.stages.get(stage, {}).get("switch")
-        if row is None or not math.isfinite(row.position_median):
-            lines.append(f"stage {stage}: the presets made no switch impact, the switch "
-                         "cases strike at the pitch point")
-            continue
-        roll = math.degrees(float(line.roll_at(row.position_median)))
-        ends = path_positions(gearset, stage, 2)
-        lo, hi = min(ends), max(ends)
-        where = f"{roll:+.3f} deg of pinion roll"
-        if not lo <= roll <= hi:
-            roll = min(max(roll, lo), hi)
-            where += f" (beyond the FE path: taken at {roll:+.3f} deg)"
-        for i, c in enumerate(cases):
-            if c.stage == stage and c.kind == "switch":
-                cases[i] = replace(c, roll_angle_deg=roll)
-        lines.append(f"stage {stage}: the presets' {row.count} switch impacts touched at "
-                     f"s = {row.position_median * 1e3:.3f} mm on the line of action, "
-                     f"{where}: the switch cases strike there")
-    return cases, lines

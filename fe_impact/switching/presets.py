@@ -31,7 +31,8 @@ from fe_impact.errors import CaseError
 from fe_impact.switching.model import StageSchedule
 from fe_impact.switching.schedule import SCHEDULE_DIR, DutyCycle, read_schedule
 
-__all__ = ["PRESETS", "Case", "Preset", "get_preset", "preset_file", "schedule_preset"]
+__all__ = ["PRESETS", "Case", "Preset", "get_preset", "preset_file", "schedule_preset",
+           "seed_load_torque"]
 
 @dataclass(frozen=True)
 class Case:
@@ -158,3 +159,11 @@ def get_preset(name: str) -> Preset:
     except KeyError:
         raise CaseError(f"--preset = {name!r} is not a preset; pick one of "
                         f"{sorted(PRESETS)} (fe-impact switching --list)") from None
+
+
+def seed_load_torque() -> float:
+    """Largest load torque [N m] on the output among the seed presets (1 N m: the
+    seed's 1000 N mm, presets ``table4`` and ``variable-load``): the geometry
+    report's default load (:func:`fe_impact.api.geometry_report`)."""
+    return max(seg.load for preset in PRESETS.values() for case in preset.cases
+               for seg in case.schedule.segments)

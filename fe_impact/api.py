@@ -544,7 +544,7 @@ def calibrate(gearset: PathLike | None = None, *, out: PathLike = "out/calibrati
               preset_speeds: bool = True, level: str = "default",
               mesh_cycle_level: str | None = None, integrator: str = "newmark",
               workers: int | None = None, scheduler: str | None = None,
-              cache: PathLike = "cache",
+              cache: PathLike = "cache", schedules: Sequence[PathLike] = (),
               progress: Callable[[int, int, str], None] | None = None,
               echo: Echo | None = None) -> Calibration:
     """FE tooth impacts of a gear set -> the lumped IMPACT law of each stage (the main job).
@@ -599,6 +599,11 @@ def calibrate(gearset: PathLike | None = None, *, out: PathLike = "out/calibrati
         Address of an existing ``dask.distributed`` scheduler instead.
     cache : str or path-like
         Mesh cache folder.
+    schedules : sequence of str or path-like
+        The user's schedule files (:func:`read_schedule`): their closing speeds
+        join the presets' in the first pass (the impacts are struck at them, the
+        mesh-cycle curves reach their largest mesh force), and with
+        ``switching`` each is run as a study on the calibration.
     progress : callable, optional
         ``progress(done, total, last_case_id)`` as cases finish.
     echo : callable, optional
@@ -637,6 +642,7 @@ def calibrate(gearset: PathLike | None = None, *, out: PathLike = "out/calibrati
         path = Path(gearset) if gearset is not None else _seed_path()
         gs = read_gearset(path)
         text = path.read_text(encoding="utf-8-sig")
+        duties = _schedules(schedules, gs)
         settings = Settings(level=level, integrator=integrator, cycle_level=mesh_cycle_level)
         plan = _Plan(gs, None if stages is None else list(stages), settings, positions,
                      mesh_cycle, corners)
@@ -648,18 +654,21 @@ def calibrate(gearset: PathLike | None = None, *, out: PathLike = "out/calibrati
             raise CalibrationError("--corner-impacts: none of the seed's switching presets "
                                    "runs on these stages, so there are no corner closing "
                                    "speeds to strike at; add stages or drop the option")
-        studies = presets_run if switching else ()
+        studies = (*presets_run, *(str(Path(p).resolve()) for p in schedules)) \
+            if switching else ()
         given = speeds is not None or impact_speeds is not None
         demand = None
         switches = any(c.kind == "switch" for c in cases)
-        if presets_run and preset_speeds and (switches or corner_impacts
-                                              or (studies and not given)):
-            demand = _first_pass(gs, presets_run, out, numba, say)
-        if demand is not None and studies and not given:
+        if (presets_run or duties) and preset_speeds and (
+                switches or corner_impacts or duties or (studies and not given)):
+            demand = _first_pass(gs, presets_run, out, numba, say, duties)
+        if demand is not None and (studies or duties) and not given:
             covered = _covered(demand, cases, gs, say)
             if covered != cases:
                 cases = covered
                 cycle = plan.positions(cases)
+        if demand is not None and duties:
+            cycle = plan.positions(cases, _curve_top_force(demand))
         if demand is not None and switches:
             cases = _placed_switches(demand, cases, gs, say)
         if corner_impacts:
@@ -725,9 +734,10 @@ class _Plan:
             raise CalibrationError("--corners and --no-mesh-cycle: the corner positions are "
                                    "part of the mesh cycle; give one or the other")
 
-    def positions(self, impacts: list[ImpactCase]) -> list:
+    def positions(self, impacts: list[ImpactCase], top_force: float | None = None) -> list:
         """The mesh-cycle cases, reaching the largest impact force the sweep expects
-        (Hertz estimate at the pitch point, a quarter above for the bending)."""
+        (Hertz estimate at the pitch point, a quarter above for the bending), or
+        ``top_force`` [N] if larger (the schedules' mesh force)."""
         if not self.mesh_cycle:
             return []
         from fe_impact.calibration.meshcycle import (
@@ -741,6 +751,8 @@ class _Plan:
         top = max((1.25 * hertz_impact_estimate(self.gearset, c.stage, s.roll_angle_deg,
                                                 c.impact_speed).force_max for c in impacts),
                   default=None)
+        if top_force is not None:
+            top = top_force if top is None else max(top, top_force)
         given = self.given_positions
         flank = plan_positions(self.gearset, self.stages,
                                DEFAULT_POSITIONS if given is None
@@ -778,18 +790,36 @@ def seed_studies(gearset: GearSet, stages: Sequence[int] | None = None) -> tuple
     return tuple(name for name in SEED_STUDIES if study_stages(get_preset(name)) <= have)
 
 
+def _schedules(paths: Sequence[PathLike], gearset: GearSet) -> tuple[DutyCycle, ...]:
+    """The user's schedule files, read and checked against the gear set's stages."""
+    duties = tuple(read_schedule(p) for p in paths)
+    for duty in duties:
+        duty.check_stages(len(gearset.stages), f"the gear set {gearset.name!r}")
+    return duties
+
+
+def _curve_top_force(demand: Demand) -> float | None:
+    """The force [N] the mesh-cycle curves reach for the first pass's mesh forces."""
+    from fe_impact.switching.demand import curve_top_force
+
+    return curve_top_force(demand)
+
+
 def _first_pass(gearset: GearSet, presets_run: Sequence[str], out: Path, numba: Path | None,
-                say: Echo) -> Demand:
-    """The loop's first pass: the seed presets on the closed-form laws, their closing
-    speeds and places written to ``out/preset_demand.json``
-    (:func:`fe_impact.switching.demand.preset_demand`)."""
+                say: Echo, duties: Sequence[DutyCycle] = ()) -> Demand:
+    """The loop's first pass: the seed presets and the user's schedules on the
+    closed-form laws, their closing speeds and places written to
+    ``out/preset_demand.json`` (:func:`fe_impact.switching.demand.preset_demand`)."""
     from fe_impact.calibration.planning import TOP_MARGIN
     from fe_impact.output.files import write_json
     from fe_impact.switching.demand import preset_demand
 
-    say(f"switching presets {', '.join(presets_run)} on the closed-form laws: their closing "
-        "speeds ...")
-    demand = preset_demand(gearset, presets_run, numba=numba)
+    runs = f"presets {', '.join(presets_run)}"
+    if duties:
+        names = f"schedules {', '.join(d.name for d in duties)}"
+        runs = f"{runs} and {names}" if presets_run else names
+    say(f"switching {runs} on the closed-form laws: their closing speeds ...")
+    demand = preset_demand(gearset, presets_run, numba=numba, schedules=duties)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "preset_demand.json", {**demand.to_dict(), "top_margin": TOP_MARGIN,
                                             "units": {"speed": "m/s", "force": "N",

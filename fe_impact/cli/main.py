@@ -180,6 +180,11 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--scheduler", help="address of an existing dask.distributed scheduler")
     c.add_argument("--cache", type=Path, default=Path("cache"),
                    help="mesh cache folder (default: cache)")
+    c.add_argument("--schedule", type=Path, action="append", default=None, metavar="FILE",
+                   help="a schedule file of your own (repeatable): its closing speeds join "
+                        "the presets' first pass (the impacts are struck at them, the "
+                        "mesh-cycle curves reach its largest mesh force) and, unless "
+                        "--no-switching, it is run as a study on the calibration")
     c.set_defaults(func=_cmd_calibrate, resumes=True)
     for module in _COMMAND_MODULES:
         importlib.import_module(module).register(sub)
@@ -290,7 +295,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                   switching=not args.no_switching, preset_speeds=not args.no_preset_speeds,
                   level=args.level, mesh_cycle_level=args.mesh_cycle_level,
                   integrator=args.integrator, workers=args.workers, scheduler=args.scheduler,
-                  cache=args.cache, progress=shown.cases, echo=shown.echo)
+                  cache=args.cache, schedules=args.schedule or (), progress=shown.cases,
+                  echo=shown.echo)
     finally:
         shown.close()
     return 0

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 from dataclasses import asdict
 
 import numpy as np
@@ -35,16 +34,14 @@ def gearset():
 
 @pytest.fixture(scope="module")
 def coarse(gearset, tmp_path_factory):
-    """Default stage-1 pair at level coarse, P2 (the CI-sized mesh), and its build time."""
+    """Default stage-1 pair at level coarse, P2 (the CI-sized mesh)."""
     out = tmp_path_factory.mktemp("pair_coarse")
-    t0 = time.perf_counter()
-    pair = build_pair(gearset, 1, 0.0, "coarse", 2, GAP, SPEED, out)
-    return pair, time.perf_counter() - t0
+    return build_pair(gearset, 1, 0.0, "coarse", 2, GAP, SPEED, out)
 
 
 @pytest.fixture(scope="module")
 def mesh(coarse):
-    pair, _ = coarse
+    pair = coarse
     return load_mesh(pair.mesh_path, unit="mm")
 
 
@@ -52,17 +49,15 @@ def _local(points, origin, axes):
     return (points - origin) @ np.asarray(axes).T
 
 
-def test_coarse_mesh_is_fast_and_small(coarse):
-    pair, seconds = coarse
-    # CI budget: "a few seconds" (measured 3-4 s on 2 cores; a retry with less
-    # anisotropy doubles it)
-    assert seconds < 30.0
+def test_coarse_mesh_is_small(coarse):
+    pair = coarse
+    # the CI-sized mesh (its build time is docs/performance.md's, not a test's)
     assert 5_000 < pair.stats.n_dofs < 60_000
     assert pair.stats.n_dofs == 3 * pair.stats.n_nodes
 
 
 def test_groups_and_elements(mesh, coarse):
-    pair, _ = coarse
+    pair = coarse
     assert set(mesh.volumes) == {"pinion", "face_gear"}
     assert {"pinion_flank", "face_flank", "pinion_hub", "face_hub"} <= set(mesh.surfaces)
     assert mesh.order == 2 and mesh.cells.shape[1] == 10
@@ -76,7 +71,7 @@ def test_mesh_is_in_millimetres(coarse):
     """The file holds mm (the case says unit = "mm"): the contact point at r_2 = 84 mm."""
     import meshio
 
-    pair, _ = coarse
+    pair = coarse
     pts = meshio.read(pair.mesh_path).points
     assert 70.0 < pts[:, 2].min() and pts[:, 2].max() < 100.0
 
@@ -97,7 +92,7 @@ def test_flanks_are_separated_by_the_gap_at_the_contact_point(mesh, coarse):
     about kappa^2 t^3 ~ 1e4 * 1e-12 = 1e-8 m, a few per mille of the 5 um gap; the
     gap itself is made by turning the pinion by h0 / l1, exact to O(h0^2 / R) ~ 1e-9 m.
     """
-    pair, _ = coarse
+    pair = coarse
     c = pair.contact
     axes = (pair.ellipse.major, pair.ellipse.minor, c.normal)
     fits = {}
@@ -120,7 +115,7 @@ def test_flank_nodes_lie_on_the_exact_flanks(mesh, coarse, gearset):
     """Every face-flank node, P2 mid-edge nodes included, on FaceGearTooth.flank at its
     own radius and height (above the involute band's lower end); 0.1 m coordinates:
     a few ulp."""
-    pair, _ = coarse
+    pair = coarse
     face = GearPair.from_gearset(gearset, 1).face
     angle = pair.contact.face_angle
     c, s = np.cos(angle), np.sin(angle)
@@ -143,7 +138,7 @@ def test_hub_faces_lie_where_expected(mesh, coarse, gearset):
     measured 4.5 um) and mid-edge nodes are straight, so on the rim arc they sit on
     the chord: sagitta h^2 / (8 r). Gmsh takes an edge as of unit size up to about
     1.4 times the size field, so h up to 1.5 times the far size 3.75 mm: 211 um."""
-    pair, _ = coarse
+    pair = coarse
     g = GearPair.from_gearset(gearset, 1)
     p, f = g.pinion, g.face
     cuts = 2 * pair.analysis.spec.neighbour_teeth + 1
@@ -174,7 +169,7 @@ def test_hub_faces_lie_where_expected(mesh, coarse, gearset):
 def test_element_quality(mesh, coarse):
     """Gmsh's minimum SICN above the builder's acceptance level, and, independently,
     every tetrahedron's corner volume positive (Gmsh orders them positively)."""
-    pair, _ = coarse
+    pair = coarse
     assert pair.stats.min_sicn > MIN_SICN
     assert pair.stats.mean_sicn > 0.3
     p = mesh.points[mesh.cells[:, :4]]
@@ -184,7 +179,7 @@ def test_element_quality(mesh, coarse):
 
 def test_impact_case(coarse, gearset):
     """The impact case against the gear set, the TCA and Hertz; case.toml reads back to it."""
-    pair, _ = coarse
+    pair = coarse
     case, tca = pair.case, pair.analysis
     assert load_case(pair.case_path) == case
     assert pair.case_path.read_text().startswith("# Dynamic single-tooth impact")
@@ -231,7 +226,7 @@ def test_impact_case(coarse, gearset):
 
 def test_tca_json_holds_the_analysis(coarse):
     """tca.json: its keys, and the values of the PairAnalysis it is written from."""
-    pair, _ = coarse
+    pair = coarse
     tca, a = json.loads(pair.tca_path.read_text()), pair.analysis
     assert list(tca) == ["key", "gearset", "spec", "frame", "contact",
                          "pinion_roll_angle_placed_rad", "effective_modulus_Pa",
@@ -255,21 +250,19 @@ def test_tca_json_holds_the_analysis(coarse):
 
 def test_key_and_reuse(coarse, gearset):
     """Same inputs, same key; any change, another; reuse returns the files untouched."""
-    pair, _ = coarse
+    pair = coarse
     spec = PairSpec(stage=1, level="coarse", order=2, gap=GAP, impact_speed=SPEED)
     assert pair_key(gearset, spec) == pair.key
     other = PairSpec(stage=1, level="coarse", order=2, gap=2 * GAP, impact_speed=SPEED)
     assert pair_key(gearset, other) != pair.key
     stamp = pair.mesh_path.stat().st_mtime_ns
-    t0 = time.perf_counter()
     again = build_pair(gearset, 1, 0.0, "coarse", 2, GAP, SPEED, pair.mesh_path.parent,
                        reuse=True)
-    assert time.perf_counter() - t0 < 2.0  # TCA only, no meshing
     assert again.key == pair.key and again.stats == pair.stats
     # the case and the analysis are derived again, equal to those of the build
     assert again.case == pair.case
     assert again.analysis.to_dict() == pair.analysis.to_dict()
-    assert pair.mesh_path.stat().st_mtime_ns == stamp
+    assert pair.mesh_path.stat().st_mtime_ns == stamp   # reused, not meshed again
 
 
 @pytest.mark.parametrize(

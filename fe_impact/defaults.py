@@ -17,3 +17,8 @@ LEVEL_NAMES = ("coarse", "default", "fine")
 REFINEMENT_RANGE = (0.5, 4.0)
 #: Default time-series sampling interval of a switching study [s].
 SAMPLE_INTERVAL = 2e-4
+#: The seed's largest load torque on the output [N m]: 1000 N mm (section 4.2,
+#: Table 4, and the variable-load run); the load at which the mesh cycle's
+#: nominal force is taken. The presets' schedules carry the same largest load
+#: (:func:`fe_impact.switching.presets.seed_load_torque`, checked by a test).
+SEED_LOAD_TORQUE = 1.0

@@ -235,9 +235,10 @@ def path_positions(gearset, stage: int, n: int = DEFAULT_POSITIONS,
 def nominal_force(gearset, stage: int) -> float:
     """Normal force per mesh (N) at the seed presets' largest load torque on the output
     (:func:`~fe_impact.gears.report.stage_geometry`'s, for this stage alone)."""
-    from fe_impact.gears.report import pitch_point, seed_load_torque
+    from fe_impact.defaults import SEED_LOAD_TORQUE
+    from fe_impact.gears.report import pitch_point
 
-    return float(pitch_point(gearset, stage, seed_load_torque())[1]["pitch_point"]
+    return float(pitch_point(gearset, stage, SEED_LOAD_TORQUE)[1]["pitch_point"]
                  ["normal_force_N"])
 
 

@@ -259,7 +259,7 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
                                             mass, speed, e, k=k_hertz)
     return CalibrationRecord(
         stage=case.stage, face_teeth=case.face_teeth, kind=case.kind,
-        restitution_models=RestitutionModels(**restitution_models(material, mass, tca, speed)),
+        restitution_models=restitution_models(material, mass, tca, speed),
         speed_rpm=case.speed_rpm, impact_speed=case.impact_speed,
         effective_mass=mass, fe=FEMeasurements(**fe),
         impact=ImpactParameters.from_source(fit),
@@ -271,7 +271,8 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
     )
 
 
-def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -> dict:
+def restitution_models(material, mass: float, tca: PairAnalysis, speed: float
+                       ) -> RestitutionModels:
     """The seed's eq. 14 restitution at this impact, with two yield-onset speeds.
 
     ``v_y_eq15`` is the seed's eq. 15 (a solid sphere of the gear steel,
@@ -289,8 +290,8 @@ def restitution_models(material, mass: float, tca: PairAnalysis, speed: float) -
     vyt = hertz.ellipse_yield_speed(mass, 1.0 / relative.lambda_max,
                                     1.0 / relative.lambda_min, tca.effective_modulus,
                                     material.yield_strength)
-    return {"v_y_eq15": vy15, "v_y_tooth": vyt,
-            "yield_ratio_eq15": speed / vy15, "yield_ratio_tooth": speed / vyt,
-            "seed_eq14": seed.restitution(speed / vy15),
-            "seed_eq14_tooth": seed.restitution(speed / vyt)}
+    return RestitutionModels(v_y_eq15=vy15, v_y_tooth=vyt, yield_ratio_eq15=speed / vy15,
+                             yield_ratio_tooth=speed / vyt,
+                             seed_eq14=seed.restitution(speed / vy15),
+                             seed_eq14_tooth=seed.restitution(speed / vyt))
 

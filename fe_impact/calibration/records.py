@@ -320,7 +320,7 @@ class Difference(_Record):
 @dataclass(frozen=True, kw_only=True)
 class RestitutionModels(_Record):
     """The seed's eq. 14 restitution with two yield-onset speeds (m/s): eq. 15's and the
-    tooth pair's own (see :func:`fe_impact.calibration.sweep.restitution_models`)."""
+    tooth pair's own (see :func:`fe_impact.calibration.measurement.restitution_models`)."""
 
     v_y_eq15: float = _number()
     v_y_tooth: float = _number()
@@ -405,7 +405,7 @@ class CalibrationRecord(_Record):
 class Calibration(_Record):
     """A calibration file: the records of a sweep and how they were made.
 
-    ``settings`` are the run's options (:class:`fe_impact.calibration.sweep.Settings`
+    ``settings`` are the run's options (:class:`fe_impact.calibration.planning.Settings`
     as a dict), ``wall_time_s`` the run's wall time [s]. The schema and the units
     are `SCHEMA` and `UNITS`; a file with another schema is refused.
     """

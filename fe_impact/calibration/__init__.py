@@ -14,8 +14,14 @@ In the order the data flows:
   the hysteresis factors and the comparison with the fit;
 - :mod:`~fe_impact.calibration.records`: the calibration record, its schema and
   its JSON/CSV files;
-- :mod:`~fe_impact.calibration.sweep`: the cases of a run on a Dask cluster,
-  resumable; :mod:`~fe_impact.calibration.report`: ``report.md`` and plots.
+- :mod:`~fe_impact.calibration.meshcycle`: the quasi-static mesh-cycle positions;
+- :mod:`~fe_impact.calibration.planning`: a run's cases, their settings and
+  resume keys; :mod:`~fe_impact.calibration.measurement`: one case from mesh
+  to fitted record; :mod:`~fe_impact.calibration.execution`: the cases run on
+  Dask (:mod:`~fe_impact.calibration.cluster`), resumable, and the run's files
+  (:mod:`~fe_impact.calibration.sweep` re-exports their public names);
+- :mod:`~fe_impact.calibration.report` and
+  :mod:`~fe_impact.calibration.meshcycle_report`: ``report.md`` and plots.
 
 :mod:`~fe_impact.calibration.fitting` re-exports the fitting functions.
 """

@@ -254,3 +254,53 @@ def test_a_calibration_of_another_schema_is_refused(tmp_path, schema):
     with pytest.raises(CalibrationError, match="schema"):
         args.func(args)
     assert not (tmp_path / "out").exists()
+
+
+def test_calibrate_plans_for_the_schedules(tmp_path, monkeypatch):
+    # The plan of calibrate --schedule, the sweep left out: the first pass is given the
+    # schedule; the stage whose flank impacts close faster than its planned FE impacts
+    # gets one at 1.2 x their speed (rounded up); the mesh-cycle curves reach 1.5 x the
+    # largest mesh force (rounded up to two digits); the schedule runs as a study.
+    import math
+
+    import fe_impact.api as api
+    from fe_impact.switching import demand as D
+
+    seen = {}
+
+    def first_pass(gearset, presets, workers=2, numba=None, schedules=()):
+        seen["schedules"] = [d.name for d in schedules]
+        row = D.LawDemand(10, 0.01, 0.05, 0.3, 900.0, math.nan)
+        return D.Demand(tuple(presets), {2: {"mesh": row}}, {1: 800.0, 2: 12345.0},
+                        tuple(d.name for d in schedules))
+
+    def sweep(text, cases, cycle, settings, out, cache, workers, scheduler, progress,
+              studies, numba, say):
+        seen.update(cases=cases, cycle=cycle, studies=studies)
+        raise KeyboardInterrupt   # stop before anything runs
+
+    monkeypatch.setattr(D, "preset_demand", first_pass)
+    monkeypatch.setattr(api, "_sweep", sweep)
+    path = _write(tmp_path, GOOD)
+    with pytest.raises(KeyboardInterrupt):
+        api.calibrate(None, out=tmp_path / "cal", schedules=[path], level="coarse",
+                      cache=tmp_path / "cache", stages=[1, 2], positions=3)
+    assert seen["schedules"] == ["climb"]
+    assert str(path.resolve()) in seen["studies"]
+    fastest = max(c.impact_speed for c in seen["cases"] if c.stage == 2 and c.kind == "mesh")
+    assert fastest == pytest.approx(0.36)                    # 1.2 x 0.3 m/s
+    top = max(max(p.forces) for p in seen["cycle"])
+    # 1.5 x 12345 = 18518 -> 19000 N, above the impacts' own Hertz estimate (3.9 kN)
+    assert top == pytest.approx(19000.0)
+    assert {p.stage for p in seen["cycle"] if max(p.forces) == top} == {1, 2}
+
+
+def test_calibrate_refuses_a_schedule_stage_the_gear_set_lacks(tmp_path):
+    import fe_impact.api as api
+
+    path = _write(tmp_path, _replace(GOOD, "stage = 2\nduration_s = 0.05",
+                                     "stage = 4\nduration_s = 0.05"))
+    with pytest.raises(CaseError, match=r"\[segments\[2\]\] stage = 4: the gear set"):
+        api.calibrate(None, out=tmp_path / "cal", schedules=[path], level="coarse",
+                      cache=tmp_path / "cache")
+    assert not (tmp_path / "cal").exists()

@@ -285,3 +285,57 @@ def _values(node, key):
     elif isinstance(node, list):
         for v in node:
             yield from _values(v, key)
+
+
+# -- edge loading in the mesh cycle ---------------------------------------------------------------
+def test_an_edge_loaded_position_fits_the_law_to_the_steps_without_it():
+    """A curve that follows F = K delta^1.5 (Hertz) up to 200 N, then runs onto the
+    pinion's flank edge and stiffens: the law is fitted to the clean steps alone and
+    gives back K and 1.5 exactly; the note names the edge, the force and the fit."""
+    from fe_impact.calibration.meshcycle import edge_note, fit_power_law, fit_steps
+
+    k, forces = 2e10, np.array([5.0, 50.0, 100.0, 200.0, 500.0, 1000.0])
+    approach = (forces / k) ** (1 / 1.5)
+    approach[4:] = approach[3] + (forces[4:] - forces[3]) / 5e9   # edge: linear, stiffer
+    edges = ["", "", "", "", "pinion flank edge", "pinion flank edge"]
+    fitted = fit_steps(forces, edges)
+    assert fitted.tolist() == [False, True, True, True, False, False]
+    K, e, err = fit_power_law(forces[fitted], approach[fitted])
+    assert e == pytest.approx(1.5, rel=1e-12) and K == pytest.approx(k, rel=1e-9)
+    whole = fit_power_law(forces[forces >= 50], approach[forces >= 50])
+    assert whole[2] > 0.05            # fitted through the edge, the law misses by > 5%
+    note = edge_note(forces, edges, fitted, err, {"pinion outer face end": 1.2e-3,
+                                                  "face-gear tip": -1e-4})
+    assert "\n" not in note
+    for part in ("pinion flank edge from 500 N", "fitted to the 3 steps 50-200 N",
+                 "fit error 0.0%", "past the pinion outer face end by 1.2 mm"):
+        assert part in note, note
+    assert "face-gear tip" not in note
+    # every fitted step on the edge: all kept, and said so
+    all_edge = fit_steps(forces, ["", "x", "x", "x", "x", "x"])
+    assert all_edge.tolist() == [False, True, True, True, True, True]
+    assert "every one with edge loading" in edge_note(forces, ["", "x", "x", "x", "x", "x"],
+                                                      all_edge, 0.1, {})
+    assert edge_note(forces, [""] * 6, fitted, 0.0, {"pinion tip": -1e-3}) == ""
+
+
+def test_the_cycle_curves_leave_out_non_positive_approaches_without_a_warning():
+    """An end position whose smallest force closes less than the gap to the contact
+    point (it first touches at an edge): no numpy warning, the point left out."""
+    import warnings
+
+    from fe_impact.calibration.meshcycle import PositionRecord, pair_force
+
+    forces = [5.0, 50.0, 100.0, 200.0]
+    approach = [-2e-8, 1e-6, 1.6e-6, 2.5e-6]
+    record = PositionRecord(
+        id="p", stage=1, roll_angle_deg=0.0, end="last", forces=forces,
+        approaches=approach, torques=[0.0] * 4, rotations=[0.0] * 4,
+        contact_areas=[0.0] * 4, max_pressures=[0.0] * 4, hertz_approaches=[0.0] * 4,
+        stiffness=1.0, exponent=1.0, fit_error=0.0, nominal_force=5.0,
+        nominal_stiffness=1.0, lever=0.03, edge="", ellipse_outline=[], footprint=[],
+        flank_edges=[], n_dofs=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        force, _ = pair_force(record, 1.6e-6)
+    assert force == pytest.approx(100.0, rel=1e-12)

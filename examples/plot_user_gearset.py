@@ -13,6 +13,8 @@ at the pitch point under the load torque.
 ![face-width limits of the two stages](../images/examples/plot_user_gearset.png)
 """
 
+# mkdocs_gallery_thumbnail_path = 'images/examples/plot_user_gearset.png'
+
 import os
 from pathlib import Path
 

@@ -887,7 +887,8 @@ def _sweep(text: str, impacts: list, cycle: list, settings: Settings, out: Path,
     for line in calibration_summary(path):
         say(f"  {line}")
     if studies:
-        say(f"switching studies {', '.join(studies)} on it: {out / 'switching'}")
+        names = [Path(s).stem if s.endswith(".toml") else s for s in studies]
+        say(f"switching studies {', '.join(names)} on it: {out / 'switching'}")
     return Path(path)
 
 

@@ -304,3 +304,12 @@ def test_calibrate_refuses_a_schedule_stage_the_gear_set_lacks(tmp_path):
         api.calibrate(None, out=tmp_path / "cal", schedules=[path], level="coarse",
                       cache=tmp_path / "cache")
     assert not (tmp_path / "cal").exists()
+
+
+def test_scaling_a_schedule_stretches_its_load_series(tmp_path):
+    duty = read_schedule(_write(tmp_path, GOOD))
+    longer = duty.schedule.scaled(2.0 * duty.schedule.duration)
+    before, after = duty.schedule.segments[1], longer.segments[1]
+    np.testing.assert_allclose(after.load_series.times, 2.0 * before.load_series.times)
+    np.testing.assert_array_equal(after.load_series.torques, before.load_series.torques)
+    assert after.duration == pytest.approx(2.0 * before.duration)

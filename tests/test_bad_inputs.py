@@ -446,7 +446,8 @@ CALIBRATE = [
 ]
 
 SWITCHING = [
-    ("no --preset", lambda d: ["switching", "--out", "OUT"], ["--preset is required"]),
+    ("no --preset", lambda d: ["switching", "--out", "OUT"],
+     ["--preset NAME or --schedule FILE is required"]),
     ("gear set missing", lambda d: ["switching", str(d / "none.toml"), "--preset",
                                     "table1-100rpm", "--duration", "1", "--out", "OUT"],
      ["none.toml"]),

@@ -2,7 +2,7 @@
 Calibrating one stage
 =====================
 
-The main job, cut down to one FE impact: :func:`fe_impact.calibrate` meshes
+The main job, cut down to one FE impact: `fe_impact.calibrate` meshes
 the seed drive's stage-1 tooth pair at the coarse level, strikes it at the
 in-mesh impact speed of 300 r/min (seed eq. 4) and fits the lumped IMPACT
 law ``F = k delta^e + damping`` to the FE force history. No mesh cycle, no

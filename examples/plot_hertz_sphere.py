@@ -5,15 +5,15 @@ A sphere pressed on a block, against Hertz
 A case file of your own mesh: a quarter of a 10 mm steel hemisphere on a
 block (``meshes/hertz_coarse.msh``, 10-node tetrahedra, 0.2 mm elements at
 the contact), its flat face pushed down in five load steps. The case is
-written as TOML, solved with :func:`fe_impact.solve`, and the contact radius
+written as TOML, solved with `fe_impact.solve`, and the contact radius
 and pressure compared with Hertz's closed form (Johnson, *Contact
 Mechanics*, 1985, section 4.2):
 
-.. math::
-
-    a = \\left(\\frac{3 F R}{4 E^*}\\right)^{1/3}, \\qquad
-    p(r) = p_0 \\sqrt{1 - r^2 / a^2}, \\qquad p_0 = \\frac{3 F}{2 \\pi a^2},
-    \\qquad \\frac{1}{E^*} = 2\\,\\frac{1 - \\nu^2}{E}.
+$$
+a = \\left(\\frac{3 F R}{4 E^*}\\right)^{1/3}, \\qquad
+p(r) = p_0 \\sqrt{1 - r^2 / a^2}, \\qquad p_0 = \\frac{3 F}{2 \\pi a^2},
+\\qquad \\frac{1}{E^*} = 2\\,\\frac{1 - \\nu^2}{E}.
+$$
 
 The FE contact radius comes from the area of the nodes in contact, which
 places the edge of the contact to within about half an element.

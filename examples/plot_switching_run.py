@@ -7,10 +7,10 @@ run through the seed's Table 1 condition at 300 r/min with no load, where
 the teeth rattle in the backlash: once with the IMPACT law calibrated on
 the FE impacts (the one-stage calibration of the example before, made here
 if it is not there), once with the seed's closed-form law.
-:func:`fe_impact.simulate_switching` runs one schedule in memory;
-:func:`fe_impact.run_switching` runs a whole study and writes its files
+`fe_impact.simulate_switching` runs one schedule in memory;
+`fe_impact.run_switching` runs a whole study and writes its files
 (``fe-impact switching``). A schedule is a preset's name, as here, or a
-schedule file of your own (:func:`fe_impact.read_schedule`).
+schedule file of your own (`fe_impact.read_schedule`).
 
 The figure shows the impacts of the 5 s run, their peak force and closing
 speed against time. The rattle closes far slower than the one FE impact of

@@ -3,17 +3,17 @@ A tooth-pair impact
 ===================
 
 One pinion tooth strikes a face-gear tooth of the seed drive's first stage at
-the pitch point, closing at 0.1 m/s: :func:`fe_impact.mesh_pair` meshes the
+the pitch point, closing at 0.1 m/s: `fe_impact.mesh_pair` meshes the
 pair at the coarse level (the rotors' inertia on rigid hubs) and writes its
-case file, and :func:`fe_impact.solve` runs the transient impact.
+case file, and `fe_impact.solve` runs the transient impact.
 
 The figure sets the FE contact force beside the impact of two rigid bodies
 with the same effective mass and Hertz's local contact law
-:math:`F = \\tfrac43 E^* \\sqrt{R}\\, \\delta^{3/2}` on the ellipse's
+$F = \\tfrac43 E^* \\sqrt{R}\\, \\delta^{3/2}$ on the ellipse's
 equivalent radius (Johnson, *Contact Mechanics*, 1985, section 11.4): the
 teeth's bending adds compliance in series with the contact, so the FE
 impact is softer, longer and lower. That difference is what the calibration
-(:func:`fe_impact.calibrate`) fits into the lumped IMPACT law.
+(`fe_impact.calibrate`) fits into the lumped IMPACT law.
 
 ![contact force of a tooth-pair impact](../images/examples/plot_tooth_impact.png)
 """

@@ -3,7 +3,7 @@ Your own gear set: the geometry report
 ======================================
 
 A two-stage face-gear drive written as a gear-set file, read with
-:func:`fe_impact.read_gearset` and checked with :func:`fe_impact.geometry_report`
+`fe_impact.read_gearset` and checked with `fe_impact.geometry_report`
 before any finite-element work (what ``fe-impact geometry`` prints). The
 figure shows, per stage, the usable band of face radii between the
 inner limits (undercut, conjugate tip) and the pointing limit, the face

@@ -30,6 +30,7 @@ from fe_impact.api import (
     seed_studies,
     simulate_switching,
     solve,
+    study_preset,
 )
 from fe_impact.version import __version__
 
@@ -52,4 +53,5 @@ __all__ = [
     "seed_studies",
     "simulate_switching",
     "solve",
+    "study_preset",
 ]

@@ -282,7 +282,7 @@ def geometry_report(gearset: GearSet | PathLike | None = None,
     from fe_impact.gears.report import stage_geometry
 
     if torque is not None and not (math.isfinite(torque) and torque > 0.0):
-        raise GeometryError(f"torque = {torque!r} N m: must be a number > 0")
+        raise GeometryError(f"torque = {torque:g} N m: must be a number > 0")
     return stage_geometry(_gearset(gearset), seed_load_torque() if torque is None else torque)
 
 
@@ -613,6 +613,14 @@ def calibrate(gearset: PathLike | None = None, *, out: PathLike = "out/calibrati
     -------
     Calibration
         The calibration written to ``out/calibration.json``.
+
+    Notes
+    -----
+    The cases run on Dask worker processes (or an existing scheduler's), which
+    import the calling script again: in a script, call this under ``if __name__
+    == "__main__":`` (Python's multiprocessing "spawn" rule). Interrupted
+    (SIGINT, :class:`KeyboardInterrupt`), the finished cases are kept,
+    ``summary.json`` says ``"stopped"``, and the interrupt is raised again.
 
     Examples
     --------

@@ -86,6 +86,7 @@ def test_user_gearset(out, monkeypatch):
         assert row["pitch_point"]["normal_force_N"] == pytest.approx(force, rel=1e-3)
 
 
+@pytest.mark.slow   # meshing and a transient FE impact: some 18 s of CPU
 def test_tooth_impact(out, monkeypatch):
     ns = run("plot_tooth_impact.py", out, monkeypatch)
     closed, rigid, f_rigid, m = ns["a"].impact, ns["rigid"], ns["f_rigid"], ns["m"]
@@ -100,6 +101,7 @@ def test_tooth_impact(out, monkeypatch):
     assert m["contact_duration"] > closed.contact_time
 
 
+@pytest.mark.slow   # a Dask worker, meshing, an FE impact and the fit: some 27 s of CPU
 def test_calibrate_stage(out, monkeypatch):
     ns = run("plot_calibrate_stage.py", out, monkeypatch, main=True)
     record = ns["result"].cases[0]

@@ -7,14 +7,17 @@ the same without the command::
 
     import fe_impact
 
-    gearset = fe_impact.read_gearset("geometry/seed.toml")
+    gearset = fe_impact.read_gearset("geometry/two-stage.toml")
     rows = fe_impact.geometry_report(gearset)            # fe-impact geometry
     pair = fe_impact.mesh_pair(gearset, stage=1, level="coarse", out="pair")
     result = fe_impact.solve(pair.case_path, out="impact")   # fe-impact solve
-    calibration = fe_impact.calibrate("geometry/seed.toml", stages=[1], speeds=[300],
+    calibration = fe_impact.calibrate("geometry/two-stage.toml", stages=[1], speeds=[300],
                                       level="coarse", out="cal")   # fe-impact calibrate
-    study = fe_impact.run_switching("table2", calibration="cal/calibration.json",
-                                    out="switching")     # fe-impact switching
+    study = fe_impact.run_switching("table1", "geometry/two-stage.toml",
+                                    "cal/calibration.json", out="sw")  # fe-impact switching
+
+(in a script, :func:`calibrate` goes under ``if __name__ == "__main__":``: its
+Dask workers import the script again).
 
 Units are SI throughout (m, s, N, kg), except where a name says otherwise
 (``speeds`` in r/min, ``roll_angle_deg``). Bad input raises a subclass of
@@ -129,7 +132,7 @@ def read_gearset(path: PathLike | None = None) -> GearSet:
     ----------
     path : str or path-like, optional
         The file (its keys are described in the gear-set guide); None: the
-        built-in seed gear set (``geometry/seed.toml``).
+        built-in seed gear set (``fe_impact/gears/seed.toml``, packaged).
 
     Returns
     -------

@@ -40,7 +40,7 @@ logger = logging.getLogger(__name__)
 
 #: Relative change of the pressure (L1, against the load) at which the
 #: conjugate-gradient iteration stops; Polonsky and Keer use 1e-10 to 1e-6.
-PRESSURE_TOLERANCE = 1e-10
+PRESSURE_TOLERANCE = 1e-8
 #: Iteration cap of one pressure solve (it converges in tens of iterations
 #: on grids of 10^4 cells).
 MAX_ITERATIONS = 2000
@@ -312,7 +312,15 @@ def solve_pressure(separation: np.ndarray, compliance: Callable[[np.ndarray], np
 def solve_approach(separation: np.ndarray, compliance: Callable[[np.ndarray], np.ndarray],
                    approach: float, cell_area: float, force_guess: float,
                    rtol: float = 1e-9) -> PressureSolution:
-    """The pressure under a given rigid approach (m): a secant search on the force.
+    """The pressure under a given rigid approach (m): :func:`secant_on_force`."""
+    def at(force, start=None):
+        return solve_pressure(separation, compliance, force, cell_area, start=start)
+    return secant_on_force(at, approach, force_guess, rtol)
+
+
+def secant_on_force(at: Callable[..., PressureSolution], approach: float, force_guess: float,
+                    rtol: float = 1e-9) -> PressureSolution:
+    """Find the force whose solve ``at(force, start)`` gives ``approach`` (m).
 
     The approach grows monotonically with the force, like ``F^(2/3)`` for a
     Hertz contact, so the secant runs on ``log F`` against ``log approach``.
@@ -320,9 +328,9 @@ def solve_approach(separation: np.ndarray, compliance: Callable[[np.ndarray], np
     if approach <= 0.0:
         raise ValueError(f"near-field solve: approach {approach} m; give a positive approach")
     f0 = force_guess
-    s0 = solve_pressure(separation, compliance, f0, cell_area)
+    s0 = at(f0)
     f1 = f0 * (approach / s0.approach) ** 1.5
-    s1 = solve_pressure(separation, compliance, f1, cell_area, start=s0.pressure)
+    s1 = at(f1, s0.pressure)
     for _ in range(50):
         if abs(s1.approach / approach - 1.0) < rtol:
             return s1
@@ -331,7 +339,7 @@ def solve_approach(separation: np.ndarray, compliance: Callable[[np.ndarray], np
         x2 = x1 - y1 * (x1 - x0) / (y1 - y0) if y1 != y0 else x1 - 1.5 * y1
         f0, s0 = f1, s1
         f1 = float(np.exp(x2))
-        s1 = solve_pressure(separation, compliance, f1, cell_area, start=s0.pressure)
+        s1 = at(f1, s0.pressure)
     logger.warning("near-field approach search: %.3e of %.3e m after 50 solves",
                    s1.approach, approach)
     return s1

@@ -1,0 +1,311 @@
+"""Combined near field: half-space grid over a coarse FE far field (Vijayakar 1991).
+
+The compliance of a contact patch is split at a matching depth ``d`` below
+each surface (Vijayakar, IJNME 31, 1991, 525-545, in the form used here):
+
+    w_b(x) = [w_hs(x, surface) - w_hs(x, depth d)]_b + u_FE,b(x, depth d)
+
+for each body ``b``, ``w`` the normal displacement away from the other
+body at the surface point ``x`` of the fine grid:
+
+- the bracket is the half-space's own relative displacement between the
+  surface and the point at depth ``d`` under it (Love's cell influence
+  minus Boussinesq's point-load displacement at depth, both convolutions on
+  the grid: :mod:`fe_impact.contact.nearfield`);
+- ``u_FE,b`` is the coarse FE's displacement of the point at depth ``d``,
+  the body loaded by the grid's pressure as point forces on its surface
+  (P2 or P1 shape functions of the tetrahedron holding each point).
+
+What is subtracted, and why: the coarse FE resolves neither the patch nor
+the steep field just below it, but a few elements deep the displacement no
+longer depends on how the load is spread (Saint-Venant): there the coarse FE
+is right, and it carries what the half-space lacks (the finite body, its
+supports, bending). The half-space part is therefore counted only between
+the surface and depth ``d``: the coarse FE's own response above ``d`` is
+never used, so nothing is counted twice. ``d`` must hold several coarse
+elements and stay small against the radii of curvature of the surfaces and
+the distance to an edge (the half-space assumption of the layer above it).
+
+The coarse FE enters as a low-rank operator: one solve per loaded surface
+DOF (the nodes under the grid), then ``P_depth Z P_surface^T``; with the
+convolution it is applied per iteration in O(n log n + n m) for n cells and
+m loaded DOFs. Its non-symmetric far part is iterated on at a fixed force
+(:func:`solve_combined`): a uniform far-field shift only moves the rigid
+approach, so the iteration converges in a few passes.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from fe_impact.contact import nearfield as nf
+from fe_impact.fe.mesh import FEMesh
+
+logger = logging.getLogger(__name__)
+
+#: Edges of a 10-node tetrahedron in the mesh's node order (VTK/meshio: nodes
+#: 4-9 on edges 01, 12, 02, 03, 13, 23).
+TET10_EDGES = ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))
+#: Candidate elements searched per probe point (nearest centroids).
+CANDIDATES = 12
+#: Far-field fixed-point iteration: stop when the far-field displacement
+#: changes by less than this fraction of the approach.
+FAR_TOLERANCE = 1e-6
+MAX_FAR_ITERATIONS = 50
+#: Smallest matching depth, in coarse elements at the contact, for which the
+#: coarse FE's displacement at depth is trusted (Saint-Venant).
+MIN_DEPTH_ELEMENTS = 3.0
+#: Largest patch half-width against the smaller local radius of curvature
+#: for which the half-space layer is accepted (Hertz's own small-strain
+#: condition a << R; at a/R = 0.1 the curvature changes the approach by
+#: about 1% (Johnson 1985, section 4.2)).
+MAX_PATCH_TO_RADIUS = 0.1
+#: Cells across the patch below which the grid is refused (the counted
+#: contact radius is then worse than 5%, half a cell).
+MIN_CELLS_ACROSS = 20
+
+
+def probe_matrix(mesh: FEMesh, points: np.ndarray, volume: str, component: int
+                 ) -> sp.csr_matrix:
+    """Interpolation of one displacement component at ``points`` (k, 3), in m.
+
+    Returns the sparse (k, n_dofs) matrix of the element shape functions of
+    the tetrahedron of ``volume`` holding each point (the one with the largest
+    smallest barycentric coordinate among the nearest candidates, so a point
+    a rounding error outside the straight-sided element is clamped in). DOF
+    ``3 * point_dof[node] + component``.
+    """
+    cells = mesh.cells[mesh.volume(volume)]
+    vert = mesh.points[cells[:, :4]]                          # (e, 4, 3)
+    tree = cKDTree(vert.mean(axis=1))
+    k = min(CANDIDATES, len(cells))
+    _, cand = tree.query(points, k=k)
+    cand = cand.reshape(len(points), k)
+    lam = _barycentric(vert, cand, points)                    # (n, k, 4)
+    best = np.argmax(lam.min(axis=2), axis=1)
+    rows = np.arange(len(points))
+    el = cand[rows, best]
+    L = np.clip(lam[rows, best], 0.0, None)
+    L /= L.sum(axis=1, keepdims=True)
+    if mesh.order == 2:
+        shape = np.concatenate([L * (2 * L - 1)] + [4 * L[:, [i]] * L[:, [j]]
+                                                      for i, j in TET10_EDGES], axis=1)
+    else:
+        shape = L
+    nodes = cells[el, :shape.shape[1]]
+    dofs = 3 * mesh.point_dof[nodes] + component
+    n_dofs = 3 * int(mesh.point_dof.max() + 1)
+    return sp.csr_matrix((shape.ravel(), (np.repeat(rows, shape.shape[1]), dofs.ravel())),
+                         shape=(len(points), n_dofs))
+
+
+def _barycentric(vert: np.ndarray, cand: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates of ``points`` (n, 3) in the tetrahedra ``vert[cand]`` (n, k)."""
+    used, inv_idx = np.unique(cand, return_inverse=True)
+    T = np.stack([vert[used, i, :] - vert[used, 3, :] for i in range(3)], axis=-1)
+    Tinv = np.linalg.inv(T)                                   # (u, 3, 3)
+    rhs = points[:, None, :] - vert[cand, 3, :]               # (n, k, 3)
+    l3 = np.einsum("nkij,nkj->nki", Tinv[inv_idx.reshape(cand.shape)], rhs)
+    return np.concatenate([l3, 1.0 - l3.sum(axis=-1, keepdims=True)], axis=-1)
+
+
+@dataclass(frozen=True)
+class Side:
+    """One body of the contact, as the near field sees it.
+
+    Attributes
+    ----------
+    volume : str
+        FE volume group of the body.
+    youngs, poisson : float
+        Its elastic constants (Pa, -).
+    height : callable
+        ``height(x, y)``: z (m) of the body's undeformed surface over the
+        grid point (x, y) of the contact plane z = 0.
+    inward : float
+        +1 if the body lies above its surface (z grows into it), -1 below.
+    """
+
+    volume: str
+    youngs: float
+    poisson: float
+    height: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    inward: float
+
+
+class FarField:
+    """The coarse FE's displacement at depth under the grid's loads, for each side.
+
+    Parameters
+    ----------
+    mesh : FEMesh
+        The coarse mesh (both bodies).
+    free : ndarray of int
+        Free DOFs of its stiffness (supports held, prescribed motions at zero).
+    solve : callable
+        ``solve(B)`` -> ``K_ff^-1 B`` for a dense (n_free, m) block.
+    sides : sequence of Side
+    fold : bool
+        The mesh is the quarter x >= 0, y >= 0 of a body symmetric about
+        x = 0 and y = 0 (symmetry supports): each grid load and probe is
+        taken at (|x|, |y|), a load with a quarter of its force (the four
+        mirror images of the full grid's symmetric pressure load the quarter
+        model's point once).
+    """
+
+    def __init__(self, mesh: FEMesh, free: np.ndarray, solve: Callable[[np.ndarray], np.ndarray],
+                 sides, fold: bool = False) -> None:
+        self.mesh, self.free, self.solve = mesh, np.asarray(free), solve
+        self.sides, self.fold = tuple(sides), fold
+        n_dofs = 3 * int(mesh.point_dof.max() + 1)
+        self._free_index = -np.ones(n_dofs, dtype=np.int64)
+        self._free_index[self.free] = np.arange(len(self.free))
+        self._responses: dict[int, np.ndarray] = {}   # DOF -> K^-1 column (free DOFs)
+        self.solves = 0
+
+    def _response(self, dofs: np.ndarray) -> np.ndarray:
+        """Columns ``K_ff^-1 e_dof`` (n_free, len(dofs)), solved once per DOF and kept."""
+        new = [d for d in dofs if d not in self._responses]
+        if new:
+            B = np.zeros((len(self.free), len(new)))
+            B[self._free_index[new], np.arange(len(new))] = 1.0
+            X = self.solve(B)
+            X = X.reshape(len(self.free), len(new))
+            for c, d in enumerate(new):
+                self._responses[d] = X[:, c]
+            self.solves += len(new)
+        return np.stack([self._responses[d] for d in dofs], axis=1)
+
+    def operator(self, grid: nf.Grid, depth: float) -> Callable[[np.ndarray], np.ndarray]:
+        """Pressure (Pa, grid.shape) -> far-field displacement (m) at the grid points.
+
+        Sum over the sides of the coarse FE's displacement (away from the
+        other body) of the point at ``depth`` under each grid point.
+        """
+        X, Y = grid.centres()
+        x, y = X.ravel(), Y.ravel()
+        weight = grid.cell_area
+        if self.fold:
+            x, y, weight = np.abs(x), np.abs(y), weight / 4.0
+        parts = []
+        for s in self.sides:
+            z = s.height(x, y)
+            surf = probe_matrix(self.mesh, np.column_stack([x, y, z]), s.volume, 2)
+            deep = probe_matrix(self.mesh, np.column_stack([x, y, z + s.inward * depth]),
+                                s.volume, 2)
+            surf, deep = surf[:, self.free].tocsc(), deep[:, self.free].tocsr()
+            loaded = np.flatnonzero(np.diff(surf.indptr))       # free DOFs carrying load
+            Z = self._response(self.free[loaded])
+            A = np.asarray(deep @ Z)                            # (n, m): depth response
+            Lt = surf[:, loaded].T.tocsr() * weight             # (m, n): loads
+            parts.append((A, Lt))
+
+        def apply(p: np.ndarray) -> np.ndarray:
+            q = p.ravel()
+            w = np.zeros_like(q)
+            for A, Lt in parts:
+                w += A @ (Lt @ q)
+            return w.reshape(grid.shape)
+        return apply
+
+
+def layer_kernel(grid: nf.Grid, sides, depth: float):
+    """Half-space part of the combined compliance: Love's surface influence of
+    both bodies minus each body's Boussinesq displacement at ``depth``."""
+    e_star = nf.effective_modulus(sides[0].youngs, sides[0].poisson,
+                                  sides[1].youngs, sides[1].poisson)
+    parts = [nf.surface_kernel(grid, e_star)] + [
+        nf.depth_kernel(grid, depth, s.youngs, s.poisson) for s in sides]
+
+    def kernel(sx, sy):
+        return parts[0](sx, sy) - parts[1](sx, sy) - parts[2](sx, sy)
+    return kernel
+
+
+def solve_combined(separation: np.ndarray, near: Callable[[np.ndarray], np.ndarray],
+                   far: Callable[[np.ndarray], np.ndarray], force: float, cell_area: float,
+                   start: np.ndarray | None = None) -> nf.PressureSolution:
+    """Pressure under ``force`` (N) with compliance ``near + far``.
+
+    ``near`` (symmetric, the half-space layer) goes to the Polonsky-Keer CG;
+    ``far`` (the coarse FE, smooth over the patch, not symmetric) is iterated
+    on: ``p_k+1 = CG(separation + far(p_k))``. The returned approach includes
+    the far field.
+    """
+    sol = nf.solve_pressure(separation, near, force, cell_area, start=start)
+    shift = far(sol.pressure)
+    for _ in range(MAX_FAR_ITERATIONS):
+        sol = nf.solve_pressure(separation + shift, near, force, cell_area,
+                                start=sol.pressure)
+        new = far(sol.pressure)
+        change = float(np.abs(new - shift).max())
+        shift = new
+        if change < FAR_TOLERANCE * abs(sol.approach):
+            break
+    else:
+        logger.warning("near field: far-field iteration not converged (change %.2e m)", change)
+    g = separation + shift + near(sol.pressure)
+    on = sol.pressure > 0
+    approach = float(np.mean(g[on]))
+    return nf.PressureSolution(sol.pressure, approach, force, sol.iterations,
+                               float(np.abs(g[on] - approach).max()))
+
+
+def solve_combined_approach(separation, near, far, approach: float, cell_area: float,
+                            force_guess: float, rtol: float = 1e-9) -> nf.PressureSolution:
+    """:func:`solve_combined` under a given rigid approach (m): secant on log force."""
+    def at(force, start=None):
+        return solve_combined(separation, near, far, force, cell_area, start)
+    return nf.secant_on_force(at, approach, force_guess, rtol)
+
+
+def check_grid(grid: nf.Grid, patch_half_width: float, key: str = "grid") -> None:
+    """Refuse a grid coarser than the patch it must resolve, or smaller than the patch.
+
+    At least :data:`MIN_CELLS_ACROSS` cells across the patch and a grid
+    reaching past its edge.
+    """
+    across = 2.0 * patch_half_width / max(grid.dx, grid.dy)
+    if across < MIN_CELLS_ACROSS:
+        raise ValueError(f"near field: {key} cell {max(grid.dx, grid.dy):.3g} m gives "
+                         f"{across:.1f} cells across the patch (half-width "
+                         f"{patch_half_width:.3g} m); at least {MIN_CELLS_ACROSS} are needed: "
+                         "refine the grid")
+    half = min(grid.nx * grid.dx, grid.ny * grid.dy) / 2.0
+    if half < patch_half_width:
+        raise ValueError(f"near field: {key} half-width {half:.3g} m is inside the patch "
+                         f"(half-width {patch_half_width:.3g} m): enlarge the grid")
+
+
+def check_half_space(patch_half_width: float, radius: float, depth: float,
+                     element: float, edge_distance: float = np.inf) -> None:
+    """Refuse a contact the half-space layer does not describe (one line each).
+
+    ``radius``: the smaller local radius of curvature of the two surfaces
+    (m; a tip-edge rounding's radius); ``element``: the coarse element size at
+    the contact; ``edge_distance``: from the patch centre to the nearest face
+    edge (m).
+    """
+    ratio = patch_half_width / radius
+    if ratio > MAX_PATCH_TO_RADIUS:
+        raise ValueError(f"near field: patch half-width / radius of curvature = {ratio:.3g} "
+                         f"(a = {patch_half_width:.3g} m, R = {radius:.3g} m); the half-space "
+                         f"assumption needs at most {MAX_PATCH_TO_RADIUS}: use the refined FE")
+    if depth > 0.5 * radius:
+        raise ValueError(f"near field: matching depth {depth:.3g} m is above half the radius "
+                         f"of curvature {radius:.3g} m: the layer above it is no half-space; "
+                         "use a finer far-field mesh (smaller depth) or the refined FE")
+    if depth < MIN_DEPTH_ELEMENTS * element:
+        raise ValueError(f"near field: matching depth {depth:.3g} m holds "
+                         f"{depth / element:.2g} coarse elements ({element:.3g} m); at least "
+                         f"{MIN_DEPTH_ELEMENTS:g} are needed: deepen it or refine the far field")
+    if edge_distance < depth + patch_half_width:
+        raise ValueError(f"near field: patch edge {edge_distance - patch_half_width:.3g} m "
+                         f"from a face edge, within the matching depth {depth:.3g} m: the "
+                         "half-space layer would reach past the edge; use the refined FE")

@@ -112,6 +112,9 @@ def relative_jacobian(pair: ContactPair, mesh: FEMesh, u: np.ndarray, slave_face
                       master_faces: np.ndarray) -> list[sp.csr_matrix]:
     """``d r_a / d u`` of each weighted slave node, one matrix per component x, y, z.
 
+    Called right after :meth:`ContactPair.gap_state` of the same configuration,
+    it takes that call's projection (the pair keeps it as the next one's hint).
+
     ``r_a = int phi_a (u_s - u_m) dA / A_a``: the relative displacement of the
     slave and its closest master point (projected in the configuration
     ``X + u``), weighted as the gap of :meth:`ContactPair.gap_state` is, so its
@@ -122,7 +125,11 @@ def relative_jacobian(pair: ContactPair, mesh: FEMesh, u: np.ndarray, slave_face
     key = (id(mesh), np.asarray(slave_faces).tobytes(), np.asarray(master_faces).tobytes())
     # the layout and projection gap_state just made of this configuration (cached)
     lay = pair._layout(mesh, x, slave_faces, master_faces, key)
-    proj = pair._project(mesh, x, lay, master_faces, key)
+    kept = pair._hints.get(key)
+    if kept is not None and kept[0] is mesh and len(kept[1].face) == len(lay.Ns):
+        proj = kept[1]      # the projection gap_state has just made of this configuration
+    else:
+        proj = pair._project(mesh, x, lay, master_faces, key)
     Nm, _ = tri_shape(proj.xi, proj.eta, pair.master.nodes_per_face)
     Wv = lay.W.copy()
     Wv.data = Wv.data * proj.valid[Wv.indices]
@@ -145,7 +152,9 @@ def relative_jacobian(pair: ContactPair, mesh: FEMesh, u: np.ndarray, slave_face
 def slip_jacobians(J: list[sp.csr_matrix], t1: np.ndarray, t2: np.ndarray
                    ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """The tangential rows ``t_k . J`` of each node's relative displacement."""
-    return tuple(sum(sp.diags(t[:, d]) @ J[d] for d in range(3)).tocsr() for t in (t1, t2))
+    stacked = sp.vstack(J).tocsr()
+    return tuple((sp.hstack([sp.diags(t[:, d]) for d in range(3)]) @ stacked).tocsr()
+                 for t in (t1, t2))
 
 
 def local_law(y: np.ndarray, eps_n: np.ndarray, eps_t: np.ndarray, mu: np.ndarray,
@@ -196,7 +205,8 @@ class FrictionalSolution:
 
 def solve_frictional(D: np.ndarray, h: np.ndarray, s0: np.ndarray, eps_n: np.ndarray,
                      eps_t: np.ndarray, mu: np.ndarray, t_old: np.ndarray,
-                     rows: np.ndarray | None = None) -> FrictionalSolution:
+                     rows: np.ndarray | None = None,
+                     warm: FrictionalSolution | None = None) -> FrictionalSolution:
     """The forces with ``p = F(y0 + D p)`` (see the module docstring).
 
     Parameters
@@ -217,6 +227,9 @@ def solve_frictional(D: np.ndarray, h: np.ndarray, s0: np.ndarray, eps_n: np.nda
     rows : ndarray, optional
         Rows to start from (default: those with ``h`` below a small margin
         or a force at the start); others whose gaps the forces close are added.
+    warm : FrictionalSolution, optional
+        A solution of a nearby problem on the same rows (the last projection's):
+        its rows in contact join the start and its forces start the iteration.
     """
     r = len(h)
     if callable(D):
@@ -236,8 +249,12 @@ def solve_frictional(D: np.ndarray, h: np.ndarray, s0: np.ndarray, eps_n: np.nda
     cand = (h < margin) | np.any(t_old != 0.0, axis=1)
     if rows is not None:
         cand[rows] = True
-    total = 0
     p_warm = None
+    if warm is not None and len(warm.lam) == r:
+        cand |= warm.lam > 0
+        idx = np.flatnonzero(cand)
+        p_warm = np.concatenate([warm.lam[idx], warm.t[idx, 0], warm.t[idx, 1]])
+    total = 0
     while True:
         idx = np.flatnonzero(cand)
         Dc = block(idx)
@@ -264,43 +281,107 @@ def solve_frictional(D: np.ndarray, h: np.ndarray, s0: np.ndarray, eps_n: np.nda
 
 
 def _newton(D, y0, eps_n, eps_t, mu, t_old, p0=None):
-    """Semismooth Newton on ``R(p) = p - F(y0 + D p)`` with a backtracking line search."""
+    """The forces of ``p = F(y0 + D p)`` on a set of rows, by alternating the two
+    halves of the problem (Panagiotopoulos' decomposition; Wriggers 2006, section
+    10.4):
+
+    - normal, at fixed tangential forces: the penalty complementarity problem
+      on ``D_nn`` (:func:`~fe_impact.contact.lcp.solve_penalty_lcp`, exact);
+    - tangential, at fixed cones ``mu lambda``: an associated return mapping,
+      solved by semismooth Newton (:func:`_tangential`).
+
+    The halves couple through ``D_nt``, the normal gap's response to a tangential
+    force, small between similar materials, so a few alternations settle it.
+    Returns the forces, the rows slipping and the iterations (Newton's, summed).
+    """
+    from fe_impact.contact.lcp import solve_penalty_lcp
+
     n = len(y0)
     if n == 0:
         return np.zeros(0), np.zeros(0, dtype=bool), 0
-    p = np.zeros(n) if p0 is None else p0.copy()
-    if p0 is None:
-        p = local_law(y0, eps_n, eps_t, mu, t_old)[0] * 0.0
-    F, sl, A = local_law(y0 + D @ p, eps_n, eps_t, mu, t_old, jacobian=True)
-    R = p - F
+    r = n // 3
+    N, T = slice(0, r), slice(r, n)
+    lam = np.zeros(r) if p0 is None else p0[N].copy()
+    t = np.zeros(2 * r) if p0 is None else p0[T].copy()
+    total = 0
+    for _ in range(NEWTON_ITERATIONS):
+        lam_new, its = solve_penalty_lcp(None, None, y0[N] + D[N, T] @ t, eps_n,
+                                         lam > 0, C=D[N, N])
+        total += its
+        t_new, slipping, its = _tangential(D[T, T], y0[T] + D[T, N] @ lam_new, eps_t,
+                                           mu * lam_new, t_old, t)
+        total += its
+        change = max(float(np.abs(lam_new - lam).max()), float(np.abs(t_new - t).max()))
+        size = max(float(np.abs(lam_new).max()), 1e-300)
+        lam, t = lam_new, t_new
+        if change <= NEWTON_TOL * size:
+            return np.concatenate([lam, t]), slipping, total
+    raise ContactError(f"the frictional contact problem did not settle in "
+                       f"{NEWTON_ITERATIONS} alternations of its normal and tangential "
+                       f"parts (last change {change:.3g} of {size:.3g} N): apply the load in "
+                       "smaller steps")
+
+
+def _tangential(D, y0, eps_t, cap, t_old, t0):
+    """Tangential forces ``t = P_cap(t_old - eps_t (y0 + D t))`` at fixed cones (``P``:
+    the projection on the discs of radius ``cap``).
+
+    That is the optimality condition of the convex problem ``min 1/2 t.M t + q.t``
+    over the discs, ``M = D + diag(1 / eps_t)``, ``q = y0 - t_old / eps_t``; its
+    solutions are those of ``t = P_cap(t - rho (M t + q))`` for any ``rho > 0``.
+    With ``eps_t`` (``rho = eps_t``) the map is badly scaled when the tangential
+    penalty is much stiffer than the bodies at a node (``eps_t D_ii`` of several
+    hundred at the automatic penalty: a force that overshoots reverses the trial's
+    direction, and Newton's iterates flip from one side of the cone to the other);
+    ``rho = 1 / M_ii`` makes each row's part of the map a contraction, and a
+    semismooth Newton iteration on it converges in a few steps (the method of
+    Alart and Curnier 1991 with a scaled parameter).
+    """
+    r = len(eps_t)
+    M = D + np.diag(np.concatenate([1.0 / eps_t, 1.0 / eps_t]))
+    q = y0 - np.concatenate([t_old[:, 0], t_old[:, 1]]) / np.concatenate([eps_t, eps_t])
+    d = np.diag(M)
+    rho = 1.0 / (0.5 * (d[:r] + d[r:]))            # one per row, both directions
+    rho2 = np.concatenate([rho, rho])
+    G = np.eye(2 * r) - rho2[:, None] * M          # du/dt
+
+    def law(t):
+        u = (t - rho2 * (M @ t + q)).reshape(2, r).T
+        norm = np.linalg.norm(u, axis=1)
+        slipping = norm > cap
+        scale = np.where(slipping, cap / np.maximum(norm, 1e-300), 1.0)
+        F = (u * scale[:, None]).T.ravel()
+        e = u / np.maximum(norm, 1e-300)[:, None]
+        A = np.zeros((2 * r, 2 * r))
+        i = np.arange(r)
+        for a in range(2):
+            for b in range(2):
+                A[a * r + i, b * r + i] = np.where(
+                    slipping, scale * ((a == b) - e[:, a] * e[:, b]), float(a == b))
+        return F, slipping, A
+
+    t = t0.copy()
+    F, sl, A = law(t)
+    R = t - F
     res = float(np.linalg.norm(R))
+    eye = np.eye(2 * r)
     for it in range(1, NEWTON_ITERATIONS + 1):
-        scale = max(float(np.linalg.norm(F)), float(np.linalg.norm(p)), 1e-300)
-        if res <= NEWTON_TOL * scale:
-            return p, sl, it - 1
-        J = np.eye(n) - A @ D
-        try:
-            dp = -sla.solve(J, R, check_finite=False)
-        except sla.LinAlgError:
-            dp = -np.linalg.lstsq(J, R, rcond=None)[0]
+        if res <= NEWTON_TOL * max(float(np.linalg.norm(F)), float(cap.max(initial=0.0)),
+                                   1e-300):
+            return t, sl, it - 1
+        dt = -sla.solve(eye - A @ G, R, check_finite=False)
         step = 1.0
-        for _ in range(30):
-            p_new = p + step * dp
-            F_new, sl_new, A_new = local_law(y0 + D @ p_new, eps_n, eps_t, mu, t_old,
-                                             jacobian=True)
-            R_new = p_new - F_new
+        for _ in range(40):
+            F_new, sl_new, A_new = law(t + step * dt)
+            R_new = t + step * dt - F_new
             res_new = float(np.linalg.norm(R_new))
-            if res_new < (1.0 - 1e-4 * step) * res or step < 1e-6:
+            if res_new < res:
                 break
             step *= 0.5
-        p, F, sl, A, R, res = p_new, F_new, sl_new, A_new, R_new, res_new
-    scale = max(float(np.linalg.norm(F)), float(np.linalg.norm(p)), 1e-300)
-    if res <= 1e-6 * scale:
-        logger.debug("frictional Newton stopped at residual %.3g of %.3g", res, scale)
-        return p, sl, NEWTON_ITERATIONS
-    raise ContactError(f"the frictional contact problem did not converge in "
-                       f"{NEWTON_ITERATIONS} Newton iterations (residual {res:.3g} of "
-                       f"{scale:.3g} N): apply the load in smaller steps")
+        t, F, sl, A, R, res = t + step * dt, F_new, sl_new, A_new, R_new, res_new
+    raise ContactError(f"the tangential contact problem did not converge in "
+                       f"{NEWTON_ITERATIONS} Newton iterations (residual {res:.3g} N): apply "
+                       "the load in smaller steps")
 
 
 def slip_dissipation(t_trial_norm: np.ndarray, cap: np.ndarray, eps_t: np.ndarray

@@ -179,3 +179,27 @@ def test_newmark_oblique_impact_and_energy_balance(tmp_path):
     assert a["tan_rebound"] == pytest.approx(ref["tan_rebound"], rel=0.05)
     assert a["energy_error"] <= 1e-3
     assert a["friction_dissipation_J"] > 0.05 * 0.5 * 0.0329 / 2 * 1.0
+
+
+def test_cattaneo_mindlin_coarse(tmp_path):
+    # The study's coarse mesh (h = 0.2 mm, about two elements across the contact
+    # radius) with six tangential steps. Asserted: the friction force never exceeds
+    # mu P (Coulomb), the stick radius within half an element of Mindlin's (the
+    # rows place an edge to half an element: the rule the static Hertz study
+    # applies to the contact radius), and the compliance's microslip part
+    # positive and growing with the load. The 3% of the study holds on its
+    # finest mesh (validation/friction_cattaneo.py).
+    from validation import friction_cattaneo as fc
+
+    level = fc.run_level(tmp_path, "coarse", fc.LEVELS["coarse"], steps=6)
+    h = fc.LEVELS["coarse"]
+    micro = []
+    for s in level["steps"]:
+        assert s["Q"] <= fc.MU * s["P"] * (1.0 + 1e-6)
+        if 0.3 < s["x"] < 0.95:
+            c_fe = s["c_over_a"] * s["a_fe"]
+            c_th = s["c_over_a_theory"] * s["a_fe"]
+            assert abs(c_fe - c_th) <= 0.5 * h
+        micro.append(s["microslip_fe_m"])
+    assert all(b > a for a, b in zip(micro[1:], micro[2:], strict=False))
+    assert micro[-1] > 0.0

@@ -95,8 +95,9 @@ def hertz_radius(P: float) -> float:
     return (3.0 * P * R / (4.0 * hertz.effective_modulus(E, NU))) ** (1.0 / 3.0)
 
 
-def cattaneo_case(mesh_file: Path) -> Case:
-    n = SLIDE_STEPS + 1
+def cattaneo_case(mesh_file: Path, steps: int = SLIDE_STEPS) -> Case:
+    """Press, then ``steps`` equal tangential steps to :data:`SLIDE`."""
+    n = steps + 1
     slide = tuple(float(v) for v in np.linspace(0.0, SLIDE, n))
     return Case(path=Path(mesh_file).with_suffix(".case"), mesh_file=Path(mesh_file),
                 unit="m", materials=(MaterialSpec(("sphere", "block"), E, NU, RHO),),
@@ -127,12 +128,12 @@ def stick_ratio(rows) -> tuple[float, float]:
     return math.sqrt(a2), math.sqrt(float((c2 * w).sum() / w.sum())) if stick.any() else 0.0
 
 
-def run_level(out: Path, name: str, h: float) -> dict:
+def run_level(out: Path, name: str, h: float, steps: int = SLIDE_STEPS) -> dict:
     mesh_file = out / f"half_hemisphere_{name}.msh"
     if not mesh_file.exists():
         build_half_sphere_block(HalfSphereBlock(radius=R, h_contact=h, r_fine=0.8e-3,
                                                 order=2, hemisphere=True), mesh_file)
-    case = cattaneo_case(mesh_file)
+    case = cattaneo_case(mesh_file, steps)
     solver = StaticSolver(case, load_mesh(mesh_file), stress=False)
     result = solver.run()
     slides = np.array(case.displacements[1].values)

@@ -410,7 +410,7 @@ class StaticSolver:
                 # two: their mean is taken, and the two states' contact forces bound it.
                 f0, f1 = sum(c.pair_forces(cycle[1][1])), sum(c.pair_forces(lam))
                 flips = int(((cycle[1][1] > 0) != new_active).sum())
-                logger.info("the contact projection alternates between two states (contact "
+                logger.warning("the contact projection alternates between two states (contact "
                             "force %.6g and %.6g N, %.1e apart; %d rows in contact in one "
                             "only): their mean is taken", f0, f1,
                             abs(f1 - f0) / max(abs(f0), abs(f1), 1e-300), flips)

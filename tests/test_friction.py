@@ -203,3 +203,35 @@ def test_cattaneo_mindlin_coarse(tmp_path):
         micro.append(s["microslip_fe_m"])
     assert all(b > a for a, b in zip(micro[1:], micro[2:], strict=False))
     assert micro[-1] > 0.0
+
+
+def test_load_control_with_friction_recovers_the_motion():
+    # The inverse problem (as tests/test_static_rigid.py without friction): a rigid
+    # body pushing the sphere by prescribed motions, friction on (the friction
+    # forces that hold back the Poisson slip under the patch); loading the body
+    # with those motions' reactions must give the motions back, the reaction now
+    # holding the friction forces too.
+    # The two runs follow the same path, so their histories agree; 1e-3 as the
+    # frictionless test (frames fixed at condensation, measured there 2e-5).
+    from fe_impact.fe.case import RigidBodySpec
+    from fe_impact.fe.mesh import load_mesh
+    from fe_impact.solvers.static import StaticSolver
+    from validation.impact_cases import sphere_block_case
+
+    case = sphere_block_case(MESHES / "hertz_coarse_p1.msh")
+    case = replace(case, contacts=(replace(case.contacts[0], mu_static=0.3, mu_dynamic=0.3),))
+    mesh = load_mesh(case.mesh_file)
+
+    def body(**motion):
+        return RigidBodySpec("sphere_equator", "translation", (0.0, 0.0, 1.0), **motion)
+
+    moved = StaticSolver(replace(case, rigid_bodies=(body(values=(-4e-6, -8e-6)),)), mesh,
+                         stress=False).run()
+    loads = tuple(s.rigid_reactions[0] for s in moved.steps)
+    loaded = StaticSolver(replace(case, rigid_bodies=(body(loads=loads),)), mesh,
+                          stress=False).run()
+    for got, want in zip(loaded.steps, moved.steps, strict=True):
+        assert np.linalg.norm(want.friction_force[0]) > 1e-3 * want.contact_force[0]
+        assert got.rigid_values[0] == pytest.approx(want.rigid_values[0], rel=1e-3)
+        assert got.contact_force[0] == pytest.approx(want.contact_force[0], rel=1e-3)
+        assert got.rigid_reactions[0] == pytest.approx(want.rigid_reactions[0], rel=1e-8)

@@ -222,10 +222,6 @@ class StaticSolver:
         self.pairs = contact_pairs(case, self.mesh, self.model)
         self.laws = pair_laws(case.contacts)
         self.friction = any(law is not None for law in self.laws)
-        if self.friction and self.load_body is not None:
-            raise CaseError(f"{case.path.name}: [[contacts]] friction with a load-controlled "
-                            "[[rigid_bodies]] entry (loads) is not supported: prescribe the "
-                            "body's values instead, or drop the friction")
         self.node_areas = [nodal_areas(self.mesh, p.slave) for p in self.pairs]
         setup = ContactSetup.build(case, self.mesh, self.pairs, self._reach_rule())
         self.zone, self.reference = setup.zone, setup.states
@@ -331,7 +327,7 @@ class StaticSolver:
         warm = getattr(self, "_last", None)
         for _ in range(MAX_ZONE_GROWTH + 1):
             if self.friction:
-                eq = self._frictional_equilibrium(u0, u_d, warm)
+                eq = self._frictional_equilibrium(u0, u_d, load, warm)
             else:
                 eq = self._equilibrium(u0, u_d, load, warm)
             u_full = self._full(eq.z, self._prescribed(u_d, eq.q))
@@ -449,7 +445,7 @@ class StaticSolver:
         return np.stack([np.einsum("ij,ij->i", t_vec, c.t1),
                          np.einsum("ij,ij->i", t_vec, c.t2)], axis=1)
 
-    def _frictional_equilibrium(self, u0: np.ndarray, u_d: np.ndarray,
+    def _frictional_equilibrium(self, u0: np.ndarray, u_d: np.ndarray, load: float | None,
                                 warm: _Equilibrium | None) -> _Equilibrium:
         """Projections and frictional contact forces to a converged state of a load step.
 
@@ -461,31 +457,47 @@ class StaticSolver:
         current projection's frames. Converged when the rows in contact and
         those slipping repeat and the zone's displacement has settled to the
         tolerance.
+
+        Under a load-controlled rigid body its coordinate ``q`` is found in each
+        projection as in :meth:`_equilibrium`, the reaction along it now holding
+        the friction forces' part too (:meth:`_frictional_load_root`).
         """
         a = self.case.analysis
         c = self.contact
         z = warm.z if warm is not None and len(warm.z) == len(u0) else u0
-        full0 = self._full(u0, u_d)
+        q = warm.q if warm is not None else 0.0
+        if load is not None:
+            reaction = self._reaction_model(u0, u_d)
         state, total, change, scale = None, 0, math.inf, 0.0
         history: list[float] = []
         sol_prev = None
         for it in range(1, a.max_iterations + 1):
-            c.offset = self._full(np.zeros(len(u0)), u_d)
+            c.offset = self._full(np.zeros(len(u0)), self._prescribed(u_d, q))
             c.update(z)
             r = len(c.active_rows)
             h = np.where(c.active_rows, c.gaps(u0), np.inf)
-            s0 = (c.Bt_full @ (full0 - self._u_prev)).reshape(2, r).T
+            # slips from the last step's displacement (prescribed DOFs included)
+            s0 = (c.Bt_full @ (self._full(u0, u_d) - self._u_prev)).reshape(2, r).T
             B_all = (sp.vstack([c.B, c.Bt]) @ self.R_c).tocsr()
-            sol = solve_frictional(_compliance_blocks(B_all, self.G, r), h, s0, c.eps_w,
-                                   c.eps_w, c.row_coefficients(), self._friction_history(),
-                                   warm=sol_prev)
+            block = _compliance_blocks(B_all, self.G, r)
+            t_old, mu = self._friction_history(), c.row_coefficients()
+            if load is None:
+                sol = solve_frictional(block, h, s0, c.eps_w, c.eps_w, mu, t_old, warm=sol_prev)
+                base = u0
+            else:
+                hw = np.where(c.active_rows, c.B @ self.w, 0.0)
+                mode = self.dofs.modes[self.load_body]
+                hwt = (c.Bt_full @ self._full(self.w, mode)).reshape(2, r).T
+                q, sol = self._frictional_load_root(reaction, h, hw, s0, hwt, block, mu, t_old,
+                                                    load, q, sol_prev)
+                base = u0 + q * self.w
             sol_prev = sol
             total += sol.iterations
             p = np.concatenate([sol.lam, sol.t[:, 0], sol.t[:, 1]])
-            z_new = u0 + self._frictional_response(B_all, p) if p.any() else u0.copy()
+            z_new = base + self._frictional_response(B_all, p) if p.any() else base.copy()
             zone = c.T_zone
             change = float(np.abs(zone @ (z_new - z)).max(initial=0.0))
-            scale = float(np.abs(zone @ (z_new - u0)).max(initial=0.0))
+            scale = float(np.abs(zone @ (z_new - base)).max(initial=0.0))
             z = z_new
             new_state = (sol.lam > 0, sol.slipping)
             logger.debug("frictional projection %d: change %.3g of %.3g, %d in contact, "
@@ -504,7 +516,7 @@ class StaticSolver:
                 flipped = state[0] != new_state[0]
                 if float(np.maximum(state[1], sol.lam)[flipped].sum()) <= \
                         a.tolerance * float(sol.lam.sum()):
-                    return _Equilibrium(z, sol.lam, 0.0, it, total, sol.t, sol.slipping)
+                    return _Equilibrium(z, sol.lam, q, it, total, sol.t, sol.slipping)
             state = (new_state[0], sol.lam)
         raise ContactError(
             f"frictional contact did not converge in {a.max_iterations} iterations (last "
@@ -512,6 +524,74 @@ class StaticSolver:
             f"{change / max(scale, 1e-30):.2g} of the contact displacement {scale:.3g} m): "
             "apply the load in smaller steps (more [[displacements]] values), or raise "
             "[analysis] max_iterations")
+
+    def _frictional_load_root(self, reaction, h, hw, s0, hwt, block, mu, t_old, load, q0,
+                              warm):
+        """The load-controlled coordinate ``q`` whose contact forces carry ``load``, and
+        those forces, with friction: the reaction ``R0 + r q - hw . lambda - hw_t . t``
+        (``hw``, ``hw_t``: the rows' gap and slip change per unit ``q``), by the
+        bracketing and regula falsi of :meth:`_load_root` (a step from the
+        reaction's secant slope, doubled until the load is bracketed)."""
+        r0, r = reaction
+        c = self.contact
+        last = {"sol": warm}
+
+        def residual(q):
+            sol = solve_frictional(block, h + q * hw, s0 + q * hwt, c.eps_w, c.eps_w, mu,
+                                   t_old, warm=last["sol"])
+            last["sol"] = sol
+            f = r0 + r * q - float(hw @ sol.lam) - float(np.sum(hwt * sol.t)) - load
+            return f, sol
+
+        tol = 1e-9 * max(abs(load), 1e-12)
+        f0, sol0 = residual(q0)
+        if abs(f0) <= tol:
+            return q0, sol0
+        s = 1.0 if f0 < 0 else -1.0
+        if np.any(sol0.lam > 0):      # the secant slope of a small step
+            dq = 1e-6 * max(abs(q0), 1e-12)
+            f1, _ = residual(q0 + s * dq)
+            slope = (f1 - f0) / (s * dq)
+            d = -f0 / slope if slope > 0.0 else s * dq
+        else:                          # nothing touches: to the first touch
+            closing = s * hw < 0
+            if not closing.any():
+                raise ContactError("the load-controlled rigid body does not move toward the "
+                                   "contact: check its direction and the sign of its loads")
+            fin = closing & np.isfinite(h)
+            d = s * 1.01 * float(np.min((h + q0 * hw)[fin] / (-s * hw[fin])))
+            d = d if d != 0.0 else s * 1e-12
+        a, fa = q0, f0
+        for _ in range(MAX_LOAD_ITERATIONS):
+            b = a + d
+            fb, sol = residual(b)
+            if abs(fb) <= tol:
+                return b, sol
+            if (fb < 0) != (f0 < 0):
+                break
+            a, fa, d = b, fb, 2.0 * d
+        else:
+            raise ContactError(f"no motion of the load-controlled rigid body carries a load "
+                               f"of {load:g}")
+        lo, f_lo, hi, f_hi = (a, fa, b, fb) if a < b else (b, fb, a, fa)
+        side = 0
+        for _ in range(MAX_LOAD_ITERATIONS):
+            q = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+            f, sol = residual(q)
+            if abs(f) <= tol or hi - lo <= 1e-13 * max(abs(hi), abs(lo)):
+                return q, sol
+            if f < 0:
+                lo, f_lo = q, f
+                if side == -1:
+                    f_hi *= 0.5
+                side = -1
+            else:
+                hi, f_hi = q, f
+                if side == 1:
+                    f_lo *= 0.5
+                side = 1
+        raise ContactError(f"the load-controlled rigid body's coordinate did not converge to "
+                           f"a load of {load:g} in {MAX_LOAD_ITERATIONS} iterations")
 
     def _frictional_response(self, B_all: sp.csr_matrix, p: np.ndarray) -> np.ndarray:
         """``K^-1 (B^T lambda + B_t^T t)``: the forces act on the condensed coordinates

@@ -373,14 +373,17 @@ class _ElasticSolve:
     """
 
     def __init__(self, rhs0: np.ndarray, contact: CondensedContact,
-                 active: np.ndarray | None) -> None:
-        self.rhs0, self.contact = rhs0, contact
+                 active: np.ndarray | None, z_n: np.ndarray | None = None) -> None:
+        self.rhs0, self.contact, self.z_n = rhs0, contact, z_n
         self.last = StepContact(np.zeros(0), np.zeros(0), active)
         self._lin: Callable[[np.ndarray], np.ndarray] | None = None
 
     def __call__(self, f_p: np.ndarray) -> np.ndarray:
         rhs = self.rhs0 + self.contact.force_factor * f_p
-        self.last = self.contact.solve(rhs, self.last.active)
+        if self.contact.friction is not None:
+            self.last = self.contact.solve_frictional(rhs, self.z_n)
+        else:
+            self.last = self.contact.solve(rhs, self.last.active)
         self._lin = None
         return self.last.z
 
@@ -407,7 +410,11 @@ def plastic_newmark_solve(rhs0: np.ndarray, active: np.ndarray | None, z_n: np.n
     """
     from fe_impact.fe.plasticity import solve_fixed_point, solve_newton
 
-    step = _ElasticSolve(rhs0, contact, active)
+    step = _ElasticSolve(rhs0, contact, active, z_n)
+    if contact.friction is not None:
+        # the condensed linearisation holds the normal rows only: with friction the
+        # Newton derivative would be inexact, Anderson's fixed point needs none
+        method = "anderson"
     # An elastic step with the committed plastic force: if no point yields
     # further, it is the solution (most steps of a mildly plastic impact).
     f_old = zone.plastic_force()
@@ -446,4 +453,4 @@ def plastic_newmark_solve(rhs0: np.ndarray, active: np.ndarray | None, z_n: np.n
     stats.iterations += its
     stats.krylov_products += products
     stats.correction = z_new - trial
-    return StepContact(step.last.lam, z_new, step.last.active)
+    return StepContact(step.last.lam, z_new, step.last.active, step.last.t)

@@ -313,3 +313,24 @@ def test_scaling_a_schedule_stretches_its_load_series(tmp_path):
     np.testing.assert_allclose(after.load_series.times, 2.0 * before.load_series.times)
     np.testing.assert_array_equal(after.load_series.torques, before.load_series.torques)
     assert after.duration == pytest.approx(2.0 * before.duration)
+
+
+def test_calibration_report_tables_the_force_range(tmp_path):
+    # two stages: one whose curves reach 1.5 x the runs' force, one short of it (said so);
+    # a position fitted below its top (edge loading) shows in the fitted range
+    import json
+
+    from fe_impact.calibration.report import _force_range_lines
+
+    demand = {"mesh_force_max_N": {"1": 1000.0, "2": 4000.0}, "force_margin": 1.5}
+    positions = [
+        {"stage": 1, "forces": [50.0, 1500.0], "fit_forces": [50.0, 1500.0], "edge": ""},
+        {"stage": 1, "forces": [50.0, 1500.0], "fit_forces": [50.0, 400.0],
+         "edge": "the pressure reaches the pinion flank edge from 1500 N"},
+        {"stage": 2, "forces": [50.0, 5000.0], "fit_forces": [50.0, 5000.0], "edge": ""},
+    ]
+    (tmp_path / "mesh_cycle.json").write_text(json.dumps({"positions": positions}))
+    rows = [line for line in _force_range_lines(tmp_path, demand) if line.startswith("| 1")
+            or line.startswith("| 2")]
+    assert rows[0] == "| 1 | 1000 | 1500 | 1.50 | 400-1500 | 1 of 2 |"
+    assert rows[1].startswith("| 2 | 4000 | 5000 | 1.25 (short of the margin")

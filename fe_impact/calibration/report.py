@@ -334,34 +334,44 @@ def _demand_lines(out: Path) -> list[str]:
 
 
 def _force_range_lines(out: Path, demand: dict) -> list[str]:
-    """The first pass's largest mesh force per stage beside the largest force of the
-    mesh cycle's and the corner laws' quasi-static curves (``mesh_cycle.json``)."""
+    """The first pass's largest mesh force per stage beside the mesh cycle's and the corner
+    laws' quasi-static curves (``mesh_cycle.json``): their largest force, the forces their
+    laws are fitted up to, and the positions whose pressure reached a flank edge."""
     import json
 
     margin = float(demand.get("force_margin", 1.5))
     forces = {int(s): float(f) for s, f in demand.get("mesh_force_max_N", {}).items()}
     if not forces:
         return []
-    curves: dict[int, float] = {}
+    curves: dict[int, list[tuple[float, float, bool]]] = {}
     try:
         cycle = json.loads((out / "mesh_cycle.json").read_text())
         for record in [*cycle.get("positions", []), *cycle.get("corners", [])]:
             top = max(record.get("forces") or [0.0])
-            curves[int(record["stage"])] = max(curves.get(int(record["stage"]), 0.0), top)
+            fitted = max(record.get("fit_forces") or record.get("forces") or [0.0])
+            curves.setdefault(int(record["stage"]), []).append(
+                (top, fitted, bool(record.get("edge"))))
     except (OSError, ValueError, KeyError, TypeError):
         curves = {}
-    lines = ["", f"Largest mesh force of these runs per stage (per mesh, both flanks), and "
-             f"the largest force of the stage's quasi-static curves (the mesh cycle's "
-             f"position laws and the corner laws are fitted up to it and extrapolated "
-             f"beyond as their power law): the curves are to reach {margin:g} times "
-             "the runs' largest.", "",
-             "| stage | largest mesh force [N] | curves reach [N] | ratio |", "|---|---|---|---|"]
+    lines = ["", "Largest mesh force of these runs per stage (per mesh, both flanks), and the "
+             f"stage's quasi-static curves, which are to reach {margin:g} times it: their "
+             "largest force, the least and largest force their laws are fitted up to (a "
+             "position's law is fitted up to the step where the pressure reaches a flank "
+             "edge, its record says which; beyond, the power law extrapolates), and the "
+             "positions that reached an edge.", "",
+             "| stage | largest mesh force [N] | curves reach [N] | ratio | laws fitted up to "
+             "[N] | positions at an edge |", "|---|---|---|---|---|---|"]
     for stage, force in sorted(forces.items()):
-        reach = curves.get(stage)
+        rows = curves.get(stage, [])
+        reach = max((r[0] for r in rows), default=None)
         ratio = "-" if reach is None or force <= 0 else f"{reach / force:.2f}"
-        short = "" if reach is None or force <= 0 or reach >= margin * force * 0.999 \
-            else " (short of the margin: the laws extrapolate there)"
-        lines.append(f"| {stage} | {force:.4g} | {_fmt(reach, '.4g')} | {ratio}{short} |")
+        if reach is not None and force > 0 and reach < margin * force * 0.999:
+            ratio += " (short of the margin: the laws extrapolate there)"
+        fitted = (f"{min(r[1] for r in rows):.4g}-{max(r[1] for r in rows):.4g}" if rows
+                  else "-")
+        edges = f"{sum(r[2] for r in rows)} of {len(rows)}" if rows else "-"
+        lines.append(f"| {stage} | {force:.4g} | {_fmt(reach, '.4g')} | {ratio} | {fitted} | "
+                     f"{edges} |")
     return lines
 
 

@@ -20,13 +20,13 @@ Closed forms (Johnson 1985, sections 7.2 and 7.3; Mindlin 1949), with
 
 What is measured:
 
-- ``c / a``: the contact radius ``a`` from the normal pressure (``p^2`` is
-  linear in ``r^2`` for a Hertz pressure: its zero), the stick radius from
-  the stick rows' friction use ``f = |t| / (mu lambda)``: in Cattaneo's
-  field ``(1 - f)^2 = (c^2 - r^2) / (a^2 - r^2)`` inside the stick zone, so
-  each stick row outside ``a / 3`` gives ``c^2 = r^2 + (1 - f)^2 (a^2 -
-  r^2)``; their area-weighted mean. (The rows' stick or slip flags alone place
-  ``c`` to half an element only.)
+- ``c / a``: the contact radius ``a`` and peak ``p0`` from the normal
+  pressure (``p^2`` is linear in ``r^2`` for a Hertz pressure), the stick
+  radius ``c`` fitted to the rows' tangential tractions: Cattaneo's field is
+  ``q = mu p - mu (p0 / a) sqrt(c^2 - r^2)`` inside the stick zone and ``mu
+  p`` outside, and ``c`` is the area-weighted least-squares fit of that to
+  every loaded row. (The rows' stick or slip flags alone place ``c`` to half
+  an element only, and each row's own ``|t| / (mu lambda)`` is too noisy.)
 - the tangential compliance's microslip part: the FE's tangential
   displacement of the loaded face ``delta(Q)`` holds the finite bodies'
   linear compliance besides ``delta_M``. Both sides are reduced alike:
@@ -111,8 +111,11 @@ def cattaneo_case(mesh_file: Path, steps: int = SLIDE_STEPS) -> Case:
 
 def stick_ratio(rows) -> tuple[float, float]:
     """``(a, c)`` (m) from a step's rows (see the module docstring)."""
+    from scipy.optimize import minimize_scalar
+
     on = rows.normal_force > 0
     p = np.where(on, rows.normal_force / rows.weight, 0.0)
+    q = np.linalg.norm(rows.tangential_force, axis=1) / rows.weight
     centre = (rows.point[on] * rows.normal_force[on, None]).sum(0) / rows.normal_force[on].sum()
     r2 = ((rows.point[:, :2] - centre[:2]) ** 2).sum(axis=1)
     # Hertz pressure p^2 = p0^2 (1 - r^2 / a^2): fit on the rows inside 0.8 of the
@@ -120,12 +123,18 @@ def stick_ratio(rows) -> tuple[float, float]:
     inner = on & (r2 < 0.64 * r2[on].max())
     slope, icpt = np.polyfit(r2[inner], p[inner] ** 2, 1)
     a2 = -icpt / slope
-    f = np.linalg.norm(rows.tangential_force, axis=1) / np.maximum(
-        rows.mu * rows.normal_force, 1e-300)
-    stick = on & ~rows.slipping & (r2 > a2 / 9.0) & (r2 < a2)
-    c2 = r2[stick] + (1.0 - f[stick]) ** 2 * (a2 - r2[stick])
-    w = rows.weight[stick]
-    return math.sqrt(a2), math.sqrt(float((c2 * w).sum() / w.sum())) if stick.any() else 0.0
+    p0 = math.sqrt(icpt)
+    # Cattaneo's traction q = mu p - mu (p0 / a) sqrt(c^2 - r^2) inside c: c fitted
+    # to the rows' tractions (area-weighted least squares over the loaded rows)
+    w = rows.weight[on]
+
+    def misfit(c: float) -> float:
+        model = MU * (p[on] - p0 / math.sqrt(a2) * np.sqrt(np.maximum(c * c - r2[on], 0.0)))
+        return float((w * (q[on] - model) ** 2).sum())
+
+    c = minimize_scalar(misfit, bounds=(0.0, math.sqrt(a2)), method="bounded",
+                        options={"xatol": 1e-4 * math.sqrt(a2)}).x
+    return math.sqrt(a2), float(c)
 
 
 def run_level(out: Path, name: str, h: float, steps: int = SLIDE_STEPS) -> dict:

@@ -414,43 +414,84 @@ class CondensedContact:
     def solve_frictional(self, rhs: np.ndarray, z_n: np.ndarray) -> StepContact:
         """The step's displacement and normal and tangential contact forces (friction).
 
-        The contact-free solve gives the rows' gaps and slip increments from the
-        step's start ``z_n``; the frictional problem
+        The contact-free solution gives the rows' gaps and slip increments from
+        the step's start ``z_n``; the frictional problem
         (:func:`~fe_impact.contact.friction.solve_frictional`) is solved on the
         compliance ``f B_c S^-1 B_c^T`` of the normal and tangential rows near
-        contact (formed for those rows, kept while the projection and the rows
-        stay the same); a second solve adds the forces. The coefficient is taken
-        at the contact-free slip speed.
+        contact, and the forces are added. The coefficient is taken at the
+        contact-free slip speed. While the kept Schur factorisation serves, one
+        forward and one backward substitution make the step, as without friction
+        (:meth:`_through_schur`: the forces act on the condensed coordinates
+        only); otherwise two solves.
         """
         from fe_impact.contact.friction import solve_frictional
 
         c, fr, f = self.contact, self.friction, self.force_factor
-        z_star = self.solver.solve(rhs)
         r = len(c.active_rows)
-        h = np.where(c.active_rows, c.gaps(z_star), np.inf)
-        t_old = fr.start(c)
-        if not np.any(h < 0) and not np.any(t_old):
-            return StepContact(np.zeros(r), z_star, None, np.zeros((r, 2)))
-        s0 = (c.Bt @ (z_star - z_n)).reshape(2, r).T
-        mu = c.row_coefficients(np.linalg.norm(s0, axis=1) / fr.dt)
         B_all = self._frictional_jacobian()
+        t_old = fr.start(c)
+        Bz_ref = c.B @ c.z_ref
+        Bt_n = c.Bt @ z_n
+        out = {"sol": None}
+
+        def forces(x_c: np.ndarray) -> np.ndarray | None:
+            y = B_all @ x_c
+            h = np.where(c.active_rows, c.g_ref + y[:r] - Bz_ref, np.inf)
+            if not np.any(h < 0) and not np.any(t_old):
+                return None
+            s0 = (y[r:] - Bt_n).reshape(2, r).T
+            mu = c.row_coefficients(np.linalg.norm(s0, axis=1) / fr.dt)
+            sol = solve_frictional(self._frictional_blocks(B_all, r), h, s0, c.eps_w, c.eps_w,
+                                   mu, t_old)
+            out["sol"] = sol
+            p = np.concatenate([sol.lam, sol.t[:, 0], sol.t[:, 1]])
+            return B_all.T @ p if p.any() else None
+
+        if self.solver.partial:
+            z = self._through_schur(rhs, forces)
+        else:
+            z_star = self.solver.solve(rhs)
+            g = forces(self._condensed_part(z_star))
+            z = z_star if g is None else self.solver.solve(rhs + f * self._full_force(out["sol"]))
+        sol = out["sol"]
+        if sol is None:
+            return StepContact(np.zeros(r), z, None, np.zeros((r, 2)))
+        return StepContact(sol.lam, z, sol.lam > 0, sol.t)
+
+    def _condensed_part(self, z: np.ndarray) -> np.ndarray:
+        """The condensed (rotated) coordinates of a reduced displacement ``z``."""
+        return (self.frames.R.T @ z)[self.frames.condensed]
+
+    def _full_force(self, sol) -> np.ndarray:
+        """``B^T lambda + B_t^T t`` in reduced coordinates."""
+        c = self.contact
+        return c.BT @ sol.lam + c.Bt.T @ np.concatenate([sol.t[:, 0], sol.t[:, 1]])
+
+    def _frictional_blocks(self, B_all: sp.csr_matrix, r: int):
+        """``D(idx)`` and ``D(idx, other)`` of
+        :func:`~fe_impact.contact.friction.solve_frictional`: ``f B_c S^-1 B_c^T`` on
+        the rows asked for. The columns ``S^-1 b^T`` of the
+        rows met are kept for the current projection, so a step solves only for
+        rows it meets first (a contact patch's rows repeat from step to step)."""
+        c, f = self.contact, self.force_factor
+        kept = self._fdelassus
+        if kept is None or kept[0] != c.n_projections:
+            kept = (c.n_projections, {}, [])
+            self._fdelassus = kept
+        index, columns = kept[1], kept[2]
 
         def block(idx, other=None):
             rows = np.concatenate([idx, r + idx, 2 * r + idx])
-            kept = self._fdelassus
-            if kept is not None and kept[0] == c.n_projections and np.array_equal(kept[1], rows):
-                X = kept[2]
-            else:
-                X = self.compliance.apply(B_all[rows].T.toarray())
-                self._fdelassus = (c.n_projections, rows, X)
+            new = [int(k) for k in rows if int(k) not in index]
+            if new:
+                X = self.compliance.apply(B_all[new].T.toarray())
+                for j, k in enumerate(new):
+                    index[k] = len(columns)
+                    columns.append(X[:, j])
+            X = np.stack([columns[index[int(k)]] for k in rows], axis=1)
             return f * np.asarray(B_all[rows if other is None else other] @ X)
 
-        sol = solve_frictional(block, h, s0, c.eps_w, c.eps_w, mu, t_old)
-        force = c.BT @ sol.lam + c.Bt.T @ np.concatenate([sol.t[:, 0], sol.t[:, 1]])
-        if not force.any():
-            return StepContact(sol.lam, z_star, None, sol.t)
-        z_new = self.solver.solve(rhs + f * force)
-        return StepContact(sol.lam, z_new, sol.lam > 0, sol.t)
+        return block
 
     def _frictional_jacobian(self) -> sp.csr_matrix:
         """The normal then the two tangential rows on the condensed coordinates."""

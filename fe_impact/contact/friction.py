@@ -36,8 +36,10 @@ An implicit solve (static or Newmark) gives the contact-free gaps ``h`` and
 slip increments ``s0`` of the rows and their compliance ``D`` (the Delassus
 matrix of the normal and two tangential rows of every node). The forces
 ``p = (lambda, t1, t2)`` solve ``p = F(y0 + D p)``, ``F`` the local law above;
-:func:`solve_frictional` does it by a semismooth Newton iteration on the
-small dense system, on the rows near contact only.
+:func:`solve_frictional` does it on the rows near contact only, alternating
+the normal part (a penalty complementarity problem, solved exactly) and the
+tangential part at fixed cones (a convex problem over discs, by semismooth
+Newton on its scaled projection map: :func:`_tangential`).
 """
 
 from __future__ import annotations
@@ -62,6 +64,10 @@ logger = logging.getLogger(__name__)
 NEWTON_TOL = 1e-10
 #: Newton iterations before the problem is declared unsolved.
 NEWTON_ITERATIONS = 60
+#: The alternation of the normal and tangential parts stops when the forces change
+#: by less than this times the largest normal force: far below the discretisation's
+#: error (the penalty's own regularisation is of order 1e-3).
+ALTERNATION_TOL = 1e-8
 
 
 @dataclass(frozen=True)
@@ -314,7 +320,7 @@ def _newton(D, y0, eps_n, eps_t, mu, t_old, p0=None):
         change = max(float(np.abs(lam_new - lam).max()), float(np.abs(t_new - t).max()))
         size = max(float(np.abs(lam_new).max()), 1e-300)
         lam, t = lam_new, t_new
-        if change <= NEWTON_TOL * size:
+        if change <= ALTERNATION_TOL * size:
             return np.concatenate([lam, t]), slipping, total
     raise ContactError(f"the frictional contact problem did not settle in "
                        f"{NEWTON_ITERATIONS} alternations of its normal and tangential "
@@ -455,20 +461,39 @@ class ExplicitFriction:
         self.history = TangentialHistory()
         self.dissipation = 0.0
         self.stored = 0.0
+        # the last step's forces in the frames of the projection they were taken in
+        self._t: np.ndarray | None = None
+        self._projection = -1
 
     def forces(self, contact, z: np.ndarray, z_old: np.ndarray, lam: np.ndarray,
-               dt: float) -> np.ndarray:
-        """The tangential forces (r, 2) at ``z`` after a step of ``dt`` from ``z_old``."""
+               dt: float) -> np.ndarray | None:
+        """The tangential forces (r, 2) at ``z`` after a step of ``dt`` from ``z_old``
+        (None while nothing touches and nothing is stored: no force).
+
+        The forces are kept in the rows' frames while the projection stays; the
+        history by pair and slave node carries them over a re-projection or the
+        zone's growth.
+        """
         r = len(lam)
-        keys = contact.row_keys()
-        t_old = self.history.get(keys, contact.t1, contact.t2)
+        if self._projection != contact.n_projections:
+            if self._t is not None:
+                self.history.put(self._keys, self._t1, self._t2, self._t)
+            else:
+                self.history = TangentialHistory()     # nothing held: no force to carry
+            self._keys, self._t1, self._t2 = contact.row_keys(), contact.t1, contact.t2
+            self._t = self.history.get(self._keys, self._t1, self._t2) if len(
+                self.history.keys) else None
+            self._projection = contact.n_projections
+        if self._t is None and not np.any(lam > 0.0):
+            return None
+        t_old = self._t if self._t is not None else np.zeros((r, 2))
         ds = (contact.Bt @ (z - z_old)).reshape(2, r).T
         speed = np.linalg.norm(ds, axis=1) / dt
         eps_t = contact.eps_w
         t, dissipated, _ = return_mapping(t_old, ds, lam, eps_t, contact.row_coefficients(speed))
-        self.history.put(keys, contact.t1, contact.t2, t)
+        self._t = t if np.any(t) else None
         self.dissipation += dissipated
-        self.stored = stored_energy(t, eps_t)
+        self.stored = stored_energy(t, eps_t) if self._t is not None else 0.0
         return t
 
 

@@ -199,7 +199,8 @@ def central_difference_step(s: State, cd: CentralDifference, contact: ContactMod
     t = None
     if friction is not None:
         t = friction.forces(contact, z, s.z, lam, dt)
-        contact.add_tangential(t, f, -1.0)
+        if t is not None:
+            contact.add_tangential(t, f, -1.0)
     a = _verlet_correct(f, cd.minv, v, 0.5 * dt)
     return State(n, z, v, a, lam, strain_energy, t=t)
 

@@ -42,8 +42,8 @@ pair = fe_impact.mesh_pair(stage=1, level="coarse", impact_speed=SPEED,
                            out=out / "tooth_pair", reuse=True)
 result = fe_impact.solve(pair.case_path)
 m = result.measurements
-print(f"FE: peak force {m['peak_force']:.1f} N, contact {m['contact_duration'] * 1e6:.1f} us, "
-      f"restitution {m['restitution']:.4f}")
+print(f"FE: peak force {m.peak_force:.1f} N, contact {m.contact_duration * 1e6:.1f} us, "
+      f"restitution {m.restitution:.4f}")
 
 # %%
 # The rigid-body Hertz impact, integrated from the first touch.
@@ -71,14 +71,14 @@ print(f"rigid bodies, Hertz: peak force {f_rigid.max():.1f} N, contact "
 
 # %%
 # The FE force from its first touch.
-t = result.history["time"] - m["first_touch"]
+t = result.history["time"] - m.first_touch
 f = result.history["contact_force"]
 fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
-ax.plot(t * 1e6, f, label=f"FE tooth pair (peak {m['peak_force']:.0f} N)")
+ax.plot(t * 1e6, f, label=f"FE tooth pair (peak {m.peak_force:.0f} N)")
 ax.plot(rigid.t * 1e6, f_rigid, "k--",
         label=f"rigid bodies + Hertz contact (peak {f_rigid.max():.0f} N)")
 ax.set(xlabel="time from first touch [us]", ylabel="contact force [N]",
-       xlim=(-10, 1.15 * max(rigid.t[-1], m["contact_duration"]) * 1e6),
+       xlim=(-10, 1.15 * max(rigid.t[-1], m.contact_duration) * 1e6),
        title=f"stage 1 tooth impact at {SPEED:g} m/s, effective mass {mass:.3f} kg")
 ax.set_ylim(0.0, 1.3 * f_rigid.max())
 ax.legend(loc="upper right")

@@ -502,7 +502,7 @@ def _solve_dynamic(case: Case, out: Path | None, say: Echo,
                 writer.finish(solver.result(), status="stopped", error=error)
         raise
     path = None if writer is None else writer.finish(result)
-    _warn_short_contact(result.measurements.get("contact_duration"), solver.dt)
+    _warn_short_contact(result.measurements.contact_duration, solver.dt)
     for line in _impact_lines(result):
         say(line)
     if path is not None:
@@ -526,15 +526,15 @@ def _impact_lines(result: DynamicResult) -> list[str]:
     def fmt(v, scale=1.0, spec=".4g"):
         return "-" if v is None else format(v * scale, spec)
 
-    lines = [f"  peak force {fmt(m['peak_force'])} N, max approach "
-             f"{fmt(m['max_approach'], 1e6)} um, contact {fmt(m['contact_duration'], 1e6)} us, "
-             f"restitution {fmt(m['restitution'])}, "
-             f"energy error {fmt(m['energy_error'], 100, '.3f')}%"]
+    lines = [f"  peak force {fmt(m.peak_force)} N, max approach "
+             f"{fmt(m.max_approach, 1e6)} um, contact {fmt(m.contact_duration, 1e6)} us, "
+             f"restitution {fmt(m.restitution)}, "
+             f"energy error {fmt(m.energy_error, 100, '.3f')}%"]
     pl = result.info.get("plasticity")
     if pl:
         lines.append(f"  plastic work {fmt(pl['dissipation'])} J, max equivalent plastic "
                      f"strain {fmt(pl['max_equivalent_plastic_strain'], 100, '.3g')}%, "
-                     f"residual indentation {fmt(m['residual_indentation'], 1e6)} um")
+                     f"residual indentation {fmt(m.residual_indentation, 1e6)} um")
     return lines
 
 

@@ -63,7 +63,7 @@ def test_sdof_contact_time_converges_second_order(tmp_path, integrator):
     errors = []
     for n in (16, 32, 64):
         _, result = run_sdof(tmp_path, integrator, T_CONTACT / n)
-        errors.append(abs(result.measurements["contact_duration"] / T_CONTACT - 1.0))
+        errors.append(abs(result.measurements.contact_duration / T_CONTACT - 1.0))
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     # Both schemes are second order; the contact switch falls inside a step, which
     # the interpolated first touch and separation recover to O(dt^2).
@@ -90,7 +90,7 @@ def test_sdof_contact_time_is_the_schemes_period_error(tmp_path, integrator):
     else:
         expected = x / (2.0 * math.asin(x / 2.0)) - 1.0
     _, result = run_sdof(tmp_path, integrator, dt)
-    error = result.measurements["contact_duration"] / T_CONTACT - 1.0
+    error = result.measurements.contact_duration / T_CONTACT - 1.0
     assert error == pytest.approx(expected, rel=0.05)
 
 
@@ -102,14 +102,14 @@ def test_sdof_energy_restitution_and_peak(tmp_path, integrator):
     e_end = abs(h["total_energy"][-1] / h["total_energy"][0] - 1.0)
     # Undamped linear spring: restitution 1 and no energy change after separation.
     # Measured drift is ~5e-6; 5e-5 leaves room for the switch steps.
-    assert abs(m["restitution"] - 1.0) < 5e-5
+    assert abs(m.restitution - 1.0) < 5e-5
     assert e_end < 5e-5
     # During contact the penalty switch inside a step costs O(dt) energy while it
     # lasts (measured 5.6e-4 at tc/64); it is returned at separation.
-    assert m["energy_error"] < 1e-3
+    assert m.energy_error < 1e-3
     # Peak force and approach are sampled at the steps: (pi/64)^2/8 = 3e-4 error.
-    assert m["peak_force"] == pytest.approx(F_PEAK, rel=1e-3)
-    assert m["max_approach"] == pytest.approx(SPEED / OMEGA, rel=1e-3)
+    assert m.peak_force == pytest.approx(F_PEAK, rel=1e-3)
+    assert m.max_approach == pytest.approx(SPEED / OMEGA, rel=1e-3)
 
 
 @pytest.mark.parametrize("integrator", ["newmark", "explicit"])
@@ -125,10 +125,10 @@ def test_run_stops_after_separation(tmp_path, integrator):
     _, short = run_sdof(tmp_path / "short", integrator, dt, stop_after_separation=0.25)
     m = short.measurements
     assert short.info["end_time"] == pytest.approx(
-        m["separation"] + 0.25 * m["contact_duration"], abs=1.5 * dt)
+        m.separation + 0.25 * m.contact_duration, abs=1.5 * dt)
     assert short.info["end_time"] < 0.8 * full.info["end_time"]
     for key in ("peak_force", "contact_duration", "restitution"):
-        assert m[key] == pytest.approx(full.measurements[key], rel=1e-9)
+        assert getattr(m, key) == pytest.approx(getattr(full.measurements, key), rel=1e-9)
 
 
 def test_explicit_stable_step_matches_closed_form(tmp_path):
@@ -203,14 +203,14 @@ def test_coarse_hemisphere_impact_against_hertz(tmp_path):
     solver = DynamicSolver(case, load_mesh(mesh))
     meas = solver.run().measurements
     spec = specimen_impact(mesh, m, 1.0, solver.initial_gap, ref.delta_max)
-    assert 4.0 * meas["peak_force"] == pytest.approx(spec["peak_force"], rel=0.01)
-    assert meas["max_approach"] == pytest.approx(spec["max_approach"], rel=0.01)
-    assert meas["contact_duration"] == pytest.approx(spec["contact_time"], rel=0.01)
-    assert 4.0 * meas["peak_force"] == pytest.approx(ref.force_max, rel=0.05)
+    assert 4.0 * meas.peak_force == pytest.approx(spec["peak_force"], rel=0.01)
+    assert meas.max_approach == pytest.approx(spec["max_approach"], rel=0.01)
+    assert meas.contact_duration == pytest.approx(spec["contact_time"], rel=0.01)
+    assert 4.0 * meas.peak_force == pytest.approx(ref.force_max, rel=0.05)
     # Elastic impact: only wave loss (Hunter: 0.6% of the energy at 1 m/s for a
     # free sphere; far less with a rigid mass behind it) and integrator error.
-    assert 0.99 < meas["restitution"] <= 1.0 + 1e-3
-    assert meas["energy_error"] < 1e-3
+    assert 0.99 < meas.restitution <= 1.0 + 1e-3
+    assert meas.energy_error < 1e-3
 
 
 def test_contact_zone_grows_before_faces_outside_touch(tmp_path):
@@ -240,7 +240,8 @@ def test_contact_zone_grows_before_faces_outside_touch(tmp_path):
     assert small.info["zone_growths"] >= 1
     assert auto.info["zone_growths"] == 0
     for key in ("peak_force", "max_approach", "contact_duration"):
-        assert small.measurements[key] == pytest.approx(auto.measurements[key], rel=1e-3)
+        assert getattr(small.measurements, key) == pytest.approx(
+            getattr(auto.measurements, key), rel=1e-3)
 
 
 def test_normal_condensation_is_exact_on_a_flat_master(tmp_path):
@@ -327,9 +328,9 @@ def test_residual_indentation_of_a_synthetic_unloading():
                 "normal_velocity": np.gradient(-d, t), "total_energy": np.ones_like(t)}
         m = impact_measurements(hist, 0.0)
         step = np.abs(np.diff(d)).max()
-        assert abs(m["residual_indentation"] - d_p) < 1e-6 * step
+        assert abs(m.residual_indentation - d_p) < 1e-6 * step
         # when nothing yielded there is no dent, whatever the history's tail
-        assert impact_measurements(hist, 0.0, plastic=False)["residual_indentation"] == 0.0
+        assert impact_measurements(hist, 0.0, plastic=False).residual_indentation == 0.0
 
 
 def test_a_touch_at_first_contact_is_not_a_separation():
@@ -360,7 +361,7 @@ def test_no_contact_has_no_time_of_peak_force():
     hist = {"time": t, "contact_force": np.zeros_like(t), "approach": -1e-6 + 0 * t,
             "normal_velocity": 0 * t, "total_energy": np.ones_like(t)}
     m = impact_measurements(hist, 0.0)
-    assert m["peak_force"] == 0.0 and m["time_of_peak_force"] is None and m["contacts"] == 0
+    assert m.peak_force == 0.0 and m.time_of_peak_force is None and m.contacts == 0
 
 
 def _newmark_sphere_impact(tmp_path):
@@ -389,7 +390,7 @@ def test_plain_factorisation_taking_the_solves_over_changes_nothing(tmp_path):
     (first, a), (second, b) = runs
     assert first.condensed.solver._plain is None
     assert second.condensed.solver._plain is not None
-    assert a.measurements["peak_force"] > 0
+    assert a.measurements.peak_force > 0
     for key in ("contact_force", "approach", "kinetic_energy"):
         scale = np.abs(a.history[key]).max()
         np.testing.assert_allclose(b.history[key], a.history[key], rtol=0, atol=1e-9 * scale)

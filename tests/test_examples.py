@@ -97,8 +97,8 @@ def test_tooth_impact(out, monkeypatch):
     assert rigid.t[-1] == pytest.approx(closed.contact_time, rel=1e-4)
     # The teeth bend as well as flatten: a compliance in series with the contact
     # lowers the peak force and lengthens the contact of the same mass and speed.
-    assert m["peak_force"] < closed.force_max
-    assert m["contact_duration"] > closed.contact_time
+    assert m.peak_force < closed.force_max
+    assert m.contact_duration > closed.contact_time
 
 
 @pytest.mark.slow   # a Dask worker, meshing, an FE impact and the fit: some 27 s of CPU

@@ -152,18 +152,18 @@ def newmark(out: Path, solver: str | None = None, h: float = H_CONTACT,
         return {"solver": solver, "wall_s": wall, "steps_s": res.timings["integration"],
                 "plastic_iterations": pl["plastic_iterations"],
                 "krylov_products": pl["krylov_products"],
-                "plastic_points": pl["plastic_points"], "restitution": m["restitution"],
-                "dissipation_J": pl["dissipation"], "energy_error": m["energy_error"]}
+                "plastic_points": pl["plastic_points"], "restitution": m.restitution,
+                "dissipation_J": pl["dissipation"], "energy_error": m.energy_error}
     b = np.random.default_rng(0).random(dyn.condensed.K_eff.shape[0])
     solve = _best_time(lambda: dyn.condensed.solver.solve(b), 20)
     step = cpu / res.info["steps"]
     return {"n_dofs": res.info["n_dofs"], "steps": res.info["steps"],
-            "steps_in_contact": int(round(m["contact_duration"] / res.info["time_step"])),
+            "steps_in_contact": int(round(m.contact_duration / res.info["time_step"])),
             "wall_s": wall, "cpu_s": total_cpu, "timings_s": res.timings,
-            "solve_ms": solve * 1e3, "energy_error": m["energy_error"],
+            "solve_ms": solve * 1e3, "energy_error": m.energy_error,
             "step_ms": step * 1e3, "step_over_solve": step / solve,
             "target_ratio": NEWMARK_OVER_SOLVE,
-            "peak_force_error_vs_hertz": 4 * m["peak_force"] / ref.force_max - 1.0,
+            "peak_force_error_vs_hertz": 4 * m.peak_force / ref.force_max - 1.0,
             "projections": res.info["projections"]}
 
 

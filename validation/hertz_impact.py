@@ -149,13 +149,13 @@ def run_rigid(speed: float, h: float, out: Path) -> dict:
     secs = time.perf_counter() - t
     meas = res.measurements
     spec = specimen_impact(mesh, m, speed, solver.initial_gap, ref.delta_max)
-    fe = {"peak_force": SYMMETRY * meas["peak_force"], "max_approach": meas["max_approach"],
-          "contact_time": meas["contact_duration"]}
+    fe = {"peak_force": SYMMETRY * meas.peak_force, "max_approach": meas.max_approach,
+          "contact_time": meas.contact_duration}
     hz = {"peak_force": ref.force_max, "max_approach": ref.delta_max,
           "contact_time": ref.contact_time}
     row = {"speed": speed, "h_contact_mm": h * 1e3, "n_dofs": res.info["n_dofs"],
            "steps": res.info["steps"], "seconds": secs,
-           "restitution": meas["restitution"], "energy_error": meas["energy_error"]}
+           "restitution": meas.restitution, "energy_error": meas.energy_error}
     for k in fe:
         row[f"{k}_fe"] = fe[k]
         row[f"{k}_hertz"] = hz[k]
@@ -178,13 +178,13 @@ def run_free(integrator: str, h: float, out: Path, speed: float = 1.0) -> dict:
                               integrator=integrator, frames=20)
     res = DynamicSolver(case, load_mesh(mesh)).run()
     meas = res.measurements
-    e = meas["restitution"]
+    e = meas.restitution
     return {"integrator": integrator, "speed": speed, "h_contact_mm": h * 1e3,
             "n_dofs": res.info["n_dofs"], "steps": res.info["steps"],
             "time_step": res.info["time_step"], "seconds": time.perf_counter() - t,
-            "peak_force": SYMMETRY * meas["peak_force"], "peak_force_hertz": ref.force_max,
-            "contact_time": meas["contact_duration"], "contact_time_hertz": ref.contact_time,
-            "restitution": e, "energy_error": meas["energy_error"],
+            "peak_force": SYMMETRY * meas.peak_force, "peak_force_hertz": ref.force_max,
+            "contact_time": meas.contact_duration, "contact_time_hertz": ref.contact_time,
+            "restitution": e, "energy_error": meas.energy_error,
             "energy_lost": 1.0 - e ** 2 if e is not None else None,
             "hunter_wave_loss": hertz.hunter_wave_loss(speed, E, RHO)}
 

@@ -113,7 +113,7 @@ def run_speed(ratio: float, out: Path, coarse: bool = False, hardening: float = 
     res = DynamicSolver(case, load_mesh(mesh_file)).run()
     m = res.measurements
     pl = res.info["plasticity"] or {}
-    e = m["restitution"]
+    e = m.restitution
     th = hertz.thornton_impact(SPHERE_MASS, speed, R, E_STAR, 1.6 * YIELD)
     yielded = ratio >= 2
     return {"V_over_Vy": ratio, "speed": speed, "hardening_modulus": hardening,
@@ -124,7 +124,7 @@ def run_speed(ratio: float, out: Path, coarse: bool = False, hardening: float = 
             "thornton": thornton(ratio) if yielded else None,
             "error_vs_thornton": (e / thornton(ratio) - 1.0) if yielded and e else None,
             "seed_eq14": seed_eq14(ratio) if yielded else None,
-            "energy_error": m["energy_error"],
+            "energy_error": m.energy_error,
             "dissipation_share": pl.get("dissipation", 0.0) * 4.0
             / (0.5 * SPHERE_MASS * speed ** 2),
             "max_plastic_strain": pl.get("max_equivalent_plastic_strain"),
@@ -132,10 +132,10 @@ def run_speed(ratio: float, out: Path, coarse: bool = False, hardening: float = 
             "plastic_iterations": pl.get("plastic_iterations"),
             "krylov_products": pl.get("krylov_products"),
             "newton_fallbacks": pl.get("newton_fallbacks"),
-            "peak_force": 4.0 * m["peak_force"], "peak_force_hertz": ref.force_max,
+            "peak_force": 4.0 * m.peak_force, "peak_force_hertz": ref.force_max,
             "peak_force_thornton": th.force_max,
-            "max_approach_um": m["max_approach"] * 1e6,
-            "residual_indentation_um": m["residual_indentation"] * 1e6,
+            "max_approach_um": m.max_approach * 1e6,
+            "residual_indentation_um": m.residual_indentation * 1e6,
             "residual_indentation_thornton_um": th.residual * 1e6}
 
 

@@ -223,31 +223,29 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
     from fe_impact.calibration import fitting
 
     m, h = result.measurements, result.history
-    if m["peak_force"] <= 0 or m["contact_duration"] is None:
+    if m.peak_force <= 0 or m.contact_duration is None:
         raise CalibrationError(f"case {case.id}: the teeth did not touch and separate within "
                                "the simulated time")
-    e_fe = m["restitution"]
+    e_fe = m.restitution
     # An elastic impact can rebound a hair faster than it came in (integrator and
     # penalty-switch error, ~1e-4); the laws take e <= 1.
     e = min(e_fe, 1.0)
-    speed = m["impact_velocity"]
+    speed = m.impact_velocity
     power = fitting.fit_power_law(h["approach"], h["contact_force"])
-    fe = {"peak_force": m["peak_force"], "max_approach": m["max_approach"],
-          "contact_time": m["contact_duration"], "restitution": e,
-          "restitution_measured": e_fe,
-          "energy_lost": 1.0 - e ** 2, "impact_velocity": speed,
-          "energy_error": m["energy_error"],
-          "residual_indentation": m["residual_indentation"],
-          "stiffness_k": power.K, "stiffness_exponent": power.exponent,
-          "stiffness_fit_r2": power.r2,
-          "nominal_load": settings.nominal_load}
     try:
         ks = fitting.mesh_stiffness(h["approach"], h["contact_force"], settings.nominal_load)
-        fe["mesh_stiffness"] = ks.from_data
-        fe["mesh_stiffness_power_law"] = ks.from_power_law
+        tangent = (ks.from_data, ks.from_power_law)
     except CalibrationError as exc:   # nominal load above the peak force of this impact
         logger.info("case %s: %s", case.id, exc)
-        fe["mesh_stiffness"] = fe["mesh_stiffness_power_law"] = None
+        tangent = (None, None)
+    fe = FEMeasurements(
+        peak_force=m.peak_force, max_approach=m.max_approach, contact_time=m.contact_duration,
+        restitution=e, restitution_measured=e_fe, energy_lost=1.0 - e ** 2,
+        impact_velocity=speed, energy_error=m.energy_error,
+        residual_indentation=m.residual_indentation, stiffness_k=power.K,
+        stiffness_exponent=power.exponent, stiffness_fit_r2=power.r2,
+        nominal_load=settings.nominal_load, mesh_stiffness=tangent[0],
+        mesh_stiffness_power_law=tangent[1])
     fit = fitting.fit_impact_law(h["time"], h["contact_force"], h["approach"], mass, speed, e)
     if not fit.success:    # kept (the report lists it), but said now
         logger.warning("case %s: the impact-law fit did not converge: %s", case.id, fit.message)
@@ -261,7 +259,7 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
         stage=case.stage, face_teeth=case.face_teeth, kind=case.kind,
         restitution_models=restitution_models(material, mass, tca, speed),
         speed_rpm=case.speed_rpm, impact_speed=case.impact_speed,
-        effective_mass=mass, fe=FEMeasurements(**fe),
+        effective_mass=mass, fe=fe,
         impact=ImpactParameters.from_source(fit),
         fit_quality=FitQuality.from_source(fit),
         closed_form=ClosedForm.from_source(closed),

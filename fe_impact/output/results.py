@@ -144,7 +144,7 @@ class DynamicWriter:
                       "energy_error = "
                       "max |E(t) - E(0)| / E(0), E = kinetic + strain + penalty energy (+ plastic "
                       "work when a material yields)."),
-            **result.measurements,
+            **result.measurements.to_dict(),
             "model": result.info,
             "timings_s": result.timings,
             "history": {k: hist[k] for k in keys},

@@ -63,14 +63,15 @@ from fe_impact.fe.kinematics import Kinematics, point_dofs, rigid_mode
 from fe_impact.fe.mesh import FEMesh
 from fe_impact.solvers import integrators as ti
 from fe_impact.solvers.measurements import (
+    ImpactMeasurements,
     ImpactProbe,
     SeparationWatch,
     impact_measurements,
 )
 from fe_impact.solvers.model import ContactSetup, gap_reach
 
-__all__ = ["HISTORY_KEYS", "DynamicResult", "DynamicSolver", "Frame", "Stop",
-           "impact_measurements"]
+__all__ = ["HISTORY_KEYS", "DynamicResult", "DynamicSolver", "Frame", "ImpactMeasurements",
+           "Stop", "impact_measurements"]
 
 logger = logging.getLogger(__name__)
 
@@ -105,7 +106,7 @@ class DynamicResult:
 
     history: dict[str, np.ndarray]     # every step
     output_history: dict[str, np.ndarray]  # at the output interval
-    measurements: dict
+    measurements: ImpactMeasurements
     info: dict
     timings: dict[str, float]
     mesh: FEMesh = field(repr=False)
@@ -231,10 +232,6 @@ class DynamicSolver:
             return ti.CentralDifference(self.dt, self.K, self.m), None
         nm = ti.Newmark(self.dt, self.K, self.M, self.case.analysis.hht_alpha)
         if self.contact.friction:
-            if self.plastic is not None:
-                raise CaseError(f"{self.case.path.name}: [[contacts]] friction with a yielding "
-                                "material needs [analysis] integrator = \"explicit\" (Newmark "
-                                "with friction and plasticity is not available)")
             self.friction = ImplicitFriction(self.dt)
         # One factorisation serves the solves and the condensation (see ZoneSolver).
         return nm, CondensedContact(self.mesh, self.kin, self.contact,
@@ -333,9 +330,9 @@ class DynamicSolver:
 
     def _newmark_solve(self, rhs: np.ndarray, active: np.ndarray | None,
                        z_n: np.ndarray) -> StepContact:
-        if self.friction is not None:
-            return self.condensed.solve_frictional(rhs, z_n)
         if self.plastic is None:
+            if self.friction is not None:
+                return self.condensed.solve_frictional(rhs, z_n)
             return self.condensed.solve(rhs, active)
         return ti.plastic_newmark_solve(rhs, active, z_n, self.condensed, self.plastic,
                                         self.case.analysis.plastic_solver, self.log.plastic)

@@ -16,7 +16,7 @@ and :class:`SeparationWatch` tells when the bodies have parted for good.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -151,8 +151,56 @@ class SeparationWatch:
         return t - self.last_on >= self.fraction * (self.last_on - self.first_on)
 
 
+@dataclass(frozen=True)
+class ImpactMeasurements:
+    """What :func:`impact_measurements` reads off a run's history (SI units; None where
+    the run does not show it: no contact, or no separation within the run).
+
+    Attributes
+    ----------
+    peak_force : float
+        Largest contact force [N] (0 without contact).
+    time_of_peak_force : float or None
+        Its time [s].
+    max_approach : float or None
+        Largest approach [m].
+    energy_error : float or None
+        ``max |E(t) - E(0)| / E(0)``.
+    contact_duration : float or None
+        ``separation - first_touch`` [s].
+    first_touch, separation : float or None
+        Times [s], interpolated where the approach crosses zero (or the dent).
+    restitution : float or None
+        ``rebound_velocity / impact_velocity``.
+    impact_velocity, rebound_velocity : float or None
+        Relative normal speed [m/s] before first touch (closing positive) and
+        after separation (opening positive).
+    residual_indentation : float or None
+        Permanent dent of both sides [m] (0 when nothing yielded).
+    contacts : int
+        How many times the force switched on.
+    """
+
+    peak_force: float
+    time_of_peak_force: float | None
+    max_approach: float | None
+    energy_error: float | None
+    contact_duration: float | None
+    first_touch: float | None
+    separation: float | None
+    restitution: float | None
+    impact_velocity: float | None
+    rebound_velocity: float | None
+    residual_indentation: float | None
+    contacts: int
+
+    def to_dict(self) -> dict:
+        """The fields by name, in order (as ``summary.json`` writes them)."""
+        return asdict(self)
+
+
 def impact_measurements(history: dict[str, np.ndarray], initial_gap: float,
-                        plastic: bool = True) -> dict:
+                        plastic: bool = True) -> ImpactMeasurements:
     """Peak force, approach, contact duration, restitution and energy error of a history.
 
     The contact starts at the first step with a force and ends at the first
@@ -182,7 +230,7 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float,
            "residual_indentation": None, "contacts": 0}
     on = F > 0
     if not on.any():
-        return out
+        return ImpactMeasurements(**out)
     i0 = int(np.argmax(on))
     ipk = int(np.argmax(F))
     rest = ~on[ipk:]
@@ -220,7 +268,7 @@ def impact_measurements(history: dict[str, np.ndarray], initial_gap: float,
         out["rebound_velocity"] = v_after
         if v_before < 0:
             out["restitution"] = -v_after / v_before
-    return out
+    return ImpactMeasurements(**out)
 
 
 def _unloaded_approach(F: np.ndarray, d: np.ndarray, i1: int) -> float:

@@ -235,3 +235,31 @@ def test_load_control_with_friction_recovers_the_motion():
         assert got.rigid_values[0] == pytest.approx(want.rigid_values[0], rel=1e-3)
         assert got.contact_force[0] == pytest.approx(want.contact_force[0], rel=1e-3)
         assert got.rigid_reactions[0] == pytest.approx(want.rigid_reactions[0], rel=1e-8)
+
+
+def test_newmark_friction_with_plasticity_closes_the_energy_balance(tmp_path):
+    # Friction and J2 plasticity in one Newmark impact (the plastic step's elastic
+    # solves are the frictional ones, by Anderson's fixed point): kinetic + strain
+    # + contact + plastic and friction dissipation stays at its initial value to
+    # 1e-3 (the bound) while both dissipate (1 m/s is about 11 x the
+    # yield-onset speed of this steel, so the sphere yields).
+    import math
+
+    from fe_impact.fe.mesh import load_mesh
+    from fe_impact.physics import hertz
+    from fe_impact.solvers.dynamic import DynamicSolver
+    from validation import friction_oblique as fo
+    from validation.friction_specimens import HalfSphereBlock, build_half_sphere_block
+
+    mesh = build_half_sphere_block(HalfSphereBlock(
+        radius=fo.R, gap=fo.GAP, h_contact=0.4e-3, order=1, hemisphere=False, r_fine=2e-3,
+        h_far=3e-3), tmp_path / "sphere.msh")
+    mass = fo.RHO * 4.0 / 3.0 * math.pi * fo.R ** 3
+    t_c = hertz.impact(mass, fo.V_N, fo.R, hertz.effective_modulus(fo.E, fo.NU)).contact_time
+    case = fo.oblique_case(mesh, 50.0, fo.GAP / fo.V_N + 2.0 * t_c, "newmark")
+    case = replace(case, materials=(replace(case.materials[0], yield_strength=835e6),))
+    h = DynamicSolver(case, load_mesh(mesh)).run().history
+    e0 = h["total_energy"][0]
+    assert np.abs(h["total_energy"] - e0).max() <= 1e-3 * e0
+    assert h["friction_dissipation"][-1] > 0.05 * e0
+    assert h["plastic_dissipation"][-1] > 0.05 * e0

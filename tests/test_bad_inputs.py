@@ -177,6 +177,23 @@ def switching(*options: str, preset: str = "table1-100rpm"):
                       *options]
 
 
+SEGMENT = "[[segments]]\nstage = {stage}\nduration_s = {duration}\nspeed_rpm = {speed}\n" \
+          "load_Nm = {load}\n"
+
+
+def schedule(*segments: dict, top: str = "", files: dict | None = None):
+    """``switching --schedule`` of the given segments (defaults: stage 1, 1 s, 300 r/min,
+    0.1 N m) on the seed gear set; ``files``: CSV files written beside the schedule."""
+    def argv(d):
+        for name, text in (files or {}).items():
+            write(d, name, text)
+        text = top + "".join(SEGMENT.format(**{"stage": 1, "duration": 1.0, "speed": 300,
+                                                "load": 0.1, **s}) + s.get("extra", "")
+                             for s in segments)
+        return ["switching", "--schedule", write(d, "duty.toml", text), "--out", "OUT"]
+    return argv
+
+
 def calibration_file(k=1e7, cmax=20.0, **top):
     """A calibration file with one stage-1 case (every other stage: closed forms)."""
     data = {"schema": "fe-impact/calibration/1", **top,
@@ -496,6 +513,36 @@ SWITCHING = [
     ("--calibration without cases",
      with_calibration(json.dumps({"schema": "fe-impact/calibration/1", "cases": []})),
      ["cal.json: cases = []: must be a non-empty list of objects"]),
+    ("--schedule missing", lambda d: ["switching", "--schedule", str(d / "no.toml"), "--out",
+                                      "OUT"], ["no.toml"]),
+    ("--schedule is a directory", lambda d: ["switching", "--schedule", str(d), "--out", "OUT"],
+     ["is a directory"]),
+    ("schedule duration 0", schedule({"duration": 0}),
+     ["duty.toml: [segments[0]] duration_s = 0: must be > 0"]),
+    ("schedule stage the gear set lacks", schedule({}, {"stage": 4}),
+     ["[segments[1]] stage = 4", "has stages 1..3"]),
+    ("schedule typo'd key", schedule({"extra": "speed_rmp = 3\n"}),
+     ["unknown key(s) ['speed_rmp'] in [segments[0]]", "allowed"]),
+    ("schedule switch to the engaged stage", schedule({}, {"extra": "switch = {}\n"}),
+     ["[segments[1]] switch = {}", "already engages"]),
+    ("schedule torque series not monotonic",
+     schedule({"load": '{ file = "t.csv" }'}, files={"t.csv": "time_s,load_Nm\n0,1\n0.6,2\n"
+                                                               "0.5,2\n1,1\n"}),
+     ["t.csv: line 4: time_s = 0.5 is not after line 3's 0.6"]),
+    ("schedule torque series NaN",
+     schedule({"load": '{ file = "t.csv" }'}, files={"t.csv": "time_s,load_Nm\n0,1\n1,nan\n"}),
+     ["t.csv: line 3: load_Nm = nan: must be a finite number"]),
+    ("schedule torque series missing", schedule({"load": '{ file = "t.csv" }'}),
+     ["[segments[0]] load_Nm", "t.csv: load series not found"]),
+    # Used to run: a name with a folder wrote the series into a subfolder of --out.
+    ("schedule name with a folder", schedule({}, top='name = "a/b"\n'),
+     ["name = 'a/b'", "no spaces or folders"]),
+    # Used to run: 200 N mm given as 200,000 N m (p0 about 9 GPa on the seed's stage 1).
+    ("schedule load in N mm", schedule({"load": 200000}),
+     ["[segments[0]] load_Nm = 200000", "static contact strength", "N m on this gear set"]),
+    # Used to run: r/min x 1000 (a pitch-line speed of 9 km/s).
+    ("schedule speed x 1000", schedule({"speed": 3e6}),
+     ["[segments[0]] speed_rpm = 3e+06", "at most", "r/min (200 m/s)"]),
 ]
 
 

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -334,3 +335,53 @@ def test_calibration_report_tables_the_force_range(tmp_path):
             or line.startswith("| 2")]
     assert rows[0] == "| 1 | 1000 | 1500 | 1.50 | 400-1500 | 1 of 2 |"
     assert rows[1].startswith("| 2 | 4000 | 5000 | 1.25 (short of the margin")
+
+
+# -- a schedule against the gear set: unit mistakes -------------------------------------
+def _duty(tmp_path, speed=300.0, load=0.1, name=None):
+    top = "" if name is None else f'name = "{name}"\n'
+    path = tmp_path / "my duty.toml"
+    path.write_text(f"{top}[[segments]]\nstage = 1\nduration_s = 1\nspeed_rpm = {speed}\n"
+                    f"load_Nm = {load}\n")
+    return read_schedule(path)
+
+
+def test_pitch_line_speed_bound_on_the_seed_pinion(tmp_path):
+    # Seed pinion: 19 teeth, module 3 mm -> pitch radius 28.5 mm; 200 m/s there is
+    # 200 / 0.0285 * 60 / (2 pi) = 67,013 r/min (by hand). 1000 r/min (the seed's top)
+    # and 60,000 r/min run; 70,000 r/min and the seed's 300 r/min x 1000 are refused.
+    from fe_impact.gears.gearset import default_gearset
+
+    seed = default_gearset()
+    for rpm in (1000.0, 60_000.0):
+        _duty(tmp_path, speed=rpm).check_gearset(seed)
+    for rpm in (70_000.0, 300_000.0):
+        with pytest.raises(CaseError, match=r"speed_rpm = .*at most 6\.701e\+04 r/min"):
+            _duty(tmp_path, speed=rpm).check_gearset(seed)
+
+
+def test_load_bound_is_the_static_contact_strength(tmp_path):
+    # The reported largest torque must give p0 = 1.6 sigma_Hlim at the pitch point when
+    # computed directly: the message's number comes from Hertz's p0 ~ F^(1/3) scaling,
+    # exact for a point contact of fixed curvatures (round-off: 1e-9). 200 N mm given as
+    # 200,000 N m is refused; the seed's loads (below 1 N m) run.
+    from fe_impact.gears.gearset import default_gearset
+    from fe_impact.gears.report import pitch_point
+
+    seed = default_gearset()
+    _duty(tmp_path, load=1.0).check_gearset(seed)
+    with pytest.raises(CaseError, match=r"load_Nm = 200000: .*ISO 6336-2") as err:
+        _duty(tmp_path, load=200_000.0).check_gearset(seed)
+    allowed = float(re.search(r"at most (\S+) N m", str(err.value)).group(1))
+    p0 = pitch_point(seed, 1, allowed)[1]["pitch_point"]["max_pressure_Pa"]
+    # the message gives 4 digits: p0 ~ T^(1/3) moves by a third of their 5e-4 rounding
+    assert p0 == pytest.approx(1.6 * seed.material.contact_stress_limit, rel=2e-4)
+
+
+def test_schedule_name_names_files_only(tmp_path):
+    # A name with a folder or a space would put the result files elsewhere than --out;
+    # a file's stem with a space becomes a valid default name.
+    assert _duty(tmp_path).name == "my_duty"
+    for bad in ("a/b", "..", "x y"):
+        with pytest.raises(CaseError, match=r"name = .*no spaces or folders"):
+            _duty(tmp_path, name=bad)

@@ -37,7 +37,7 @@ MIN_MESH_CYCLES = 20
 MAX_SAMPLES = 2_000_000
 
 _DESCRIPTION = (
-    "Lumped torsional model of the multistage face-gear drive (pinions, three rings, output) "
+    "Lumped torsional model of the multistage face-gear drive (pinions, rings, output) "
     "with backlash, the calibrated IMPACT law per tooth pair and ratio switching. Runs one "
     "of the seed study's conditions (--preset) or a duty cycle from a schedule file "
     "(--schedule) and writes time series, impacts, statistics (beside the seed's Tables 1-4 "
@@ -48,8 +48,8 @@ _DESCRIPTION = (
 
 def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add the ``switching`` subcommand to ``subparsers``; returns its parser."""
-    p = subparsers.add_parser("switching", help="ratio-switching runs of the seed's conditions",
-                              description=_DESCRIPTION)
+    p = subparsers.add_parser("switching", description=_DESCRIPTION,
+                              help="ratio-switching runs of a seed preset or a schedule file")
     p.add_argument("gearset", nargs="?", type=Path,
                    help="gear-set TOML (default: the built-in seed set); the calibration "
                         "must be of it")
@@ -164,6 +164,8 @@ def run(args: argparse.Namespace) -> int:
 
     duty = None if args.schedule is None else read_schedule(args.schedule)
     gearset = read_gearset(args.gearset)
+    if duty is not None:
+        duty.check_gearset(gearset)
     preset = study_preset(args.preset if duty is None else duty, gearset,
                           duration=args.duration)
     notes = _check_preset(args, preset, gearset.pinion.teeth)

@@ -40,6 +40,7 @@ import hashlib
 import json
 import logging
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,6 +66,18 @@ SCHEDULE_DIR = Path(__file__).resolve().parent / "schedules"
 MAX_SERIES_POINTS = 1_000_000
 #: Columns of a load-series CSV file.
 SERIES_COLUMNS = ("time_s", "load_Nm")
+
+#: Fastest pitch-line speed of the pinion a schedule may ask for [m/s]: turbo gears, the
+#: fastest gear drives built, run at up to about 200 m/s (Niemann and Winter,
+#: Maschinenelemente II, ch. 21); a faster one is taken for a unit mistake (r/min x 1000).
+MAX_PITCH_LINE_SPEED = 200.0
+#: Static contact strength over the allowable stress sigma_Hlim: ISO 6336-2's life factor
+#: Z_NT at static load (N_L <= 1e5, limited pitting permitted; steels incl. case-hardened).
+#: A schedule whose load gives a larger Hertz p0 at the pitch point would crush the flanks
+#: at its first mesh (a torque in N mm given as N m is the usual cause).
+STATIC_CONTACT_FACTOR = 1.6
+#: A schedule's name: it names the result files, so no folder separators or spaces.
+_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*")
 
 _TOP_KEYS = ("schema", "name", "description", "blend_s", "segments")
 _SEGMENT_KEYS = ("stage", "duration_s", "speed_rpm", "load_Nm", "blend_s", "switch")
@@ -94,6 +107,48 @@ class DutyCycle:
     schedule: StageSchedule
     source: str = ""
     digest: str = ""
+
+    def check_gearset(self, gearset: Any) -> None:
+        """CaseError naming the first segment the gear set cannot run: a stage it lacks,
+        a pinion pitch-line speed above `MAX_PITCH_LINE_SPEED`, or a load whose Hertz
+        pressure at the stage's pitch point exceeds the flanks' static contact strength
+        (`STATIC_CONTACT_FACTOR` x the material's ``contact_stress_limit_pa``).
+
+        ``gearset`` is a `fe_impact.gears.gearset.GearSet`. The pressure scales as the
+        load's cube root (Hertz), so the largest torque allowed is reported exactly.
+        """
+        self.check_stages(len(gearset.stages), f"the gear set {gearset.name!r}")
+        where = f"{self.source}: " if self.source else ""
+        radius = gearset.pinion.pitch_radius
+        top_rpm = MAX_PITCH_LINE_SPEED / radius * 60.0 / (2.0 * math.pi)
+        for i, seg in enumerate(self.schedule.segments):
+            if seg.max_speed_rpm > top_rpm:
+                raise CaseError(
+                    f"{where}[segments[{i}]] speed_rpm = {seg.max_speed_rpm:g}: a pitch-line "
+                    f"speed of {seg.max_speed_rpm * radius * math.pi / 30.0:.4g} m/s on the "
+                    f"pinion ({radius * 1e3:g} mm pitch radius); at most {top_rpm:.4g} r/min "
+                    f"({MAX_PITCH_LINE_SPEED:g} m/s): the speed is in r/min")
+        self._check_loads(gearset, where)
+
+    def _check_loads(self, gearset: Any, where: str) -> None:
+        """The largest load of each stage against the static contact strength."""
+        from fe_impact.gears.report import pitch_point
+
+        top: dict[int, tuple[float, int]] = {}
+        for i, seg in enumerate(self.schedule.segments):
+            if seg.max_load > top.get(seg.stage, (0.0, -1))[0]:
+                top[seg.stage] = (seg.max_load, i)
+        strength = STATIC_CONTACT_FACTOR * gearset.material.contact_stress_limit
+        for stage, (load, i) in top.items():
+            p0 = pitch_point(gearset, stage, load)[1]["pitch_point"]["max_pressure_Pa"]
+            if p0 > strength:
+                allowed = load * (strength / p0) ** 3
+                raise CaseError(
+                    f"{where}[segments[{i}]] load_Nm = {load:g}: Hertz p0 = {p0 / 1e6:.4g} "
+                    f"MPa at stage {stage}'s pitch point, above the flanks' static contact "
+                    f"strength {strength / 1e6:.4g} MPa ({STATIC_CONTACT_FACTOR:g} x "
+                    f"contact_stress_limit_pa, ISO 6336-2); at most {allowed:.4g} N m on "
+                    "this gear set: the load is in N m on the output")
 
     def check_stages(self, n_stages: int, gearset_name: str = "the gear set") -> None:
         """CaseError naming the first segment whose stage the gear set lacks."""
@@ -219,7 +274,12 @@ def schedule_from_dict(data: Mapping[str, Any], name: str = "schedule",
     r.keys(data, "", _TOP_KEYS, required=("segments",))
     if "schema" in data and data["schema"] != SCHEMA:
         raise r.fail("", "schema", data["schema"], f"this version reads {SCHEMA!r}")
+    if "name" not in data:       # the file's stem: made a valid name
+        name = re.sub(r"[^A-Za-z0-9_.+-]+", "_", name).lstrip(".-+") or "schedule"
     name = r.string(data, "", "name", default=name)
+    if not _NAME.fullmatch(name):
+        raise r.fail("", "name", name, "names the result files: letters, digits and "
+                     "'_', '-', '.', '+' only (no spaces or folders)")
     description = r.string(data, "", "description", default="", empty=True)
     blend = r.number(data, "", "blend_s", low=0.0, default=None, null=True)
     if digest is None:     # a document built in code: its content keys the caches

@@ -219,41 +219,59 @@ class ContactZone:
                       margin: float) -> bool:
         """Add the master faces under zone nodes that slid off the zone's master faces.
 
-        A zone node whose support the zone's master faces do not wholly cover
-        (it slid past them, or it lies at the master's edge) is projected on
-        the whole master; if more of its support finds a master face there
-        and its gap is below ``margin``, the master faces near it join the
-        zone (a body moved by a load slides as far as the load takes it).
-        True if the zone grew.
+        A zone node that no zone master face covers, or that one covers in part
+        with a gap below ``margin`` there, lies at the master's own edge
+        (where it stays uncovered) or slid toward an edge of the zone's master
+        faces that is not the master's (a body moved by a load slides as far
+        as the load takes it): such a node within reach of such a cut edge
+        takes the master faces near it into the zone. True if the zone grew.
         """
         st = pair.gap_state(mesh, up, self.slave_faces[k], self.master_faces[k],
                             jacobian=False)
-        part = ~np.isfinite(st.gap) | (st.weight < (1.0 - 1e-9) * st.area)
+        # uncovered, or partly covered and closing on the covered part
+        part = ~np.isfinite(st.gap) | ((st.weight < (1.0 - 1e-9) * st.area) &
+                                       (st.gap < margin))
         if not part.any():
             return False
+        cut = _cut_edges(pair.master.faces, self.master_faces[k])
+        if len(cut) == 0:
+            return False
+        x = mesh.points + up
+        ends = x[cut]                                           # (n, 2, 3)
+        mid = ends.mean(axis=1)
+        half = 0.5 * np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
         faces = self.slave_faces[k]
         touching = faces[np.isin(pair.slave.faces[faces], st.nodes[part]).any(axis=1)]
-        whole = pair.gap_state(mesh, up, touching, np.arange(len(pair.master.faces)),
-                               jacobian=False)
-        pos = np.searchsorted(st.nodes, whole.nodes)
-        here = (pos < len(st.nodes)) & (st.nodes[np.minimum(pos, len(st.nodes) - 1)]
-                                        == whole.nodes)
-        before = np.where(np.isfinite(st.gap), st.weight, 0.0)[np.minimum(pos, len(st.nodes) - 1)]
-        after = np.where(np.isfinite(whole.gap), whole.weight, 0.0)
-        slid = here & (after > (1.0 + 1e-6) * before) & (whole.gap < margin)
+        h = face_size(mesh, pair.slave, np.max, touching)
+        pts = st.nodes[part]
+        dist, near = cKDTree(mid).query(x[pts])
+        slid = dist <= half[near] + h + max(margin, 0.0)
         if not slid.any():
             return False
-        pts = whole.nodes[slid]
-        s = max(margin, 0.0) + 2.0 * face_size(mesh, pair.slave, np.max, touching)
-        new = np.union1d(self.master_faces[k],
-                         master_near(mesh, pair, up[pts] + mesh.points[pts], s))
+        s = max(margin, 0.0) + 2.0 * h
+        new = np.union1d(self.master_faces[k], master_near(mesh, pair, x[pts[slid]], s))
         if len(new) == len(self.master_faces[k]):
             return False
-        logger.info("contact %s: %d zone nodes slid past the zone's master faces; "
-                    "%d master faces join it", pair.slave.name, int(slid.sum()),
+        logger.info("contact %s: %d zone nodes slid toward the edge of the zone's master "
+                    "faces; %d master faces join it", pair.slave.name, int(slid.sum()),
                     len(new) - len(self.master_faces[k]))
         self.master_faces[k] = new
         return True
+
+
+def _cut_edges(faces: np.ndarray, subset: np.ndarray) -> np.ndarray:
+    """Corner pairs (n, 2) of the edges that bound the face subset but not the surface."""
+    def boundary(f: np.ndarray) -> np.ndarray:
+        e = np.sort(f[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
+        key, count = np.unique(e, axis=0, return_counts=True)
+        return key[count == 1]
+
+    sub, whole = boundary(faces[subset]), boundary(faces)
+    if len(sub) == 0:
+        return sub
+    n = int(faces.max()) + 1
+    inner = ~np.isin(sub[:, 0] * n + sub[:, 1], whole[:, 0] * n + whole[:, 1])
+    return sub[inner]
 
 
 def master_near(mesh: FEMesh, pair: ContactPair, points: np.ndarray, s: float) -> np.ndarray:

@@ -802,10 +802,10 @@ def seed_studies(gearset: GearSet, stages: Sequence[int] | None = None) -> tuple
 
 
 def _schedules(paths: Sequence[PathLike], gearset: GearSet) -> tuple[DutyCycle, ...]:
-    """The user's schedule files, read and checked against the gear set's stages."""
+    """The user's schedule files, read and checked against the gear set."""
     duties = tuple(read_schedule(p) for p in paths)
     for duty in duties:
-        duty.check_stages(len(gearset.stages), f"the gear set {gearset.name!r}")
+        duty.check_gearset(gearset)
     return duties
 
 
@@ -923,7 +923,8 @@ def study_preset(schedule: str | PathLike | Preset | DutyCycle,
     schedule : str, path-like, Preset or DutyCycle
         A preset's name (:func:`presets`) or a preset; a schedule file (a path,
         or a string ending in ``.toml``) or a schedule read
-        (:func:`read_schedule`), checked against the gear set's stages.
+        (:func:`read_schedule`), checked against the gear set (its stages, the pinion's
+        pitch-line speed, the contact pressure of the loads).
     gearset : GearSet, str or path-like, optional
         None: the seed set.
     duration : float, optional
@@ -949,7 +950,7 @@ def _preset(schedule: str | PathLike | Preset | DutyCycle, gearset: GearSet) -> 
     if isinstance(schedule, str) and not schedule.endswith(".toml"):
         return get_preset(schedule)
     duty = schedule if isinstance(schedule, DutyCycle) else read_schedule(schedule)
-    duty.check_stages(len(gearset.stages), f"the gear set {gearset.name!r}")
+    duty.check_gearset(gearset)
     return schedule_preset(duty)
 
 

@@ -71,9 +71,11 @@ MAX_PATCH_TO_RADIUS = 0.1
 MIN_CELLS_ACROSS = 20
 
 
-def probe_matrix(mesh: FEMesh, points: np.ndarray, volume: str, component: int
+def probe_matrix(mesh: FEMesh, points: np.ndarray, volume: str, direction
                  ) -> sp.csr_matrix:
-    """Interpolation of one displacement component at ``points`` (k, 3), in m.
+    """Interpolation of the displacement along ``direction`` at ``points`` (k, 3), in m.
+
+    ``direction``: a component (0, 1, 2) or a unit 3-vector.
 
     Returns the sparse (k, n_dofs) matrix of the element shape functions of
     the tetrahedron of ``volume`` holding each point (the one with the largest
@@ -81,6 +83,9 @@ def probe_matrix(mesh: FEMesh, points: np.ndarray, volume: str, component: int
     a rounding error outside the straight-sided element is clamped in). DOF
     ``3 * point_dof[node] + component``.
     """
+    if np.ndim(direction) == 0:
+        direction = np.eye(3)[int(direction)]
+    direction = np.asarray(direction, dtype=float)
     cells = mesh.cells[mesh.volume(volume)]
     vert = mesh.points[cells[:, :4]]                          # (e, 4, 3)
     tree = cKDTree(vert.mean(axis=1))
@@ -99,9 +104,11 @@ def probe_matrix(mesh: FEMesh, points: np.ndarray, volume: str, component: int
     else:
         shape = L
     nodes = cells[el, :shape.shape[1]]
-    dofs = 3 * mesh.point_dof[nodes] + component
     n_dofs = 3 * int(mesh.point_dof.max() + 1)
-    return sp.csr_matrix((shape.ravel(), (np.repeat(rows, shape.shape[1]), dofs.ravel())),
+    used = [c for c in range(3) if direction[c] != 0.0]
+    dofs = np.concatenate([3 * mesh.point_dof[nodes] + c for c in used], axis=1)
+    vals = np.concatenate([shape * direction[c] for c in used], axis=1)
+    return sp.csr_matrix((vals.ravel(), (np.repeat(rows, vals.shape[1]), dofs.ravel())),
                          shape=(len(points), n_dofs))
 
 
@@ -126,10 +133,10 @@ class Side:
     youngs, poisson : float
         Its elastic constants (Pa, -).
     height : callable
-        ``height(x, y)``: z (m) of the body's undeformed surface over the
-        grid point (x, y) of the contact plane z = 0.
+        ``height(x, y)``: height (m, along the frame's normal) of the body's
+        undeformed surface over the grid point (x, y) of the contact plane.
     inward : float
-        +1 if the body lies above its surface (z grows into it), -1 below.
+        +1 if the body lies on the normal's side of its surface, -1 on the other.
     """
 
     volume: str
@@ -137,6 +144,54 @@ class Side:
     poisson: float
     height: Callable[[np.ndarray, np.ndarray], np.ndarray]
     inward: float
+
+
+@dataclass(frozen=True)
+class HatBasis:
+    """Bilinear hats on a regular lattice of the contact plane: the far field's loads.
+
+    The coarse FE at the matching depth sees a load only through its
+    resultants over lengths below the depth (Saint-Venant), so the grid's
+    cell forces are gathered onto the hats (each cell's force split by the
+    hats' values at its centre: the total force and its first moments are
+    kept) and each hat is solved once, as a unit force spread by its own
+    shape. Spacing below the matching depth keeps the error of the depth
+    response second order in spacing / depth.
+
+    Attributes
+    ----------
+    half_x, half_y : float
+        Half-extents of the lattice (m); points beyond load the edge hats.
+    nx, ny : int
+        Hats along x and y (at least 2 each).
+    """
+
+    half_x: float
+    half_y: float
+    nx: int
+    ny: int
+
+    def weights(self, x: np.ndarray, y: np.ndarray) -> sp.csr_matrix:
+        """Hat values at the points (x, y): sparse (n_points, nx ny), rows summing to 1."""
+        ix, tx = _hat_1d(x, self.half_x, self.nx)
+        iy, ty = _hat_1d(y, self.half_y, self.ny)
+        rows = np.repeat(np.arange(len(x)), 4)
+        cols = np.column_stack([ix * self.ny + iy, ix * self.ny + iy + 1,
+                                (ix + 1) * self.ny + iy, (ix + 1) * self.ny + iy + 1]).ravel()
+        vals = np.column_stack([(1 - tx) * (1 - ty), (1 - tx) * ty, tx * (1 - ty),
+                                tx * ty]).ravel()
+        return sp.csr_matrix((vals, (rows, cols)), shape=(len(x), self.nx * self.ny))
+
+
+def _hat_1d(x: np.ndarray, half: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    h = 2.0 * half / (n - 1)
+    u = np.clip((np.asarray(x) + half) / h, 0.0, n - 1)
+    i = np.minimum(np.floor(u).astype(np.int64), n - 2)
+    return i, u - i
+
+
+#: Samples per hat spacing along each axis when a hat's load is spread on the FE.
+HAT_SAMPLES = 8
 
 
 class FarField:
@@ -151,6 +206,14 @@ class FarField:
     solve : callable
         ``solve(B)`` -> ``K_ff^-1 B`` for a dense (n_free, m) block.
     sides : sequence of Side
+    frame : tuple of ndarray, optional
+        ``(origin, t1, t2, normal)`` (m, unit vectors) of the grid's contact
+        plane in the mesh; default the plane z = 0 with x, y, z.
+    hats : HatBasis, optional
+        Gather the loads on these hats (one solve per hat and side, for every
+        grid) instead of loading each FE surface DOF under the grid (one
+        solve per DOF: exact for the coarse FE, but as many solves as the
+        grid covers DOFs).
     fold : bool
         The mesh is the quarter x >= 0, y >= 0 of a body symmetric about
         x = 0 and y = 0 (symmetry supports): each grid load and probe is
@@ -160,14 +223,43 @@ class FarField:
     """
 
     def __init__(self, mesh: FEMesh, free: np.ndarray, solve: Callable[[np.ndarray], np.ndarray],
-                 sides, fold: bool = False) -> None:
+                 sides, fold: bool = False, frame=None, hats: HatBasis | None = None
+                 ) -> None:
         self.mesh, self.free, self.solve = mesh, np.asarray(free), solve
+        if frame is None:
+            frame = (np.zeros(3), np.eye(3)[0], np.eye(3)[1], np.eye(3)[2])
+        self.frame = tuple(np.asarray(v, dtype=float) for v in frame)
         self.sides, self.fold = tuple(sides), fold
         n_dofs = 3 * int(mesh.point_dof.max() + 1)
         self._free_index = -np.ones(n_dofs, dtype=np.int64)
         self._free_index[self.free] = np.arange(len(self.free))
         self._responses: dict[int, np.ndarray] = {}   # DOF -> K^-1 column (free DOFs)
         self.solves = 0
+        self.hats = hats
+        self._hat_responses: list[np.ndarray] | None = None
+
+    def _points(self, x: np.ndarray, y: np.ndarray, side: Side) -> np.ndarray:
+        o, t1, t2, n = self.frame
+        z = side.height(x, y)
+        return o + x[:, None] * t1 + y[:, None] * t2 + z[:, None] * n
+
+    def _hat_solutions(self) -> list[np.ndarray]:
+        """Per side, ``K_ff^-1`` of each hat's unit load (n_free, n_hats), solved once."""
+        if self._hat_responses is None:
+            hb = self.hats
+            mx, my = (hb.nx - 1) * HAT_SAMPLES + 1, (hb.ny - 1) * HAT_SAMPLES + 1
+            X, Y = np.meshgrid(np.linspace(-hb.half_x, hb.half_x, mx),
+                               np.linspace(-hb.half_y, hb.half_y, my), indexing="ij")
+            x, y = X.ravel(), Y.ravel()
+            phi = hb.weights(x, y)                              # (samples, hats)
+            phi = phi @ sp.diags(1.0 / np.asarray(phi.sum(axis=0)).ravel())
+            self._hat_responses = []
+            for s in self.sides:
+                surf = probe_matrix(self.mesh, self._points(x, y, s), s.volume, self.frame[3])
+                F = (surf[:, self.free].T @ phi).toarray()      # unit resultant per hat
+                self._hat_responses.append(np.asarray(self.solve(F)).reshape(F.shape))
+                self.solves += F.shape[1]
+        return self._hat_responses
 
     def _response(self, dofs: np.ndarray) -> np.ndarray:
         """Columns ``K_ff^-1 e_dof`` (n_free, len(dofs)), solved once per DOF and kept."""
@@ -193,26 +285,37 @@ class FarField:
         weight = grid.cell_area
         if self.fold:
             x, y, weight = np.abs(x), np.abs(y), weight / 4.0
+        n = self.frame[3]
         parts = []
+        if self.hats is not None:
+            Lt = (self.hats.weights(x, y).T * weight).tocsr()  # (hats, n): cell force split
+            for s, Z in zip(self.sides, self._hat_solutions(), strict=True):
+                deep = probe_matrix(self.mesh, self._points(x, y, s) + s.inward * depth * n,
+                                    s.volume, n)
+                parts.append((np.asarray(deep[:, self.free] @ Z), Lt))
+            return _apply(parts, grid)
         for s in self.sides:
-            z = s.height(x, y)
-            surf = probe_matrix(self.mesh, np.column_stack([x, y, z]), s.volume, 2)
-            deep = probe_matrix(self.mesh, np.column_stack([x, y, z + s.inward * depth]),
-                                s.volume, 2)
+            at = self._points(x, y, s)
+            surf = probe_matrix(self.mesh, at, s.volume, n)
+            deep = probe_matrix(self.mesh, at + s.inward * depth * n, s.volume, n)
             surf, deep = surf[:, self.free].tocsc(), deep[:, self.free].tocsr()
             loaded = np.flatnonzero(np.diff(surf.indptr))       # free DOFs carrying load
             Z = self._response(self.free[loaded])
             A = np.asarray(deep @ Z)                            # (n, m): depth response
             Lt = surf[:, loaded].T.tocsr() * weight             # (m, n): loads
             parts.append((A, Lt))
+        return _apply(parts, grid)
 
-        def apply(p: np.ndarray) -> np.ndarray:
-            q = p.ravel()
-            w = np.zeros_like(q)
-            for A, Lt in parts:
-                w += A @ (Lt @ q)
-            return w.reshape(grid.shape)
-        return apply
+
+def _apply(parts, grid: nf.Grid) -> Callable[[np.ndarray], np.ndarray]:
+    """Pressure -> sum over the sides of ``A (Lt p)``, on the grid's shape."""
+    def apply(p: np.ndarray) -> np.ndarray:
+        q = p.ravel()
+        w = np.zeros_like(q)
+        for A, Lt in parts:
+            w += A @ (Lt @ q)
+        return w.reshape(grid.shape)
+    return apply
 
 
 def layer_kernel(grid: nf.Grid, sides, depth: float):
@@ -265,22 +368,25 @@ def solve_combined_approach(separation, near, far, approach: float, cell_area: f
     return nf.secant_on_force(at, approach, force_guess, rtol)
 
 
-def check_grid(grid: nf.Grid, patch_half_width: float, key: str = "grid") -> None:
+def check_grid(grid: nf.Grid, patch_half_x: float, patch_half_y: float | None = None,
+               key: str = "grid") -> None:
     """Refuse a grid coarser than the patch it must resolve, or smaller than the patch.
 
-    At least :data:`MIN_CELLS_ACROSS` cells across the patch and a grid
-    reaching past its edge.
+    At least :data:`MIN_CELLS_ACROSS` cells across the patch along each grid
+    axis (half-widths ``patch_half_x``, ``patch_half_y`` in m; ``y`` defaults
+    to ``x``) and a grid reaching past its edge.
     """
-    across = 2.0 * patch_half_width / max(grid.dx, grid.dy)
-    if across < MIN_CELLS_ACROSS:
-        raise ValueError(f"near field: {key} cell {max(grid.dx, grid.dy):.3g} m gives "
-                         f"{across:.1f} cells across the patch (half-width "
-                         f"{patch_half_width:.3g} m); at least {MIN_CELLS_ACROSS} are needed: "
-                         "refine the grid")
-    half = min(grid.nx * grid.dx, grid.ny * grid.dy) / 2.0
-    if half < patch_half_width:
-        raise ValueError(f"near field: {key} half-width {half:.3g} m is inside the patch "
-                         f"(half-width {patch_half_width:.3g} m): enlarge the grid")
+    halves = (patch_half_x, patch_half_x if patch_half_y is None else patch_half_y)
+    for axis, cell, n, half in (("x", grid.dx, grid.nx, halves[0]),
+                                ("y", grid.dy, grid.ny, halves[1])):
+        across = 2.0 * half / cell
+        if across < MIN_CELLS_ACROSS:
+            raise ValueError(f"near field: {key} cell along {axis} {cell:.3g} m gives "
+                             f"{across:.1f} cells across the patch (half-width {half:.3g} m); "
+                             f"at least {MIN_CELLS_ACROSS} are needed: refine the grid")
+        if n * cell / 2.0 < half:
+            raise ValueError(f"near field: {key} half-width along {axis} {n * cell / 2:.3g} m "
+                             f"is inside the patch (half-width {half:.3g} m): enlarge the grid")
 
 
 def check_half_space(patch_half_width: float, radius: float, depth: float,

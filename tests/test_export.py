@@ -225,3 +225,38 @@ def test_exudyn_model_of_a_loaded_stage(tmp_path):
                                                           * lever)
     assert b[0] == pytest.approx(static, rel=1e-6)
     assert np.abs(a[:n] - b[:n]).max() <= 0.02 * np.abs(a[:n]).max()
+
+
+@pytest.mark.parametrize("options, words", [
+    (["--to", "exudyn", "--stage", "0"], ["--stage 0", ">= 1"]),
+    (["--to", "exudyn", "--stage", "4"], ["--stage 4", "has stages 1..3"]),
+    (["--to", "exudyn", "--speed", "-300"], ["--speed -300", "> 0"]),
+    (["--to", "exudyn", "--duration", "0"], ["--duration 0", "> 0"]),
+    # Used to run: 300 r/min x 1000 (the seed pinion's 28.5 mm pitch radius: 895 m/s).
+    (["--to", "exudyn", "--speed", "3e5"], ["--speed 300000", "at most 6.701e+04 r/min"]),
+    # Used to run: 200 N mm given as 200,000 N m.
+    (["--to", "exudyn", "--load", "2e5"], ["--load 200000", "static contact strength"]),
+    # Used to be ignored without a word: adams and tables export every stage.
+    (["--to", "adams", "--stage", "2"], ["--stage 2", "only --to exudyn takes it"]),
+    (["--to", "tables", "--speed", "1000"], ["--speed 1000", "only --to exudyn takes it"]),
+    (["--to", "exudyn", "--gearset", "none.toml"], ["none.toml", "not found"]),
+])
+def test_bad_options_are_one_line(tmp_path, capsys, options, words):
+    cal = _calibration(tmp_path)
+    out = tmp_path / "out"
+    options = [str(tmp_path / o) if o.endswith(".toml") else o for o in options]
+    assert main(["export", str(cal), "--out", str(out), *options]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("fe-impact: error:"), err
+    for w in words:
+        assert w in err[0], (w, err[0])
+    assert not out.exists()
+
+
+def test_out_that_is_a_file_is_one_line(tmp_path, capsys):
+    cal, out = _calibration(tmp_path), tmp_path / "a_file"
+    out.write_text("x")
+    assert main(["export", str(cal), "--to", "tables", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is a file, not a folder" in err[0]
+    assert out.read_text() == "x"

@@ -37,15 +37,29 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
     p.add_argument("--gearset", type=Path, metavar="FILE",
                    help="exudyn: gear-set TOML the calibration is of (default: the seed set)")
-    p.add_argument("--stage", type=int, default=1, help="exudyn: stage, from 1 (default 1)")
-    p.add_argument("--speed", type=float, default=300.0, metavar="RPM",
+    p.add_argument("--stage", type=int, help="exudyn: stage, from 1 (default 1)")
+    p.add_argument("--speed", type=float, metavar="RPM",
                    help="exudyn: pinion speed [r/min] (default 300)")
-    p.add_argument("--load", type=float, default=0.0, metavar="NM",
+    p.add_argument("--load", type=float, metavar="NM",
                    help="exudyn: load torque on the output [N m] (default 0)")
-    p.add_argument("--duration", type=float, default=5.0, metavar="S",
+    p.add_argument("--duration", type=float, metavar="S",
                    help="exudyn: simulated time [s] (default 5, the seed's segment)")
     p.set_defaults(func=run)
     return p
+
+
+def _check_exudyn_options(args: argparse.Namespace) -> None:
+    """The Exudyn model's options with another target: refused (they would be ignored)."""
+    from fe_impact.errors import FeImpactError
+
+    if args.to == "exudyn":
+        return
+    for option, value in (("--gearset", args.gearset), ("--stage", args.stage),
+                          ("--speed", args.speed), ("--load", args.load),
+                          ("--duration", args.duration)):
+        if value is not None:
+            raise FeImpactError(f"{option} {value}: only --to exudyn takes it ('{args.to}' "
+                                "exports every stage, kind and closing speed); remove it")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -57,10 +71,12 @@ def run(args: argparse.Namespace) -> int:
     if args.to not in EXPORT_FORMATS:
         raise FeImpactError(f"--to {args.to!r}: unknown format; pick one of "
                             f"{', '.join(EXPORT_FORMATS)}")
+    _check_exudyn_options(args)
     check_output_dir(args.out)
-    result = export_calibration(args.calibration, args.to, args.out, gearset=args.gearset,
-                                stage=args.stage, speed_rpm=args.speed, load=args.load,
-                                duration=args.duration)
+    given = {key: value for key, value in (("stage", args.stage), ("speed_rpm", args.speed),
+                                           ("load", args.load), ("duration", args.duration),
+                                           ("gearset", args.gearset)) if value is not None}
+    result = export_calibration(args.calibration, args.to, args.out, **given)
     for note in result.notes:
         print(f"note: {note}")
     for path in result.files:

@@ -75,6 +75,16 @@ def _corner(gap) -> dict:
             "slopes": np.asarray(gap.slopes).tolist()}
 
 
+def _check_operation(gearset, options: ExudynOptions) -> None:
+    """Speed and load the gear set can run (unit mistakes: r/min x 1000, N mm as N m)."""
+    from fe_impact.switching.schedule import load_problem, speed_problem
+
+    for option, message in (("--speed", speed_problem(gearset, options.speed_rpm)),
+                            ("--load", load_problem(gearset, options.stage, options.load))):
+        if message:
+            raise CalibrationError(f"{option} {message}")
+
+
 def exudyn_data(calibration: str | Path, gearset, options: ExudynOptions) -> dict:
     """The exported model's data (SI units): everything the script needs.
 
@@ -90,8 +100,9 @@ def exudyn_data(calibration: str | Path, gearset, options: ExudynOptions) -> dic
 
     model = _drive_model(Path(calibration), gearset)
     if options.stage > model.n_stages:
-        raise CalibrationError(f"--stage {options.stage}: the gear set has stages "
-                               f"1..{model.n_stages}")
+        raise CalibrationError(f"--stage {options.stage}: the gear set {gearset.name!r} has "
+                               f"stages 1..{model.n_stages}; give one of them")
+    _check_operation(gearset, options)
     i = options.stage - 1
     path, corners = model.geometry, model.stage_geometry(options.stage)
     laws = model.law_set

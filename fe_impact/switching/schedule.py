@@ -54,8 +54,10 @@ from fe_impact.switching.model import LoadSeries, Segment, StageSchedule
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MAX_SERIES_POINTS", "SCHEDULE_DIR", "SCHEMA", "DutyCycle", "read_load_series",
-           "read_schedule", "schedule_from_dict"]
+__all__ = ["MAX_PITCH_LINE_SPEED", "MAX_SERIES_POINTS", "SCHEDULE_DIR", "SCHEMA",
+           "STATIC_CONTACT_FACTOR", "DutyCycle", "load_limit", "load_problem",
+           "read_load_series", "read_schedule", "schedule_from_dict", "speed_problem",
+           "top_speed_rpm"]
 
 #: The ``schema`` of a schedule file this version reads.
 SCHEMA = "fe-impact/schedule/1"
@@ -110,45 +112,24 @@ class DutyCycle:
 
     def check_gearset(self, gearset: Any) -> None:
         """CaseError naming the first segment the gear set cannot run: a stage it lacks,
-        a pinion pitch-line speed above `MAX_PITCH_LINE_SPEED`, or a load whose Hertz
-        pressure at the stage's pitch point exceeds the flanks' static contact strength
-        (`STATIC_CONTACT_FACTOR` x the material's ``contact_stress_limit_pa``).
+        a pinion speed above `top_speed_rpm`, or a load above `load_limit`'s.
 
-        ``gearset`` is a `fe_impact.gears.gearset.GearSet`. The pressure scales as the
-        load's cube root (Hertz), so the largest torque allowed is reported exactly.
+        ``gearset`` is a `fe_impact.gears.gearset.GearSet`.
         """
         self.check_stages(len(gearset.stages), f"the gear set {gearset.name!r}")
         where = f"{self.source}: " if self.source else ""
-        radius = gearset.pinion.pitch_radius
-        top_rpm = MAX_PITCH_LINE_SPEED / radius * 60.0 / (2.0 * math.pi)
         for i, seg in enumerate(self.schedule.segments):
-            if seg.max_speed_rpm > top_rpm:
-                raise CaseError(
-                    f"{where}[segments[{i}]] speed_rpm = {seg.max_speed_rpm:g}: a pitch-line "
-                    f"speed of {seg.max_speed_rpm * radius * math.pi / 30.0:.4g} m/s on the "
-                    f"pinion ({radius * 1e3:g} mm pitch radius); at most {top_rpm:.4g} r/min "
-                    f"({MAX_PITCH_LINE_SPEED:g} m/s): the speed is in r/min")
-        self._check_loads(gearset, where)
-
-    def _check_loads(self, gearset: Any, where: str) -> None:
-        """The largest load of each stage against the static contact strength."""
-        from fe_impact.gears.report import pitch_point
-
+            message = speed_problem(gearset, seg.max_speed_rpm)
+            if message:
+                raise CaseError(f"{where}[segments[{i}]] speed_rpm = {message}")
         top: dict[int, tuple[float, int]] = {}
         for i, seg in enumerate(self.schedule.segments):
             if seg.max_load > top.get(seg.stage, (0.0, -1))[0]:
                 top[seg.stage] = (seg.max_load, i)
-        strength = STATIC_CONTACT_FACTOR * gearset.material.contact_stress_limit
         for stage, (load, i) in top.items():
-            p0 = pitch_point(gearset, stage, load)[1]["pitch_point"]["max_pressure_Pa"]
-            if p0 > strength:
-                allowed = load * (strength / p0) ** 3
-                raise CaseError(
-                    f"{where}[segments[{i}]] load_Nm = {load:g}: Hertz p0 = {p0 / 1e6:.4g} "
-                    f"MPa at stage {stage}'s pitch point, above the flanks' static contact "
-                    f"strength {strength / 1e6:.4g} MPa ({STATIC_CONTACT_FACTOR:g} x "
-                    f"contact_stress_limit_pa, ISO 6336-2); at most {allowed:.4g} N m on "
-                    "this gear set: the load is in N m on the output")
+            message = load_problem(gearset, stage, load)
+            if message:
+                raise CaseError(f"{where}[segments[{i}]] load_Nm = {message}")
 
     def check_stages(self, n_stages: int, gearset_name: str = "the gear set") -> None:
         """CaseError naming the first segment whose stage the gear set lacks."""
@@ -162,6 +143,48 @@ class DutyCycle:
     def max_load(self) -> float:
         """Largest output load torque of the schedule [N m]."""
         return max(seg.max_load for seg in self.schedule.segments)
+
+
+# -- operating limits of a gear set ------------------------------------------------------
+def top_speed_rpm(gearset: Any) -> float:
+    """Fastest pinion speed [r/min] of ``gearset``: `MAX_PITCH_LINE_SPEED` at the
+    pinion's pitch radius."""
+    return MAX_PITCH_LINE_SPEED / gearset.pinion.pitch_radius * 30.0 / math.pi
+
+
+def speed_problem(gearset: Any, speed_rpm: float) -> str:
+    """"" if the pinion may run at ``speed_rpm``, else ``"<value>: <what is allowed>"``."""
+    radius, top = gearset.pinion.pitch_radius, top_speed_rpm(gearset)
+    if speed_rpm <= top:
+        return ""
+    return (f"{speed_rpm:g}: a pitch-line speed of {speed_rpm * radius * math.pi / 30.0:.4g} "
+            f"m/s on the pinion ({radius * 1e3:g} mm pitch radius); at most {top:.4g} r/min "
+            f"({MAX_PITCH_LINE_SPEED:g} m/s): the speed is in r/min")
+
+
+def load_limit(gearset: Any, stage: int, load: float) -> tuple[float, float, float]:
+    """Hertz p0 [Pa] at stage ``stage``'s pitch point under ``load`` [N m, > 0] on the
+    output, the flanks' static contact strength [Pa] (`STATIC_CONTACT_FACTOR` x the
+    material's ``contact_stress_limit_pa``), and the load [N m] at which p0 reaches it
+    (exact: p0 scales as the load's cube root for a point contact, Hertz)."""
+    from fe_impact.gears.report import pitch_point
+
+    p0 = pitch_point(gearset, stage, load)[1]["pitch_point"]["max_pressure_Pa"]
+    strength = STATIC_CONTACT_FACTOR * gearset.material.contact_stress_limit
+    return p0, strength, load * (strength / p0) ** 3
+
+
+def load_problem(gearset: Any, stage: int, load: float) -> str:
+    """"" if stage ``stage`` may carry ``load`` [N m], else ``"<value>: <what is allowed>"``."""
+    if load <= 0.0:
+        return ""
+    p0, strength, allowed = load_limit(gearset, stage, load)
+    if p0 <= strength:
+        return ""
+    return (f"{load:g}: Hertz p0 = {p0 / 1e6:.4g} MPa at stage {stage}'s pitch point, above "
+            f"the flanks' static contact strength {strength / 1e6:.4g} MPa "
+            f"({STATIC_CONTACT_FACTOR:g} x contact_stress_limit_pa, ISO 6336-2); at most "
+            f"{allowed:.4g} N m on this gear set: the load is in N m on the output")
 
 
 # -- load series -------------------------------------------------------------------------

@@ -385,3 +385,32 @@ def test_schedule_name_names_files_only(tmp_path):
     for bad in ("a/b", "..", "x y"):
         with pytest.raises(CaseError, match=r"name = .*no spaces or folders"):
             _duty(tmp_path, name=bad)
+
+
+def test_switching_schedule_writes_what_the_guide_lists(tmp_path, capsys):
+    # fe-impact switching --schedule end to end on the seed set (closed-form laws): every
+    # file docs/guide/outputs.md lists is written and opens; the series follows the
+    # schedule's stages (stage 1 to t = 0.1 s, then 2); a schedule has no seed table, so
+    # no seed column beside the pitch-point-only laws.
+    import csv
+    import json
+
+    from fe_impact.cli.main import main
+
+    out = tmp_path / "out"
+    assert main(["switching", "--schedule", str(_write(tmp_path, GOOD)), "--out", str(out),
+                 "--sample-interval", "1e-3"]) == 0
+    for name in ("report.md", "statistics.csv", "statistics.json", "climb_series.csv",
+                 "climb_impacts.csv", "impacts.png", "impact_force.png"):
+        assert (out / name).stat().st_size > 0, name
+    json.loads((out / "statistics.json").read_text())
+    with open(out / "climb_series.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    t = np.array([float(r["time_s"]) for r in rows])
+    stage = np.array([int(r["stage"]) for r in rows])
+    assert t[0] == 0.0 and 0.25 - 1e-3 - 1e-12 <= t[-1] <= 0.25   # one sample interval
+    assert set(stage[t < 0.099]) == {1} and set(stage[t > 0.101]) == {2}
+    report = (out / "report.md").read_text()
+    assert "## Schedule" in report and "| 1 | 0.1 | 2 (switch) |" in report
+    assert "## Beside the pitch-point-only laws\n" in report
+    assert "/ seed" not in report and "seed's tables" not in capsys.readouterr().err

@@ -147,10 +147,12 @@ def _check_preset(args: argparse.Namespace, preset, pinion_teeth: int) -> list[s
                              f"runs {cycles:.3g} mesh cycles in {seg.duration:.3g} s")
     if not notes:
         return []
+    seed = (", and are not comparable with the seed's tables"
+            if preset.seed_table is not None else "")
     text = (f"run too short for its statistics: {'; '.join(notes[:3])}"
             f"{'; ...' if len(notes) > 3 else ''} (fewer than {MIN_MESH_CYCLES}): they "
-            f"describe the start, not a steady run, and are not comparable with the seed's "
-            f"tables; give --duration {needed:.3g} or more")
+            f"describe the start, not a steady run{seed}; give --duration {needed:.3g} or "
+            "more")
     logger.warning("%s", text)
     return [text]
 

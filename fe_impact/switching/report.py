@@ -351,25 +351,27 @@ def _seed_layout_table(rows: list[dict], key: str, conditions: list[str],
 
 
 def _baseline_lines(rows: list[dict], conditions: list[str], runs: dict[str, SwitchingRun],
-                    baseline: dict[str, SwitchingRun] | None) -> list[str]:
-    """The statistics on these laws beside the pitch-point-only laws' and the seed's."""
+                    baseline: dict[str, SwitchingRun] | None, seed: bool = True) -> list[str]:
+    """The statistics on these laws beside the pitch-point-only laws' and (``seed``: a
+    preset with a seed table) the seed's."""
     if baseline is None:
         return []
     laws = next(iter(baseline.values())).model.law_set.source
-    lines = ["## Beside the pitch-point-only laws and the seed", "",
+    cells_are = ("these laws / pitch point only / seed; series statistics, then the "
+                 "impacts' (the seed has no impact statistics)." if seed else
+                 "these laws / pitch point only; series statistics, then the impacts'.")
+    lines = ["## Beside the pitch-point-only laws" + (" and the seed" if seed else ""), "",
              "The same cases rerun on these laws reduced to what a calibration at the pitch "
              "point alone gives: every tooth pair takes its impact's law at every position "
-             "and on the tip edges (" + laws + "). Cells: these laws / pitch point only / "
-             "seed; series statistics, then the impacts' (the seed has no impact "
-             "statistics).", "",
+             "and on the tip edges (" + laws + "). Cells: " + cells_are, "",
              "| category | value | " + " | ".join(conditions) + " |",
              "|---|---|" + "---|" * len(conditions)]
     index = {(r["condition"], r["quantity"], r["statistic"]): r for r in rows}
     for quantity in QUANTITIES:
         for statistic in ("maximum", "average"):
-            cells = [f"{_fmt(r['model_series'])} / {_fmt(r['baseline_series'])} / "
-                     f"{_fmt(r['seed'])}" for r in (index[(c, quantity, statistic)]
-                                                   for c in conditions)]
+            cells = [f"{_fmt(r['model_series'])} / {_fmt(r['baseline_series'])}"
+                     + (f" / {_fmt(r['seed'])}" if seed else "")
+                     for r in (index[(c, quantity, statistic)] for c in conditions)]
             lines.append(f"| {LABELS[quantity]} ({SEED_UNITS[quantity]}) | series {statistic} | "
                          + " | ".join(cells) + " |")
         cells = [f"{_fmt(r['model_impacts'])} / {_fmt(r['baseline_impacts'])}"
@@ -612,7 +614,7 @@ def render_report(preset: Preset, runs: dict[str, SwitchingRun], rows: list[dict
         "",
         *_seed_layout_table(rows, "model_impacts", conditions),
         "",
-        *_baseline_lines(rows, conditions, runs, baseline),
+        *_baseline_lines(rows, conditions, runs, baseline, seed),
         *_trend_lines(preset, runs),
         *_contact_lines(runs),
         *_clamp_lines(runs),

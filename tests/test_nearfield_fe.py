@@ -88,3 +88,10 @@ def test_hat_far_field_matches_dof_far_field(tmp_path):
     far_h = nff.FarField(far.mesh, far.free, far.solve, far.sides, fold=True, hats=hats)
     hat, _ = study.solve_step(far_h, 15e-6, 500.0)
     assert hat.force == pytest.approx(exact.force, rel=5e-3)
+
+
+def test_rounding_smaller_than_grid_is_refused():
+    g = nf.Grid.centred(0.5e-3, 0.05e-3, 64, 64)     # 15.6 um cells along x
+    with pytest.raises(ValueError, match="tip_edge_radius = 0.0001 m"):
+        nff.check_rounding(0.1e-3, g)
+    nff.check_rounding(0.5e-3, g)

@@ -415,3 +415,13 @@ def check_half_space(patch_half_width: float, radius: float, depth: float,
         raise ValueError(f"near field: patch edge {edge_distance - patch_half_width:.3g} m "
                          f"from a face edge, within the matching depth {depth:.3g} m: the "
                          "half-space layer would reach past the edge; use the refined FE")
+
+
+def check_rounding(rounding_radius: float, grid: nf.Grid, key: str = "tip_edge_radius") -> None:
+    """Refuse a rounding (m) that the grid cannot resolve: smaller than the cell
+    across it times :data:`MIN_CELLS_ACROSS` (the rounding must hold the patch)."""
+    cell = max(grid.dx, grid.dy)
+    if rounding_radius < MIN_CELLS_ACROSS * cell:
+        raise ValueError(f"near field: {key} = {rounding_radius:.3g} m is smaller than "
+                         f"{MIN_CELLS_ACROSS} grid cells ({MIN_CELLS_ACROSS * cell:.3g} m): "
+                         "refine the grid, or use the refined FE for this rounding")

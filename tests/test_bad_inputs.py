@@ -540,6 +540,11 @@ SWITCHING = [
     # Used to run: 200 N mm given as 200,000 N m (p0 about 9 GPa on the seed's stage 1).
     ("schedule load in N mm", schedule({"load": 200000}),
      ["[segments[0]] load_Nm = 200000", "static contact strength", "N m on this gear set"]),
+    # Used to fail late, naming neither the option nor the presets that fit.
+    ("preset of a stage the gear set lacks",
+     lambda d: ["switching", str(MESHES.parent / "geometry" / "nasa-25deg.toml"), "--preset",
+                "table2", "--duration", "1", "--out", "OUT"],
+     ["--preset = 'table2' runs stage 2", "has stages 1..1", "table1"]),
     # Used to run: r/min x 1000 (a pitch-line speed of 9 km/s).
     ("schedule speed x 1000", schedule({"speed": 3e6}),
      ["[segments[0]] speed_rpm = 3e+06", "at most", "r/min (200 m/s)"]),

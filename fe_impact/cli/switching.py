@@ -118,8 +118,18 @@ def _check(args: argparse.Namespace) -> None:
             raise CalibrationError(f"--calibration = {str(args.calibration)!r}: no such file")
 
 
-def _check_preset(args: argparse.Namespace, preset, pinion_teeth: int) -> list[str]:
+def _check_preset(args: argparse.Namespace, preset, gearset) -> list[str]:
     """Options against the preset: an error, or warnings (returned) for a short run."""
+    n_stages = len(gearset.stages)
+    top = max(seg.stage for c in preset.cases for seg in c.schedule.segments)
+    if args.preset is not None and top > n_stages:
+        from fe_impact.api import presets
+
+        fits = [name for name, p in presets().items()
+                if max(seg.stage for c in p.cases for seg in c.schedule.segments) <= n_stages]
+        raise CaseError(f"--preset = {args.preset!r} runs stage {top}; the gear set "
+                        f"{gearset.name!r} has stages 1..{n_stages}: give one of "
+                        f"{', '.join(fits) or 'no preset'}, or a --schedule of its stages")
     shortest = min(c.schedule.duration for c in preset.cases)
     if args.sample_interval > shortest:
         if args.duration is not None and args.sample_interval == SAMPLE_INTERVAL:
@@ -140,7 +150,7 @@ def _check_preset(args: argparse.Namespace, preset, pinion_teeth: int) -> list[s
     for case in preset.cases:
         total = case.schedule.duration
         for seg in case.schedule.segments:
-            cycles = seg.duration * seg.mean_speed_rpm / 60.0 * pinion_teeth
+            cycles = seg.duration * seg.mean_speed_rpm / 60.0 * gearset.pinion.teeth
             if seg.mean_speed_rpm > 0.0 and cycles < MIN_MESH_CYCLES:
                 needed = max(needed, MIN_MESH_CYCLES / cycles * total)
                 notes.append(f"{case.name}: stage {seg.stage} at {seg.mean_speed_rpm:g} r/min "
@@ -170,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
         duty.check_gearset(gearset)
     preset = study_preset(args.preset if duty is None else duty, gearset,
                           duration=args.duration)
-    notes = _check_preset(args, preset, gearset.pinion.teeth)
+    notes = _check_preset(args, preset, gearset)
     print(f"{preset.name}: {len(preset.cases)} case(s), {preset.duration:g} s simulated",
           flush=True)
     t0 = time.perf_counter()

@@ -540,6 +540,12 @@ SWITCHING = [
     # Used to run: 200 N mm given as 200,000 N m (p0 about 9 GPa on the seed's stage 1).
     ("schedule load in N mm", schedule({"load": 200000}),
      ["[segments[0]] load_Nm = 200000", "static contact strength", "N m on this gear set"]),
+    # Used to fail after building the laws with "segment 2: duration = 0.0667 s is shorter
+    # than ramp_time = 0.1 s", naming no option.
+    ("--duration shrinks a segment below its blend",
+     lambda d: ["switching", "--preset", "variable-speed", "--duration", "0.2", "--out", "OUT"],
+     ["--duration = 0.2 s", "segments[1] would last 0.0667 s", "0.1 s blend",
+      "--duration 0.3 or more"]),
     # Used to fail late, naming neither the option nor the presets that fit.
     ("preset of a stage the gear set lacks",
      lambda d: ["switching", str(MESHES.parent / "geometry" / "nasa-25deg.toml"), "--preset",

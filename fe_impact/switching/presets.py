@@ -88,9 +88,28 @@ class Preset:
         return sum(c.schedule.duration for c in self.cases)
 
     def scaled(self, duration: float) -> Preset:
-        """Each case stretched or shrunk to ``duration`` [s] of simulated time."""
-        return replace(self, cases=tuple(replace(c, schedule=c.schedule.scaled(duration))
-                                         for c in self.cases))
+        """Each case stretched or shrunk to ``duration`` [s] of simulated time.
+
+        The blends of speed and load between segments keep their length (they are
+        the drive's, not the run's): a segment shrunk below its blend is refused
+        naming the shortest ``duration`` that keeps every blend.
+        """
+        from fe_impact.switching.model import DriveModel
+
+        scaled = replace(self, cases=tuple(replace(c, schedule=c.schedule.scaled(duration))
+                                           for c in self.cases))
+        for case in scaled.cases:
+            for i, seg in enumerate(case.schedule.segments[1:], start=1):
+                blend = DriveModel.ramp_time if seg.blend is None else seg.blend
+                if seg.duration < blend:
+                    needed = max((DriveModel.ramp_time if s.blend is None else s.blend)
+                                 / s.duration * duration
+                                 for s in case.schedule.segments[1:])
+                    raise CaseError(
+                        f"--duration = {duration:g} s: {case.name}'s segments[{i}] would "
+                        f"last {seg.duration:.3g} s, shorter than its {blend:g} s blend of "
+                        f"speed and load (blend_s); give --duration {needed:.3g} or more")
+        return scaled
 
 
 def preset_file(case: str) -> Path:

@@ -54,6 +54,9 @@ logger = logging.getLogger(__name__)
 TET10_EDGES = ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))
 #: Candidate elements searched per probe point (nearest centroids).
 CANDIDATES = 12
+#: A probe point with a barycentric coordinate below minus this is searched
+#: again among the elements whose bounding box holds it.
+INSIDE_TOLERANCE = 1e-6
 #: Far-field fixed-point iteration: stop when the far-field displacement
 #: changes by less than this fraction of the approach.
 FAR_TOLERANCE = 1e-6
@@ -96,7 +99,20 @@ def probe_matrix(mesh: FEMesh, points: np.ndarray, volume: str, direction
     best = np.argmax(lam.min(axis=2), axis=1)
     rows = np.arange(len(points))
     el = cand[rows, best]
-    L = np.clip(lam[rows, best], 0.0, None)
+    L = lam[rows, best]
+    # Stretched elements: the nearest centroids need not hold the point.
+    # Those left outside are searched among the elements whose box holds them.
+    missed = np.flatnonzero(L.min(axis=1) < -INSIDE_TOLERANCE)
+    if missed.size:
+        lo, hi = vert.min(axis=1), vert.max(axis=1)
+        for i in missed:
+            box = np.flatnonzero(np.all((lo <= points[i]) & (points[i] <= hi), axis=1))
+            if box.size:
+                lb = _barycentric(vert, box[None, :], points[i:i + 1])[0]
+                j = int(np.argmax(lb.min(axis=1)))
+                if lb[j].min() > L[i].min():
+                    el[i], L[i] = box[j], lb[j]
+    L = np.clip(L, 0.0, None)
     L /= L.sum(axis=1, keepdims=True)
     if mesh.order == 2:
         shape = np.concatenate([L * (2 * L - 1)] + [4 * L[:, [i]] * L[:, [j]]

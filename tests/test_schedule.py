@@ -264,7 +264,7 @@ def test_calibrate_plans_for_the_schedules(tmp_path, monkeypatch):
     # largest mesh force (rounded up to two digits); the schedule runs as a study.
     import math
 
-    import fe_impact.api as api
+    import fe_impact.api.calibrating as api   # where calibrate looks up _sweep
     from fe_impact.switching import demand as D
 
     seen = {}

@@ -12,6 +12,7 @@ from fe_impact.cli.main import main
 from fe_impact.gears import default_gearset
 from fe_impact.gears.pairanalysis import PairSpec, analyse_pair
 from fe_impact.physics import hertz
+from tests.test_meshcycle import rack_contact_ratio
 
 
 @pytest.fixture(scope="module")
@@ -51,10 +52,12 @@ def test_mesh_cycle_outputs(calibrated):
         assert t / pos["lever"] == pytest.approx(f, rel=5e-3)
         assert pos["fit_error"] < 0.05
     # One mesh cycle: a roll of one angular pitch with two pairs over
-    # (contact ratio - 1) of it (1.7622 for the seed set, the geometry command).
+    # (contact ratio - 1) of it, the contact ratio in closed form; to a sample
+    # of the cycle's roll angles either way.
+    eps = rack_contact_ratio(default_gearset().pinion)
     for c in cycle["cycles"]:
         two = np.mean(np.asarray(c["pairs"]) == 2)
-        assert two == pytest.approx(1.7622 - 1.0, abs=2.0 / len(c["pairs"]))
+        assert two == pytest.approx(eps - 1.0, abs=2.0 / len(c["pairs"]))
     for name in ("mesh_cycle.csv", "contact_pattern.png", "stiffness_along_path.png",
                  "transmission_error.png"):
         assert (run / name).stat().st_size > 100, name
@@ -176,13 +179,16 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
     modes, so the FE must reach it within 1% (a 1% error of the force over
     the loading branch moves it by 0.7%; measured -0.25%). The force
     oscillates about the static curve with the teeth's vibration, and the
-    peak can sit anywhere in that swing. The peak force is held to 8%, set
-    when the sectors started at rest behind their turning hubs, which struck
-    them: ``validation/mesh_cycle.py`` then measured the swing on the same
-    stage and level as 7.9% of the local force at most (+4.6% here). Since
-    each rotor carries its sector the swing is 0.5% and this peak +0.08%;
-    the 8% is kept as it was set (the force averaged over the swing is
-    checked to 2% by that study).
+    peak can sit anywhere in that swing. The peak force is compared with the
+    static curve's force at the impact's own largest approach (so the
+    approach's error above does not enter it), to 1%: the sum of the swing
+    (each rotor carries its sector, so the teeth start in rigid motion:
+    0.5% of the local force, ``validation/mesh_cycle.py`` on this stage and
+    level), the peak's time-step error at the calibration's 60 steps per
+    contact (0.14%, ``validation/time_step.py``) and the interpolation of
+    the static curve between its five loads (PCHIP on a force growing as
+    approach^1.4-1.5 sampled every quarter of the range: below 0.2% from
+    0.5 of the range up), 0.84%, rounded up.
 
     Action and reaction, in the static solve at the impact's largest approach:
     K u sums to zero to round-off, and the reactions of the two hubs are equal
@@ -214,7 +220,7 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
     energy = 0.5 * case["effective_mass"] * fe["impact_velocity"] ** 2
     reach = brentq(lambda d: float(work(d)) - energy, 1e-3 * approach[0], approach[-1])
     assert fe["max_approach"] == pytest.approx(reach, rel=0.01)
-    assert fe["peak_force"] == pytest.approx(float(curve(reach)), rel=0.08)
+    assert fe["peak_force"] == pytest.approx(float(curve(fe["max_approach"])), rel=0.01)
 
     step = result.steps[3]                       # at the impact's largest approach
     mesh, K = solver.mesh, solver.model.K
@@ -264,7 +270,8 @@ def test_rerun_resumes_without_recomputing(calibrated):
     assert main(argv) == 0
     assert result.stat().st_mtime_ns == stamp         # the finished case was kept
     doc = json.loads((out / "run" / "calibration.json").read_text())
-    assert doc["wall_time_s"] < 30.0                   # no FE impact was run again
+    # the tables are written again from the kept case
+    assert [c["id"] for c in doc["cases"]] == ["stage1_mesh_50mms"]
 
 
 def test_ctrl_c_keeps_finished_cases_and_rerun_completes(calibrated, tmp_path):

@@ -502,7 +502,8 @@ def _switching_lines(runs: dict[str, SwitchingRun]) -> list[str]:
         for t, speed, stage in zip(hits.time, hits.speed, hits.stage, strict=True):
             k = int(np.searchsorted(starts, t, side="right")) - 1
             before, seg = run.schedule.segments[k - 1], run.schedule.segments[k]
-            omega = before.speed_rpm * 2.0 * math.pi / 60.0
+            rpm = before.end_speed_rpm          # the pinion's speed at the switch
+            omega = rpm * 2.0 * math.pi / 60.0
             teeth = [s.teeth for s in model.gearset.stages]
             p = model.gearset.pinion
             kinematic = switching_speed(omega, p.teeth, teeth[before.stage - 1],
@@ -511,7 +512,7 @@ def _switching_lines(runs: dict[str, SwitchingRun]) -> list[str]:
                                        teeth[stage - 1] / p.teeth, model.geometry.pressure_angle)
             ratios.append(eq5 / kinematic)
             lines.append(f"| {name} | {t:.4f} | {before.stage} -> {seg.stage} | "
-                         f"{before.speed_rpm:g} | {1e3 * speed:.4g} | {1e3 * kinematic:.4g} | "
+                         f"{rpm:g} | {1e3 * speed:.4g} | {1e3 * kinematic:.4g} | "
                          f"{1e3 * eq5:.4g} |")
     if not lines:
         return []
@@ -525,7 +526,8 @@ def _switching_lines(runs: dict[str, SwitchingRun]) -> list[str]:
         f"factor {min(ratios):.2g} to {max(ratios):.2g} times larger; it is not derived in the "
         "seed, and no consistent kinematics of rings locked to the output reproduces it.",
         "",
-        "| case | time [s] | stages | pinion [r/min] | model [mm/s] | kinematics [mm/s] | "
+        "| case | time [s] | stages | pinion at the switch [r/min] | model [mm/s] | "
+        "kinematics [mm/s] | "
         "eq. 5 [mm/s] |",
         "|---|---|---|---|---|---|---|",
         *lines,

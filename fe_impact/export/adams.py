@@ -138,7 +138,8 @@ ADAMS's IMPACT has constant parameters, fe-impact's law depends on:
   angle from the pitch point [deg] (ids 2001/2002 for stage 1, 2011/2012 for
   stage 2, ...); pair_stiffness_mm.csv holds the same table. Use them in a general
   SFORCE in place of IMPACT, with ROLL an expression of the pinion's roll angle
-  in degrees and H = x1 - x the penetration:
+  in degrees, H = x1 - DM(I,J) the penetration [mm] and HDOT = -VR(I,J) its
+  rate [mm/s] (positive while closing):
     FUNCTION = IF(H: 0, 0, MAX(0, AKISPL(ROLL, 0, 2001) * H**AKISPL(ROLL, 0, 2002)
                + STEP(H, 0, 0, d, cmax) * HDOT))
   cmax and d stay those of the IMPACT statement of your closing speed.

@@ -178,6 +178,11 @@ def test_exported_script_runs_on_its_own(exported, tmp_path):
     assert summary["impacts"] >= 1       # the first rattle impact at 5.1 ms
     with open(out / "series.csv") as fh:
         assert next(csv.reader(fh)) == ["time_s", "mesh_force_N", "approach_m"]
+    with open(out / "impacts.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == summary["impacts"]
+    assert max(float(r["peak_force_N"]) for r in rows) == pytest.approx(summary["max_force"],
+                                                                       rel=1e-9)
     text = script.read_text()
     assert "import fe_impact" not in text and "from fe_impact" not in text
 

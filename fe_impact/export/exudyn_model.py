@@ -599,7 +599,9 @@ def main(argv=None):
     with open(args.out / "impacts.csv", "w", newline="") as fh:
         keys = ["time", "kind", "flank", "speed", "force", "law", "contact", "clamp"]
         w = csv.writer(fh)
-        w.writerow(keys)
+        # the switching model's impact file's column names (units in the names)
+        w.writerow(["time_s", "kind", "flank", "closing_speed_m_s", "peak_force_N", "law",
+                    "contact", "law_clamped"])
         w.writerows([[i[k] for k in keys] for i in rec.impacts])
     print(json.dumps({**statistics(rec.impacts), **rec.info}, indent=1))
     return 0

@@ -532,6 +532,9 @@ SWITCHING = [
     ("schedule torque series NaN",
      schedule({"load": '{ file = "t.csv" }'}, files={"t.csv": "time_s,load_Nm\n0,1\n1,nan\n"}),
      ["t.csv: line 3: load_Nm = nan: must be a finite number"]),
+    ("schedule torque series separated by ';'",
+     schedule({"load": '{ file = "t.csv" }'}, files={"t.csv": "time_s;load_Nm\n0;1\n1;1\n"}),
+     ["t.csv: line 1: header", "separated by commas (this file uses ';')"]),
     ("schedule torque series missing", schedule({"load": '{ file = "t.csv" }'}),
      ["[segments[0]] load_Nm", "t.csv: load series not found"]),
     # Used to run: a name with a folder wrote the series into a subfolder of --out.

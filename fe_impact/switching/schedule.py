@@ -217,8 +217,10 @@ def read_load_series(path: str | Path, where: str = "") -> LoadSeries:
                         "one row per point")
     header = [c.strip() for c in rows[0][1]]
     if sorted(header) != sorted(SERIES_COLUMNS):
+        sep = next((c for c in ";\t|" if c in rows[0][1][0]), None) if len(header) == 1 else None
+        hint = f" separated by commas (this file uses {sep!r})" if sep else " (either order)"
         raise CaseError(f"{head}{path}: line {rows[0][0]}: header {header}: give the two "
-                        f"columns {list(SERIES_COLUMNS)} (either order)")
+                        f"columns {list(SERIES_COLUMNS)}{hint}")
     if len(rows) - 1 > MAX_SERIES_POINTS:
         raise CaseError(f"{head}{path}: {len(rows) - 1} points; at most "
                         f"{MAX_SERIES_POINTS}: resample the series")

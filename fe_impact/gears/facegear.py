@@ -156,6 +156,12 @@ class FaceGearLimits:
     shaper_base_radius, tip_shaper_radius : float
         ``r_bs`` and ``r_ps - ha* m`` [m]: the conjugate-tip limit exists when
         the second is below the first (:meth:`inner_reason`).
+    undercut_above_tip : bool
+        The singular point of the shaper's tip edge lies above the face-gear tip
+        plane (large shapers at large pressure angles: 240/42 teeth at 30 deg).
+        The undercut limit is then where the shaper's tip edge reaches the tip
+        plane: inside it that edge cuts the whole tooth height (no involute flank
+        at the tip), and outside it the flank has no singular point.
     """
 
     pitch_radius: float
@@ -166,6 +172,7 @@ class FaceGearLimits:
     inner_conjugate_u: float | None
     shaper_base_radius: float = float("nan")
     tip_shaper_radius: float = float("nan")
+    undercut_above_tip: bool = False
 
     def inner(self, rule: str = "conjugate") -> float:
         """Inner limit [m] by ``rule``: ``"conjugate"`` (default: a conjugate tip and no
@@ -185,6 +192,13 @@ class FaceGearLimits:
 
     def inner_reason(self, rule: str = "conjugate") -> str:
         """One sentence: which inner limit governs by ``rule``, and why (lengths in mm)."""
+        reason = self._inner_reason(rule)
+        if self.undercut_above_tip and self.governing(rule) == "undercut":
+            reason += ("; here the undercut limit is where the shaper's tip edge reaches the "
+                       "face-gear tip plane (its singular point lies above the tooth)")
+        return reason
+
+    def _inner_reason(self, rule: str) -> str:
         undercut, conjugate = self.inner_undercut * 1e3, self.inner_conjugate
         if rule == "undercut":
             other = ("the conjugate-tip limit does not exist" if conjugate is None else
@@ -495,8 +509,10 @@ class FaceGearTooth:
         lost = ~((np.abs(step) < _NEWTON_TOL) & (df > 0.0))
         if np.any(lost):
             gamma = np.array(gamma, copy=True)
-            for index in zip(*np.nonzero(lost), strict=True):
-                gamma[index] = self._bracket_gamma(float(rho[index]), float(target[index]))
+            for index in np.ndindex(lost.shape):     # 0-d arrays too
+                if lost[index]:
+                    gamma[index] = self._bracket_gamma(float(rho[index]),
+                                                       float(target[index]))
         missing = np.isnan(gamma)
         if np.any(missing) and strict:
             worst = int(np.argmax(missing.ravel()))
@@ -765,6 +781,15 @@ def face_gear_limits(
             f"{shaper_teeth}-tooth shaper"
         ) from exc
     undercut = tooth.generate(theta_tip, gamma_u)
+    above_tip = bool(undercut.points[1] > tooth.tip_height)
+    if above_tip:
+        # the singular point of the shaper's tip edge lies above the face-gear tip: inside
+        # the radius where that edge reaches the tip plane it cuts the whole tooth height
+        # (no involute flank at the tip), and the flank has no singular point outside it
+        gamma_t = brentq(lambda g: float(tooth.generate(theta_tip, g).points[1]
+                                         - tooth.tip_height), gamma_u,
+                         np.arctan(theta_tip), xtol=1e-15)   # the edge's lowest point: the root
+        undercut = tooth.generate(theta_tip, gamma_t)
     r_2 = tooth.pitch_radius
     r_bs = tooth.shaper_base_radius
     tip_circle = tooth.shaper_pitch_radius - tooth.tip_height
@@ -785,6 +810,7 @@ def face_gear_limits(
         inner_conjugate_u=conjugate_u,
         shaper_base_radius=float(r_bs),
         tip_shaper_radius=float(tip_circle),
+        undercut_above_tip=above_tip,
     )
     logger.debug("face-gear limits N_2=%d N_s=%d: %s", teeth, shaper_teeth, limits)
     return limits

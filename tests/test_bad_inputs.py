@@ -549,6 +549,9 @@ SWITCHING = [
      lambda d: ["switching", "--preset", "variable-speed", "--duration", "0.2", "--out", "OUT"],
      ["--duration = 0.2 s", "segments[1] would last 0.0667 s", "0.1 s blend",
       "--duration 0.3 or more"]),
+    # A duration in ms given as s: too many samples; the message points at duration_s.
+    ("schedule duration in ms", schedule({"duration": 5000}),
+     ["2.5e+07 time-series samples of a 5000 s case", "duration_s are in seconds"]),
     # Used to fail late, naming neither the option nor the presets that fit.
     ("preset of a stage the gear set lacks",
      lambda d: ["switching", str(MESHES.parent / "geometry" / "nasa-25deg.toml"), "--preset",

@@ -145,7 +145,9 @@ def _check_preset(args: argparse.Namespace, preset, gearset) -> list[str]:
         raise CaseError(f"{option} = {value}: {longest / args.sample_interval:.3g} time-series "
                         f"samples of a {longest:g} s case; at most {MAX_SAMPLES:g}: give a "
                         f"--sample-interval of {longest / MAX_SAMPLES:.3g} s or more, or a "
-                        "shorter --duration")
+                        "shorter --duration"
+                        + (" (the schedule's duration_s are in seconds)"
+                           if args.schedule is not None and args.duration is None else ""))
     notes, needed = [], 0.0
     for case in preset.cases:
         total = case.schedule.duration

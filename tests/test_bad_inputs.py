@@ -549,6 +549,11 @@ SWITCHING = [
      lambda d: ["switching", "--preset", "variable-speed", "--duration", "0.2", "--out", "OUT"],
      ["--duration = 0.2 s", "segments[1] would last 0.0667 s", "0.1 s blend",
       "--duration 0.3 or more"]),
+    # Used to overwrite the calibration's report.md with the study's.
+    ("--out is a calibration folder",
+     lambda d: ["switching", "--preset", "table1-100rpm", "--duration", "1", "--out",
+                str(Path(write(d, "calibration.json", calibration_file())).parent)],
+     ["holds a calibration (calibration.json)", "would overwrite its files"]),
     # A duration in ms given as s: too many samples; the message points at duration_s.
     ("schedule duration in ms", schedule({"duration": 5000}),
      ["2.5e+07 time-series samples of a 5000 s case", "duration_s are in seconds"]),

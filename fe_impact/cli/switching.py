@@ -106,6 +106,10 @@ def _check(args: argparse.Namespace) -> None:
         option = "--preset" if args.schedule is None else "--schedule"
         raise CaseError(f"--out is required with {option}: the folder for the results")
     check_output_dir(args.out)
+    if (args.out / "calibration.json").is_file():
+        raise CaseError(f"--out {args.out}: holds a calibration (calibration.json): the "
+                        "study's report.md and statistics would overwrite its files; give "
+                        f"another folder, e.g. {args.out / 'switching' / 'NAME'}")
     for option, value in (("--duration", args.duration),
                           ("--sample-interval", args.sample_interval)):
         if value is not None and not (math.isfinite(value) and value > 0.0):

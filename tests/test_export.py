@@ -265,3 +265,22 @@ def test_out_that_is_a_file_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "is a file, not a folder" in err[0]
     assert out.read_text() == "x"
+
+
+@pytest.mark.parametrize("to", ["adams", "tables"])
+def test_a_calibration_without_mesh_cycle_says_so(tmp_path, capsys, to):
+    # Schema 1 (no mesh cycle): the law holds at every position; the export says so
+    # (it wrote a header-only pair_stiffness.csv without a word) and the combined
+    # table leaves the roll angle empty.
+    cal = tmp_path / "calibration.json"
+    cal.write_text(json.dumps({"schema": "fe-impact/calibration/1", "cases": [
+        {"stage": 1, "kind": "mesh", "impact_speed": 0.01, "impact": LAW}]}))
+    out = tmp_path / "out"
+    assert main(["export", str(cal), "--to", to, "--out", str(out)]) == 0
+    assert "note: no position dependence" in capsys.readouterr().out
+    if to == "tables":
+        with open(out / "contact_table.csv") as fh:
+            (row,) = list(csv.DictReader(fh))
+        assert row["roll_angle_deg"] == "" and float(row["k_N_per_m_pow_exponent"]) == LAW["k"]
+    else:
+        assert not (out / "pair_stiffness_splines.adm").exists()

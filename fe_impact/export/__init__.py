@@ -72,14 +72,19 @@ def export_calibration(calibration: str | Path, to: str, out: str | Path, *,
         raise FeImpactError(f"--to {to!r}: unknown format; pick one of {', '.join(FORMATS)}")
     out = Path(out)
     cal = read_calibration(calibration, law_only=True)
+    notes = () if cal.mesh_cycle else (
+        "no position dependence: the file has no mesh cycle, so each law holds at every "
+        "position along the path of contact" + (" (pair_stiffness.csv has its header only)"
+                                                if to == "tables" else
+                                                " (no spline tables)"),)
     if to == "adams":
         from fe_impact.export.adams import write_adams
 
-        return ExportResult(to, tuple(write_adams(cal, out)))
+        return ExportResult(to, tuple(write_adams(cal, out)), notes)
     if to == "tables":
         from fe_impact.export.tables import write_tables
 
-        return ExportResult(to, tuple(write_tables(cal, out)))
+        return ExportResult(to, tuple(write_tables(cal, out)), notes)
     return _export_exudyn(calibration, out, gearset, stage, speed_rpm, load, duration)
 
 

@@ -448,3 +448,60 @@ def test_switching_impact_of_a_schedule_is_at_the_speed_of_the_switch(tmp_path):
     assert rpm == 800.0
     assert kinematic == pytest.approx(expected, rel=1e-3)        # 4 digits printed
     assert model_speed == pytest.approx(kinematic, rel=0.05)
+
+
+# -- the user guide's schedule page -------------------------------------------------------
+GUIDE = Path(__file__).resolve().parents[1] / "docs" / "guide" / "schedule.md"
+
+
+def _guide_blocks() -> dict[str, str]:
+    """The guide's example schedule, its torque CSV, and its two blocks of messages."""
+    import re
+
+    text = GUIDE.read_text()
+    blocks = re.findall(r"```(\w*)\n(.*?)```", text, re.S)
+    toml = next(b for lang, b in blocks if lang == "toml")
+    series = next(b for lang, b in blocks if b.startswith("time_s,load_Nm"))
+    messages = [line for lang, b in blocks for line in b.splitlines()
+                if line.startswith("duty.toml: ")]
+    return {"toml": toml, "csv": series, "messages": messages}
+
+
+def test_the_guides_example_runs_as_shipped(tmp_path):
+    # The guide's duty.toml and torque.csv, as printed: read, then run for a short while on
+    # the seed set (a switch from stage 1 to 2 at t = 1 s; 200 N m at most).
+    from fe_impact.gears import default_gearset
+
+    g = _guide_blocks()
+    path = _write(tmp_path, g["toml"], g["csv"])
+    duty = read_schedule(path)
+    duty.check_gearset(default_gearset())
+    assert [s.stage for s in duty.schedule.segments] == [1, 2, 2]
+    assert duty.schedule.start_times[1] == 1.0 and duty.max_load == 200.0
+    run = simulate(DriveModel(), duty.schedule.scaled(0.2), sample_interval=1e-3)
+    assert len(run.events.select(kind="switch")) == 1
+
+
+def test_the_guides_messages_are_the_readers(tmp_path):
+    # Each message the guide prints under 'Checks' is the one the reader gives for the
+    # mistake it describes, made in the guide's own example (seed gear set).
+    from fe_impact.gears import default_gearset
+
+    g = _guide_blocks()
+    toml, series = g["toml"], g["csv"]
+    mistakes = [
+        (_replace(toml, "duration_s = 2.0", "duration_s = 0"), series),
+        (_replace(toml, "load_Nm = { from = 200, to = 20 }",
+                  "load_Nm = { from = 200, to = 20 }\nswitch = {}"), series),
+        (toml, _replace(series, "1.2,160", "0.4,160")),
+        (_replace(toml, "stage = 2\nduration_s = 1.0", "stage = 4\nduration_s = 1.0"), series),
+        (_replace(toml, "load_Nm = 50", "load_Nm = 200000"), series),
+    ]
+    assert len(g["messages"]) == len(mistakes)
+    for (text, csv_text), message in zip(mistakes, g["messages"], strict=True):
+        folder = tmp_path / str(len(list(tmp_path.iterdir())))
+        folder.mkdir()
+        with pytest.raises(CaseError) as info:
+            read_schedule(_write(folder, text, csv_text)).check_gearset(default_gearset())
+        got = str(info.value).replace(f"{folder}/", "")
+        assert got == message

@@ -163,6 +163,6 @@ def test_a_user_schedule_joins_the_first_pass(tmp_path, monkeypatch):
     assert D.curve_top_force(got) >= D.FORCE_MARGIN * got.mesh_force[2]
     doc["segments"][0]["load_Nm"] = 400
     other = D.preset_demand(gearset, [], workers=1, schedules=[schedule_from_dict(doc)])
-    # twice the load: the peak is at least the new static share 2 x static, less 5% for
-    # the short run's start transient in the mean the peak is bounded by
+    # twice the load: the peak is at least the mean, which is the static share 2 x static
+    # to within the short run's start transient (5% allowed)
     assert other.mesh_force[2] > 1.9 * static

@@ -143,6 +143,11 @@ ADAMS's IMPACT has constant parameters, fe-impact's law depends on:
     FUNCTION = IF(H: 0, 0, MAX(0, AKISPL(ROLL, 0, 2001) * H**AKISPL(ROLL, 0, 2002)
                + STEP(H, 0, 0, d, cmax) * HDOT))
   cmax and d stay those of the IMPACT statement of your closing speed.
+  fe-impact holds k and the exponent at the table's end values beyond its first
+  and last roll angle, whereas AKISPL extrapolates: clamp ROLL to the spline's X
+  range, e.g. MAX(-14, MIN(18, ROLL)) for X = -14 .. 18. Between the rows
+  fe-impact takes log k and the exponent linear in the roll angle, AKISPL an
+  Akima curve through the same rows.
 """
 
 

@@ -95,3 +95,48 @@ def test_rounding_smaller_than_grid_is_refused():
     with pytest.raises(ValueError, match="tip_edge_radius = 0.0001 m"):
         nff.check_rounding(0.1e-3, g)
     nff.check_rounding(0.5e-3, g)
+
+
+def test_hat_half_space_is_boussinesq_far_from_the_hat():
+    # Far from a hat (40 hat spacings) its spread unit force acts as a point
+    # force: Boussinesq at depth (Johnson eq. 3.21a) and at the surface
+    # (1 - nu^2) / (pi E r). The spread's second moment changes the value by
+    # (s / r)^2 ~ 1e-3, hence 0.5%.
+    hats = nff.HatBasis(1e-3, 0.2e-3, 3, 2)
+    E, nu = 206e9, 0.3
+    r = np.array([40e-3, 0.0])
+    y = np.array([0.0, 40e-3])
+    for depth in (0.0, 1e-3):
+        g = nff.hat_half_space(hats, r, y, depth, E, nu)
+        if depth == 0.0:
+            point = (1 - nu ** 2) / (np.pi * E * 40e-3)
+        else:
+            point = nf.depth_displacement(40e-3, depth, E, nu)
+        assert g.shape == (2, 6)
+        assert np.allclose(g, point, rtol=5e-3)
+
+
+def test_hat_half_space_at_surface_is_love_for_a_uniform_spread():
+    # The hats sum to one at every sample, so a uniform load gathered on
+    # them (each hat's share its samples' count) and spread back puts the
+    # same force on every sample cell: a uniform pressure on the rectangle
+    # those cells tile (the lattice widened by half a cell). Love's closed
+    # form for it (Johnson eq. 3.25) must come back to rounding, at the
+    # centre and off the rectangle.
+    hats = nff.HatBasis(1e-3, 0.5e-3, 3, 3)
+    E, nu = 206e9, 0.3
+    x, _, _ = nff.hat_samples(hats)
+    W = hats.weights(*nff.hat_samples(hats)[:2])
+    share = np.asarray(W.sum(axis=0)).ravel() / len(x)
+    hx, hy = 2e-3 / 16, 1e-3 / 8
+    ax, ay = 1e-3 + hx / 2, 0.5e-3 + hy / 2
+    px, py = np.array([0.0, 0.4e-3, 3e-3]), np.array([0.0, 0.1e-3, -1e-3])
+    w = nff.hat_half_space(hats, px, py, 0.0, E, nu) @ share
+    love = (nf.love_rectangle(px, py, ax, ay) / (4 * ax * ay) * (1 - nu ** 2) / (np.pi * E))
+    assert np.allclose(w, love, rtol=1e-9)
+
+
+def test_same_load_needs_unfolded_hats():
+    with pytest.raises(ValueError, match="same_load"):
+        nff.FarField(load_mesh(MESHES / "hertz_coarse.msh"), np.arange(3), lambda b: b,
+                     study.sides(), fold=True, same_load=True)

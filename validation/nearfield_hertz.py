@@ -122,7 +122,7 @@ def solve_step(far: nff.FarField, d: float, guess: float) -> tuple[Step, nf.Grid
     nff.check_half_space(np.sqrt(R * d), R, DEPTH, H_CONTACT)
     X, Y = grid.centres()
     sep = R - np.sqrt(R ** 2 - X ** 2 - Y ** 2)
-    near = nf.Convolution(grid, nff.layer_kernel(grid, far.sides, DEPTH)).apply
+    near = nf.Convolution(grid, far.near_kernel(grid, DEPTH)).apply
     farop = far.operator(grid, DEPTH)
     sol = nff.solve_combined_approach(sep, near, farop, d, grid.cell_area, guess)
     # local approach between the axis points at DEPTH: the prescribed

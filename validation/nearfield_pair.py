@@ -15,7 +15,11 @@ against 0.8), both hubs held, the pressure
 solved on a 64 x 64 grid over 1.3 times the Hertz ellipse of each force, in
 the contact frame of the tooth contact analysis (point, normal, the
 relative curvature's principal axes), with the combined model of
-:mod:`fe_impact.contact.nearfield_fe` at the matching depth :data:`DEPTH`.
+:mod:`fe_impact.contact.nearfield_fe` at the matching depth :data:`DEPTH`,
+matched on the FE's own loads (hats :data:`SAME_LOAD_HAT_SPACING` apart,
+the half-space term subtracted at depth being that of the same hat-spread
+loads; ``--depth-matching`` for the grid pressure's subtraction with hats at
+half the depth).
 
 The approach is the hub approach of the refined FE (the pinion's closing
 rotation times its lever arm, from the first touch) and the near field's
@@ -58,6 +62,15 @@ CELLS = 64
 GRID_SPAN = 1.3
 #: Hat spacing of the far field's loads, in matching depths.
 HAT_SPACING = 0.5
+#: Matching on the FE's own loads (the default): the half-space displacement
+#: subtracted at depth is that of the hat-spread loads the coarse FE is given
+#: (not of the grid's pressure), so the hats may be as wide as the coarse
+#: elements; ``--depth-matching`` restores the grid pressure's subtraction.
+SAME_LOAD = True
+#: Hat spacing (m) of the same-load matching: the coarse level's element
+#: length along the ellipse (1.3 mm) rounded up, so the coarse FE resolves
+#: each hat's load.
+SAME_LOAD_HAT_SPACING = 1.5e-3
 #: The far-field mesh: the coarse level (36k DOFs; refinement 0.5, 9k DOFs, is
 #: 5-7% stiffer: the far field is not converged there).
 COARSE = {"level": "coarse", "refinement": 1.0, "design_force": max(FORCES)}
@@ -82,13 +95,14 @@ def coarse_pair(gearset, folder: Path, refinement: float = COARSE["refinement"],
                       design_force=design_force, refinement=refinement)
 
 
-def hat_counts(half_x: float, half_y: float, depth: float) -> tuple[int, int]:
-    """Hats along each axis for a spacing of at most half the matching depth."""
-    return (max(2, int(np.ceil(2 * half_x / (HAT_SPACING * depth))) + 1),
-            max(2, int(np.ceil(2 * half_y / (HAT_SPACING * depth))) + 1))
+def hat_counts(half_x: float, half_y: float, spacing: float) -> tuple[int, int]:
+    """Hats along each axis for a spacing (m) of at most ``spacing``."""
+    return (max(2, int(np.ceil(2 * half_x / spacing)) + 1),
+            max(2, int(np.ceil(2 * half_y / spacing)) + 1))
 
 
-def near_field_model(gearset, pair_mesh, depth: float = DEPTH):
+def near_field_model(gearset, pair_mesh, depth: float = DEPTH, same_load: bool = SAME_LOAD,
+                     hat_spacing: float | None = None):
     """Factorise the coarse pair with both hubs held; its far field in the TCA frame."""
     from fe_impact.fe.elasticity import build_model
     from fe_impact.fe.linalg import SPDSolver
@@ -110,9 +124,12 @@ def near_field_model(gearset, pair_mesh, depth: float = DEPTH):
     frame = (np.asarray(c.point), np.asarray(c.relative.major), np.asarray(c.relative.minor),
              np.asarray(c.normal))
     ell = an.design_ellipse      # the ellipse of the largest force
+    if hat_spacing is None:
+        hat_spacing = SAME_LOAD_HAT_SPACING if same_load else HAT_SPACING * depth
     hats = nff.HatBasis(GRID_SPAN * ell.a, GRID_SPAN * ell.b,
-                        *hat_counts(GRID_SPAN * ell.a, GRID_SPAN * ell.b, depth))
-    far = nff.FarField(mesh, dofs.free, solver.solve, sides, frame=frame, hats=hats)
+                        *hat_counts(GRID_SPAN * ell.a, GRID_SPAN * ell.b, hat_spacing))
+    far = nff.FarField(mesh, dofs.free, solver.solve, sides, frame=frame, hats=hats,
+                       same_load=same_load)
     return far, model.n_dofs, an
 
 
@@ -136,7 +153,7 @@ def solve_force(far, analysis, force: float, depth: float = DEPTH,
         e_star = analysis.effective_modulus
         conv = nf.Convolution(grid, nf.surface_kernel(grid, e_star))
         return nf.solve_pressure(sep, conv.apply, force, grid.cell_area), grid
-    near = nf.Convolution(grid, nff.layer_kernel(grid, far.sides, depth)).apply
+    near = nf.Convolution(grid, far.near_kernel(grid, depth)).apply
     return nff.solve_combined(sep, near, far.operator(grid, depth), force,
                               grid.cell_area), grid
 
@@ -155,17 +172,21 @@ def refined_fe(gearset, text: str, cache: Path) -> dict:
 
 def run(out: str | Path = "out/nearfield_pair", baseline: bool = True,
         depth: float = DEPTH, refinement: float = COARSE["refinement"],
-        level: str = COARSE["level"], design_force: float = COARSE["design_force"]) -> dict:
+        level: str = COARSE["level"], design_force: float = COARSE["design_force"],
+        same_load: bool = SAME_LOAD, hat_spacing: float | None = None,
+        cache: Path | None = None) -> dict:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     gs, text = _gearset()
-    with tempfile.TemporaryDirectory() as cache:
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = Path(tmp) if cache is None else Path(cache)
+        tag = f"coarse_{level}_{refinement:g}_{design_force:g}"
         t0 = time.perf_counter()
-        pm = coarse_pair(gs, Path(cache) / "coarse", refinement, level, design_force)
+        pm = coarse_pair(gs, cache / tag, refinement, level, design_force)
         t_mesh = time.perf_counter() - t0
         tracemalloc.start()
         t = time.perf_counter()
-        far, n_dofs, an = near_field_model(gs, pm, depth)
+        far, n_dofs, an = near_field_model(gs, pm, depth, same_load, hat_spacing)
         t_setup = time.perf_counter() - t
         rows = []
         for f in FORCES:
@@ -184,9 +205,9 @@ def run(out: str | Path = "out/nearfield_pair", baseline: bool = True,
                   "near_field_seconds": t_nf, "far_solves": far.solves,
                   "python_peak_MiB_near_field": peak, "depth_m": depth, "grid_cells": CELLS ** 2,
                   "refinement": refinement, "level": level, "design_force": design_force,
-                  "rows": rows}
+                  "same_load": same_load, "hats": [far.hats.nx, far.hats.ny], "rows": rows}
         if baseline:
-            result["refined"] = refined_fe(gs, text, Path(cache) / "refined")
+            result["refined"] = refined_fe(gs, text, cache / "refined")
     result["peak_rss_MiB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     (out / "nearfield_pair.json").write_text(json.dumps(result, indent=1))
     return result
@@ -239,12 +260,19 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--level", default=COARSE["level"], help="the far-field mesh's level")
     p.add_argument("--design-force", type=float, default=COARSE["design_force"],
                    help="force (N) whose Hertz ellipse sizes the far-field mesh at the contact")
+    p.add_argument("--depth-matching", action="store_true",
+                   help="subtract the grid pressure's half-space displacement at depth "
+                        "(hats at half the depth) instead of the FE's own loads'")
+    p.add_argument("--hat-spacing", type=float, default=None, help="hat spacing (m)")
+    p.add_argument("--cache", type=Path, default=None,
+                   help="keep the meshes in this folder (default: a temporary one)")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     logging.getLogger("skfem").setLevel(logging.WARNING)
     result = run(args.out, baseline=not args.no_baseline, depth=args.depth,
                  refinement=args.refinement, level=args.level,
-                 design_force=args.design_force)
+                 design_force=args.design_force, same_load=not args.depth_matching,
+                 hat_spacing=args.hat_spacing, cache=args.cache)
     checks = check(result)
     text = report(result) + "\n## Checks\n\n" + ck.markdown(checks)
     (args.out / "nearfield_pair.md").write_text(text)

@@ -26,6 +26,22 @@ never used, so nothing is counted twice. ``d`` must hold several coarse
 elements and stay small against the radii of curvature of the surfaces and
 the distance to an edge (the half-space assumption of the layer above it).
 
+Matching on the FE's own loads (``FarField(same_load=True)``, Vijayakar's
+choice): when the FE is loaded not by the grid's pressure but by a smoother
+version of it (the pressure gathered on bilinear hats and spread back by
+their shapes, :class:`HatBasis`), the half-space term subtracted at depth is
+that of the same hat-spread loads, not of the grid's pressure:
+
+    w(x) = w_hs(x, surface; p) + sum_b [u_FE,b(x, d; Hp) - w_hs,b(x, d; Hp)]
+
+The bracket is then the FE's finite-body correction under one and the same
+load, and the hats can be as wide as the coarse elements, so that the FE
+resolves the load it is given (with the grid pressure subtracted, the hats
+must stay well below the depth, where the coarse FE does not resolve them).
+What is left is the difference between the finite-body corrections of ``p``
+and of ``Hp``, second order in the hat spacing over the tooth's size (the
+hats keep the force and its first moments).
+
 The coarse FE enters as a low-rank operator: one solve per loaded surface
 DOF (the nodes under the grid), then ``P_depth Z P_surface^T``; with the
 convolution it is applied per iteration in O(n log n + n m) for n cells and
@@ -210,6 +226,46 @@ def _hat_1d(x: np.ndarray, half: float, n: int) -> tuple[np.ndarray, np.ndarray]
 HAT_SAMPLES = 8
 
 
+def hat_samples(hats: HatBasis) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
+    """How each hat's unit force is spread: sample points ``x, y`` (m) on a lattice
+    of :data:`HAT_SAMPLES` per hat spacing, and their shares ``phi`` (samples,
+    hats; each column sums to 1, in proportion to the hat's value)."""
+    mx, my = (hats.nx - 1) * HAT_SAMPLES + 1, (hats.ny - 1) * HAT_SAMPLES + 1
+    X, Y = np.meshgrid(np.linspace(-hats.half_x, hats.half_x, mx),
+                       np.linspace(-hats.half_y, hats.half_y, my), indexing="ij")
+    x, y = X.ravel(), Y.ravel()
+    phi = hats.weights(x, y)
+    phi = (phi @ sp.diags(1.0 / np.asarray(phi.sum(axis=0)).ravel())).tocsr()
+    return x, y, phi
+
+
+def hat_half_space(hats: HatBasis, x: np.ndarray, y: np.ndarray, depth: float,
+                   youngs: float, poisson: float) -> np.ndarray:
+    """Half-space normal displacement (m/N) at ``depth`` (m, 0 for the surface) under
+    the points (x, y) of each hat's unit force spread as :func:`hat_samples`
+    spreads it on the FE: (n_points, n_hats).
+
+    Each sample carries its share of the force on its own cell: Love's
+    rectangle at the surface (Johnson 1985, eq. 3.25), Boussinesq's axial
+    displacement (eq. 3.21a) over a 3 x 3 Gauss rule of the cell below it.
+    """
+    sx, sy, phi = hat_samples(hats)
+    hx = 2.0 * hats.half_x / ((hats.nx - 1) * HAT_SAMPLES)
+    hy = 2.0 * hats.half_y / ((hats.ny - 1) * HAT_SAMPLES)
+    dx, dy = x[:, None] - sx[None, :], y[:, None] - sy[None, :]
+    if depth <= 0.0:
+        g = (nf.love_rectangle(dx, dy, hx / 2, hy / 2) / (hx * hy)
+             * (1.0 - poisson ** 2) / (np.pi * youngs))
+    else:
+        gp, gw = np.polynomial.legendre.leggauss(3)
+        g = np.zeros_like(dx)
+        for gi, wi in zip(gp, gw, strict=True):
+            for gj, wj in zip(gp, gw, strict=True):
+                r = np.hypot(dx + gi * hx / 2, dy + gj * hy / 2)
+                g += wi * wj / 4.0 * nf.depth_displacement(r, depth, youngs, poisson)
+    return np.asarray(phi.T @ g.T).T
+
+
 class FarField:
     """The coarse FE's displacement at depth under the grid's loads, for each side.
 
@@ -236,11 +292,24 @@ class FarField:
         taken at (|x|, |y|), a load with a quarter of its force (the four
         mirror images of the full grid's symmetric pressure load the quarter
         model's point once).
+    same_load : bool
+        Match on the FE's own loads (with ``hats``, unfolded): the far part is
+        the FE's displacement at depth under the hat-spread loads minus the
+        half-space's displacement at the same points under the same
+        hat-spread loads (:func:`hat_half_space`), and the near part is
+        Love's whole surface influence (:meth:`near_kernel`). The two terms
+        of the far part then see one and the same load, so hats as wide as
+        the coarse elements (which the FE resolves) replace the grid's
+        pressure there without a mismatch: the error left is the difference
+        of the finite-body corrections of the pressure and of its hat
+        spread, second order in the hat spacing (the hats keep the force and
+        its first moments). Without it the subtracted term is the grid
+        pressure's, and the hats must stay below the depth.
     """
 
     def __init__(self, mesh: FEMesh, free: np.ndarray, solve: Callable[[np.ndarray], np.ndarray],
-                 sides, fold: bool = False, frame=None, hats: HatBasis | None = None
-                 ) -> None:
+                 sides, fold: bool = False, frame=None, hats: HatBasis | None = None,
+                 same_load: bool = False) -> None:
         self.mesh, self.free, self.solve = mesh, np.asarray(free), solve
         if frame is None:
             frame = (np.zeros(3), np.eye(3)[0], np.eye(3)[1], np.eye(3)[2])
@@ -252,6 +321,10 @@ class FarField:
         self._responses: dict[int, np.ndarray] = {}   # DOF -> K^-1 column (free DOFs)
         self.solves = 0
         self.hats = hats
+        if same_load and (hats is None or fold):
+            raise ValueError("near field: same_load matching needs hats and an unfolded mesh "
+                             f"(hats={hats is not None}, fold={fold})")
+        self.same_load = same_load
         self._hat_responses: list[np.ndarray] | None = None
 
     def _points(self, x: np.ndarray, y: np.ndarray, side: Side) -> np.ndarray:
@@ -263,12 +336,7 @@ class FarField:
         """Per side, ``K_ff^-1`` of each hat's unit load (n_free, n_hats), solved once."""
         if self._hat_responses is None:
             hb = self.hats
-            mx, my = (hb.nx - 1) * HAT_SAMPLES + 1, (hb.ny - 1) * HAT_SAMPLES + 1
-            X, Y = np.meshgrid(np.linspace(-hb.half_x, hb.half_x, mx),
-                               np.linspace(-hb.half_y, hb.half_y, my), indexing="ij")
-            x, y = X.ravel(), Y.ravel()
-            phi = hb.weights(x, y)                              # (samples, hats)
-            phi = phi @ sp.diags(1.0 / np.asarray(phi.sum(axis=0)).ravel())
+            x, y, phi = hat_samples(hb)
             self._hat_responses = []
             for s in self.sides:
                 surf = probe_matrix(self.mesh, self._points(x, y, s), s.volume, self.frame[3])
@@ -276,6 +344,20 @@ class FarField:
                 self._hat_responses.append(np.asarray(self.solve(F)).reshape(F.shape))
                 self.solves += F.shape[1]
         return self._hat_responses
+
+    def _hat_half_space(self, x: np.ndarray, y: np.ndarray, depth: float, side: Side
+                        ) -> np.ndarray:
+        return hat_half_space(self.hats, x, y, depth, side.youngs, side.poisson)
+
+    def near_kernel(self, grid: nf.Grid, depth: float):
+        """The half-space part that goes with this far field: with ``same_load``
+        the whole surface influence (the subtraction is in the far part), else
+        :func:`layer_kernel`."""
+        if self.same_load:
+            e_star = nf.effective_modulus(self.sides[0].youngs, self.sides[0].poisson,
+                                          self.sides[1].youngs, self.sides[1].poisson)
+            return nf.surface_kernel(grid, e_star)
+        return layer_kernel(grid, self.sides, depth)
 
     def _response(self, dofs: np.ndarray) -> np.ndarray:
         """Columns ``K_ff^-1 e_dof`` (n_free, len(dofs)), solved once per DOF and kept."""
@@ -308,7 +390,10 @@ class FarField:
             for s, Z in zip(self.sides, self._hat_solutions(), strict=True):
                 deep = probe_matrix(self.mesh, self._points(x, y, s) + s.inward * depth * n,
                                     s.volume, n)
-                parts.append((np.asarray(deep[:, self.free] @ Z), Lt))
+                A = np.asarray(deep[:, self.free] @ Z)
+                if self.same_load:
+                    A = A - self._hat_half_space(x, y, depth, s)
+                parts.append((A, Lt))
             return _apply(parts, grid)
         for s in self.sides:
             at = self._points(x, y, s)

@@ -84,15 +84,10 @@ def test_external_links_well_formed(path):
     assert not bad, f"{path.name}: malformed external links {bad}"
 
 
-#: Pages whose writers still carry dated measurements; to be emptied.
-DATED = {"tolerances.md"}
-
-
 @pytest.mark.parametrize("path", [README, *PAGES], ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_dates_or_commit_hashes(path):
-    """User docs state what the tool does now: dates and commits go to CHANGELOG.md."""
-    if path.name in DATED:
-        pytest.skip(f"{path.name} still holds dated figures")
+    """User docs state what the tool does now: dates and commits go to CHANGELOG.md
+    (docs/changelog.md only includes it)."""
     text = path.read_text(encoding="utf-8")
     found = _DATE.findall(text) + _HASH.findall(text)
     assert not found, f"{path.name}: dates or commit hashes {found[:5]}"

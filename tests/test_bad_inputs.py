@@ -508,6 +508,11 @@ SWITCHING = [
     # Used to run to exit 0 with a NaN series and a statistics.json of zeros.
     ("--calibration k 1e300", with_calibration(calibration_file(k=1e300)),
      ["cal.json: stage 1 'mesh'", "k = 1e+300", "cannot be integrated"]),
+    # Used to end in "step size collapsed at t = 0.0254 s": k in the wrong units (too soft).
+    # Hertz's peak approach (5 m v^2 / (4 k))^(2/5) with the seed stage 1's effective mass
+    # 0.2869 kg at 0.01 m/s and k = 65 is 3.14 mm (by hand).
+    ("--calibration k 65 (too soft)", with_calibration(calibration_file(k=65.0)),
+     ["cal.json: stage 1 'mesh'", "k = 65", "approach by 3.14 mm", "k in N/m^exponent"]),
     ("--calibration cmax 1e300", with_calibration(calibration_file(cmax=1e300)),
      ["damping time m/cmax", "cannot be integrated"]),
     ("--calibration without cases",

@@ -96,6 +96,11 @@ _REFERENCE_LOAD = 100.0
 #: 1e-5 to 1e-3 s; a law far below (e.g. k = 1e300, a unit slip) would need
 #: steps so small that the run cannot finish (its force overflows first).
 MIN_CONTACT_TIME = 1e-9
+#: Largest approach [m] a law may give at its own calibrated impact: elastic tooth
+#: contacts approach by micrometres (the seed's FE impacts: 0.9-6 um); 1 mm, a third of
+#: the seed's addendum, is beyond any elastic tooth contact of module 1-10 mm, and a law
+#: that gives more is soft by orders of magnitude (k in the wrong units).
+MAX_APPROACH = 1e-3
 #: The kinds every stage has a table of (flank contact), and the tip-edge kinds by
 #: corner side (a stage has them only when that edge is rounded).
 FLANK_KINDS = ("mesh", "switch")
@@ -451,13 +456,29 @@ def contact_time(k: float, exponent: float, mass: float, speed: float) -> float:
     return factor * math.exp(log_delta) / speed
 
 
+def peak_approach(k: float, exponent: float, mass: float, speed: float) -> float:
+    """Largest approach of an undamped impact under ``F = k delta^exponent`` [m]:
+    ``((n+1) m v^2 / (2 k))^(1/(n+1))`` (energy conservation; `contact_time`)."""
+    n1 = exponent + 1.0
+    return math.exp((math.log(n1 * mass * speed**2 / 2.0) - math.log(k)) / n1)
+
+
 def check_integrable(table: LawTable, mass: float) -> None:
-    """Refuse a law whose contacts are too short to integrate (`MIN_CONTACT_TIME`).
+    """Refuse a law whose contacts are too short to integrate (`MIN_CONTACT_TIME`) or
+    whose approach at its own impact exceeds `MAX_APPROACH` (a unit slip).
 
     ``mass`` is the stage's effective mass of one mesh [kg].
     """
     for v, k, n, cmax in zip(table.impact_speed, table.k, table.exponent, table.cmax,
                              strict=True):
+        approach = peak_approach(float(k), float(n), mass, float(v))
+        if approach > MAX_APPROACH:
+            raise CalibrationError(
+                f"{table.source}: stage {table.stage} {table.kind!r} at {v:.4g} m/s: k = "
+                f"{k:.4g}, exponent = {n:.4g}: the teeth would approach by "
+                f"{approach * 1e3:.3g} mm in that impact (effective mass {mass:.4g} kg), "
+                f"more than the {MAX_APPROACH * 1e3:g} mm no elastic tooth contact reaches; "
+                "check the units (k in N/m^exponent)")
         t_c = contact_time(float(k), float(n), mass, float(v))
         t_d = mass / cmax if cmax > 0.0 else math.inf
         if min(t_c, t_d) < MIN_CONTACT_TIME:

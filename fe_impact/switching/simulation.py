@@ -485,7 +485,9 @@ def simulate(
             pieces.append(samples[: run["n_samples"]].copy())
             if status != 0:
                 raise SolverError(f"step size collapsed at t = {run['t']:.6g} s "
-                                  f"(stage {seg.stage}); loosen rtol or check the laws")
+                                  f"(stage {seg.stage}): check the laws' units (k in "
+                                  "N/m^exponent, cmax in N s/m), or loosen the model's rtol "
+                                  "(Python API: DriveModel(rtol=...))")
             if not np.all(np.isfinite(y)):
                 raise SolverError(f"the state became NaN/inf at t = {run['t']:.6g} s (stage "
                                   f"{seg.stage}): the contact laws cannot be integrated; "

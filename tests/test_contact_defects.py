@@ -131,3 +131,28 @@ def test_auto_penalty_takes_the_size_of_the_contact_faces(coarse_hertz_case):
     h = PENALTY_FACTOR["linear"] * pair_modulus(mesh, model, pair.slave, pair.master) / \
         pair.penalty
     assert h == pytest.approx(0.2e-3, rel=0.15)
+
+
+def test_the_projection_fallback_is_logged_as_a_warning(coarse_hertz_case, monkeypatch,
+                                                        caplog):
+    # When the projection iteration alternates between two contact states the
+    # solver returns their mean: an approximation the user must hear of, so a
+    # warning, not an info line. The alternation is forced from the third
+    # projection on (the tolerance set too tight for the iteration to stop
+    # before it; the Hertz patch grows over the first projections).
+    import dataclasses
+    import logging
+
+    import fe_impact.solvers.static as static
+    from fe_impact.fe.case import load_case
+
+    monkeypatch.setattr(static, "_alternates", lambda cycle, *rest: len(cycle) == 2)
+    case = load_case(coarse_hertz_case)
+    (push,) = case.displacements
+    case = dataclasses.replace(
+        case, displacements=(dataclasses.replace(push, values=push.values[-1:]),),
+        analysis=dataclasses.replace(case.analysis, tolerance=1e-15))
+    with caplog.at_level(logging.INFO, logger="fe_impact.solvers.static"):
+        static.StaticSolver(case, load_mesh(case.mesh_file, case.unit)).run()
+    hits = [r for r in caplog.records if "alternates between two states" in r.getMessage()]
+    assert hits and all(r.levelno == logging.WARNING for r in hits)

@@ -128,14 +128,7 @@ def relative_jacobian(pair: ContactPair, mesh: FEMesh, u: np.ndarray, slave_face
     zero row). Each matrix is (n_nodes, n_dofs).
     """
     x = mesh.points + u
-    key = (id(mesh), np.asarray(slave_faces).tobytes(), np.asarray(master_faces).tobytes())
-    # the layout and projection gap_state just made of this configuration (cached)
-    lay = pair._layout(mesh, x, slave_faces, master_faces, key)
-    kept = pair._hints.get(key)
-    if kept is not None and kept[0] is mesh and len(kept[1].face) == len(lay.Ns):
-        proj = kept[1]      # the projection gap_state has just made of this configuration
-    else:
-        proj = pair._project(mesh, x, lay, master_faces, key)
+    lay, proj = pair.projected_layout(mesh, x, slave_faces, master_faces)
     Nm, _ = tri_shape(proj.xi, proj.eta, pair.master.nodes_per_face)
     Wv = lay.W.copy()
     Wv.data = Wv.data * proj.valid[Wv.indices]

@@ -882,6 +882,23 @@ class ContactPair:
         return GapState(lay.nodes, gap, weight, (Wn @ Bq).tocsr() if jacobian else None,
                         x[lay.nodes], normal, lay.area)
 
+    def projected_layout(self, mesh: FEMesh, x: np.ndarray, slave_faces: np.ndarray,
+                         master_faces: np.ndarray) -> tuple[_SlaveLayout, Projection]:
+        """The mortar layout of ``slave_faces`` on ``master_faces`` and its points'
+        projection in the configuration ``x`` (nodal coordinates, (n_nodes, 3) m).
+
+        The projection :meth:`gap_state` has just made of the same subsets and
+        configuration is reused; otherwise the points are projected again. Other
+        contact laws on the same rows (friction's tangential slips) read their
+        segments and master points from here, so they see what the gaps see.
+        """
+        key = (id(mesh), np.asarray(slave_faces).tobytes(), np.asarray(master_faces).tobytes())
+        lay = self._layout(mesh, x, slave_faces, master_faces, key)
+        kept = self._hints.get(key)
+        if kept is not None and kept[0] is mesh and len(kept[1].face) == len(lay.Ns):
+            return lay, kept[1]
+        return lay, self._project(mesh, x, lay, master_faces, key)
+
     def _project(self, mesh: FEMesh, x: np.ndarray, lay: _SlaveLayout,
                  master_faces: np.ndarray, key: tuple) -> Projection:
         """Project the layout's points, the last projection of the same subsets

@@ -156,3 +156,34 @@ def test_the_projection_fallback_is_logged_as_a_warning(coarse_hertz_case, monke
         static.StaticSolver(case, load_mesh(case.mesh_file, case.unit)).run()
     hits = [r for r in caplog.records if "alternates between two states" in r.getMessage()]
     assert hits and all(r.levelno == logging.WARNING for r in hits)
+
+
+def test_overlap_candidates_hold_every_overlap_and_few_others():
+    """Candidate pairs of the mortar segments against a brute-force overlap test.
+
+    Slave faces 7 um across (a tip-edge rounding's size) over master faces of
+    5 um, with a few 2 mm master faces far away. Truth: a pair can overlap
+    when their discs (centre, circumradius) meet, which brute force checks
+    over every pair; each such pair must be a candidate. The large faces must
+    not widen the search around the small ones: the candidates stay within
+    the pairs closer than 2 (r_s + r_m), which the brute force counts too.
+    Under one search radius taken from the largest face, every small master
+    face within 4 mm of each slave face was drawn (all 3,600 here).
+    """
+    from fe_impact.contact.surfaces import overlap_candidates
+
+    rng = np.random.default_rng(3)
+    anchor = rng.uniform(0.0, 300e-6, (40, 3)) * [1, 1, 0]
+    r_s = np.full(len(anchor), 7e-6)
+    small = rng.uniform(0.0, 300e-6, (3600, 3)) * [1, 1, 0]
+    big = np.array([[3e-3, 0.0, 0.0], [0.0, 3e-3, 0.0], [-3e-3, 0.0, 0.0]])
+    centre = np.vstack([small, big])
+    r_m = np.concatenate([np.full(len(small), 5e-6), np.full(len(big), 2e-3)])
+    pi, pj = overlap_candidates(anchor, r_s, centre, r_m)
+    got = set(zip(pi.tolist(), pj.tolist(), strict=True))
+    d = np.linalg.norm(anchor[:, None, :] - centre[None, :, :], axis=2)
+    meet = set(zip(*np.nonzero(d <= r_s[:, None] + r_m[None, :]), strict=True))
+    within = np.count_nonzero(d <= 2.0 * (r_s[:, None] + r_m[None, :]))
+    assert meet <= got                      # no overlap is missed
+    assert len(got) == within               # and nothing beyond the pairs' own reach
+    assert len(got) < 0.05 * d.size         # a few per slave face, not all 3,600

@@ -569,37 +569,7 @@ class StaticSolver:
             fin = closing & np.isfinite(h)
             d = s * 1.01 * float(np.min((h + q0 * hw)[fin] / (-s * hw[fin])))
             d = d if d != 0.0 else s * 1e-12
-        a, fa = q0, f0
-        for _ in range(MAX_LOAD_ITERATIONS):
-            b = a + d
-            fb, sol = residual(b)
-            if abs(fb) <= tol:
-                return b, sol
-            if (fb < 0) != (f0 < 0):
-                break
-            a, fa, d = b, fb, 2.0 * d
-        else:
-            raise ContactError(f"no motion of the load-controlled rigid body carries a load "
-                               f"of {load:g}")
-        lo, f_lo, hi, f_hi = (a, fa, b, fb) if a < b else (b, fb, a, fa)
-        side = 0
-        for _ in range(MAX_LOAD_ITERATIONS):
-            q = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-            f, sol = residual(q)
-            if abs(f) <= tol or hi - lo <= 1e-13 * max(abs(hi), abs(lo)):
-                return q, sol
-            if f < 0:
-                lo, f_lo = q, f
-                if side == -1:
-                    f_hi *= 0.5
-                side = -1
-            else:
-                hi, f_hi = q, f
-                if side == 1:
-                    f_lo *= 0.5
-                side = 1
-        raise ContactError(f"the load-controlled rigid body's coordinate did not converge to "
-                           f"a load of {load:g} in {MAX_LOAD_ITERATIONS} iterations")
+        return load_root(residual, q0, f0, d, tol, load)
 
     def _frictional_response(self, B_all: sp.csr_matrix, p: np.ndarray) -> np.ndarray:
         """``K^-1 (B^T lambda + B_t^T t)``: the forces act on the condensed coordinates
@@ -735,37 +705,8 @@ class StaticSolver:
                                    "contact: check its direction and the sign of its loads")
             d = s * 1.01 * float(np.min((h + q0 * hw)[closing] / (-s * hw[closing])))
             d = d if d != 0.0 else s * 1e-12
-        a, fa = q0, f0
-        for _ in range(MAX_LOAD_ITERATIONS):
-            b = a + d
-            fb, lam = residual(b)
-            if abs(fb) <= tol:
-                return b, lam, total
-            if (fb < 0) != (f0 < 0):
-                break
-            a, fa, d = b, fb, 2.0 * d
-        else:
-            raise ContactError(f"no motion of the load-controlled rigid body carries a load "
-                               f"of {load:g}")
-        lo, f_lo, hi, f_hi = (a, fa, b, fb) if a < b else (b, fb, a, fa)
-        side = 0
-        for _ in range(MAX_LOAD_ITERATIONS):
-            q = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-            f, lam = residual(q)
-            if abs(f) <= tol or hi - lo <= 1e-13 * max(abs(hi), abs(lo)):
-                return q, lam, total
-            if f < 0:
-                lo, f_lo = q, f
-                if side == -1:
-                    f_hi *= 0.5
-                side = -1
-            else:
-                hi, f_hi = q, f
-                if side == 1:
-                    f_lo *= 0.5
-                side = 1
-        raise ContactError(f"the load-controlled rigid body's coordinate did not converge to "
-                           f"a load of {load:g} in {MAX_LOAD_ITERATIONS} iterations")
+        q, lam = load_root(residual, q0, f0, d, tol, load)
+        return q, lam, total
 
     def _grow_zone(self, u: np.ndarray, z: np.ndarray) -> bool:
         """Enlarge the zone if faces outside it penetrate; True if it grew (the zone
@@ -1080,3 +1021,47 @@ def _check_held(case: Case, mesh: FEMesh, fixed: np.ndarray) -> None:
                     "[[supports]], [[displacements]] or [[rigid_bodies]] surface: a static "
                     "case needs every body held (contact alone does not hold it before it "
                     "touches)")
+
+
+def load_root(residual: Callable, q0: float, f0: float, d: float, tol: float,
+              load: float) -> tuple[float, object]:
+    """The root of a load residual that never decreases with the coordinate ``q``.
+
+    From ``q0`` (residual ``f0``) steps of ``d``, doubled until the sign of the
+    residual changes, bracket the root; regula falsi (Illinois variant: the
+    end kept twice in a row has its residual halved) then closes the bracket.
+    ``residual(q)`` returns ``(f, payload)``; the root's ``(q, payload)`` is
+    returned once ``|f| <= tol`` or the bracket is 1e-13 of ``q`` wide.
+    ``load`` [N or N m] only names the load in the errors.
+    """
+    a, fa = q0, f0
+    for _ in range(MAX_LOAD_ITERATIONS):
+        b = a + d
+        fb, payload = residual(b)
+        if abs(fb) <= tol:
+            return b, payload
+        if (fb < 0) != (f0 < 0):
+            break
+        a, fa, d = b, fb, 2.0 * d
+    else:
+        raise ContactError(f"no motion of the load-controlled rigid body carries a load "
+                           f"of {load:g}")
+    lo, f_lo, hi, f_hi = (a, fa, b, fb) if a < b else (b, fb, a, fa)
+    side = 0
+    for _ in range(MAX_LOAD_ITERATIONS):
+        q = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        f, payload = residual(q)
+        if abs(f) <= tol or hi - lo <= 1e-13 * max(abs(hi), abs(lo)):
+            return q, payload
+        if f < 0:
+            lo, f_lo = q, f
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+        else:
+            hi, f_hi = q, f
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+    raise ContactError(f"the load-controlled rigid body's coordinate did not converge to "
+                       f"a load of {load:g} in {MAX_LOAD_ITERATIONS} iterations")

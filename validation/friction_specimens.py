@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fe_impact.meshing.session import gmsh_session, write_msh
+from validation.specimens import refine_around_point
 
 
 @dataclass(frozen=True)
@@ -38,7 +39,6 @@ class HalfSphereBlock:
 
 def build_half_sphere_block(spec: HalfSphereBlock, path: str | Path) -> Path:
     """Mesh the model and write it as MSH 4.1 (metres)."""
-    import gmsh
 
     R, W, H, g = spec.radius, spec.half_width, spec.depth, spec.gap
     with gmsh_session("half_sphere_block") as model:
@@ -76,20 +76,7 @@ def build_half_sphere_block(spec: HalfSphereBlock, path: str | Path) -> Path:
         for name, tags in groups.items():
             if tags:
                 model.addPhysicalGroup(2, tags, name=name)
-        f = model.mesh.field
-        dist = f.add("Distance")
-        f.setNumbers(dist, "PointsList", [p])
-        th = f.add("Threshold")
-        f.setNumber(th, "InField", dist)
-        f.setNumber(th, "SizeMin", spec.h_contact)
-        f.setNumber(th, "SizeMax", spec.h_far)
-        f.setNumber(th, "DistMin", spec.r_fine)
-        f.setNumber(th, "DistMax", spec.r_fine + spec.r_grade)
-        f.setAsBackgroundMesh(th)
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        gmsh.option.setNumber("Mesh.Algorithm3D", 10)
+        refine_around_point(model, p, spec)
         model.mesh.generate(3)
         if spec.order == 2:
             model.mesh.setOrder(2)

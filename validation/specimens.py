@@ -110,14 +110,22 @@ def _tag_groups(model, spec: SphereBlockSpec, sphere_tag: int, block_tag: int) -
 
 
 def _add_size_field(model, spec: SphereBlockSpec) -> None:
+    # A point just at the contact: the distance field refines both bodies.
+    p = model.occ.addPoint(0, 0, spec.gap / 2)
+    model.occ.synchronize()
+    refine_around_point(model, p, spec)
+
+
+def refine_around_point(model, point: int, spec) -> None:
+    """Mesh size ``spec.h_contact`` within ``spec.r_fine`` of the gmsh ``point``,
+    graded to ``spec.h_far`` over ``spec.r_grade`` (a Distance and a Threshold
+    field as the background mesh; sizes from the boundary, points and
+    curvature switched off), meshed in 3-D by HXT."""
     import gmsh
 
     fields = model.mesh.field
     pt = fields.add("Distance")
-    # A point just at the contact: the distance field refines both bodies.
-    p = model.occ.addPoint(0, 0, spec.gap / 2)
-    model.occ.synchronize()
-    fields.setNumbers(pt, "PointsList", [p])
+    fields.setNumbers(pt, "PointsList", [point])
     th = fields.add("Threshold")
     fields.setNumber(th, "InField", pt)
     fields.setNumber(th, "SizeMin", spec.h_contact)

@@ -43,6 +43,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -51,11 +52,25 @@ from fe_impact.errors import CaseError
 logger = logging.getLogger(__name__)
 
 __all__ = [
+    "COMPARED",
     "EVENT_KINDS",
+    "GOAL",
+    "GOAL_FIGURES",
     "LOCATIONS",
     "ContactEvents",
+    "GoalCheck",
+    "MeshMetrics",
     "RollingCondition",
     "RollingRecord",
+    "check_goal",
+    "compare_metrics",
+    "comparison_rows",
+    "markdown_table",
+    "mesh_harmonics",
+    "mesh_metrics",
+    "mesh_window",
+    "plot_condition",
+    "write_comparison",
 ]
 
 #: Kinds of `ContactEvents.kind`.
@@ -275,3 +290,372 @@ class RollingRecord:
     def mesh_frequency(self) -> float:
         """[Hz]."""
         return self.condition.mesh_frequency(self.pinion_teeth)
+
+
+# -- metrics ------------------------------------------------------------------------------
+#: Mesh orders whose transmission-error amplitude the metrics keep.
+HARMONICS = 4
+#: Samples per mesh period of the resampled transmission error.
+RESAMPLE = 128
+
+
+@dataclass(frozen=True)
+class MeshMetrics:
+    """The figures of one `RollingRecord` that the comparison compares (SI units).
+
+    Attributes
+    ----------
+    source, condition : str
+        The record's model and condition name.
+    mesh_frequency : float
+        [Hz].
+    periods : int
+        Whole mesh periods in the window the figures are taken over.
+    window : tuple of float
+        ``(t0, t1)`` [s]: the last ``periods`` whole mesh periods after ``settle``.
+    te_peak_to_peak, te_rms : float
+        Of the mean-removed transmission error over the window [m].
+    te_harmonics : tuple of float
+        Amplitude of mesh orders 1..`HARMONICS` of the transmission error [m].
+    mean_drive_force, mean_coast_force : float
+        Time averages over the window [N].
+    mesh_in_count : int
+        Mesh-in impacts in the window.
+    mesh_in_force_median, mesh_in_force_max : float
+        Their peak forces [N] (NaN without any).
+    mesh_in_speed_median, mesh_in_speed_max : float
+        Their closing speeds [m/s] (NaN without any).
+    rattle_count : int
+        Rattle impacts in the window.
+    rattle_force_max, rattle_speed_max : float
+        Largest rattle peak force [N] and closing speed [m/s] (NaN without any).
+    """
+
+    source: str
+    condition: str
+    mesh_frequency: float
+    periods: int
+    window: tuple[float, float]
+    te_peak_to_peak: float
+    te_rms: float
+    te_harmonics: tuple[float, ...]
+    mean_drive_force: float
+    mean_coast_force: float
+    mesh_in_count: int
+    mesh_in_force_median: float
+    mesh_in_force_max: float
+    mesh_in_speed_median: float
+    mesh_in_speed_max: float
+    rattle_count: int
+    rattle_force_max: float
+    rattle_speed_max: float
+
+    def scalars(self) -> dict[str, float]:
+        """The compared figures by name (harmonics as ``te_h1``, ``te_h2``, ...)."""
+        out = {name: float(getattr(self, name)) for name in COMPARED if not
+               name.startswith("te_h")}
+        out.update({f"te_h{h + 1}": float(a) for h, a in enumerate(self.te_harmonics)})
+        return {name: out[name] for name in COMPARED}
+
+
+#: The figures `compare_metrics` sets side by side, in the table's order.
+COMPARED = ("te_peak_to_peak", "te_rms", *(f"te_h{h}" for h in range(1, HARMONICS + 1)),
+            "mesh_in_force_median", "mesh_in_force_max", "mesh_in_speed_median",
+            "mesh_in_speed_max", "mesh_in_count", "rattle_count", "mean_drive_force")
+#: The figures of the goal: the calibrated model within `GOAL` of the rolling FE, and
+#: closer than the closed forms.
+GOAL_FIGURES = ("te_peak_to_peak", "te_rms", "mesh_in_force_median", "mesh_in_force_max")
+GOAL = 0.10
+#: Units and scale of each compared figure in the tables.
+UNITS = {"te_peak_to_peak": ("um", 1e6), "te_rms": ("um", 1e6),
+         **{f"te_h{h}": ("um", 1e6) for h in range(1, HARMONICS + 1)},
+         "mesh_in_force_median": ("N", 1.0), "mesh_in_force_max": ("N", 1.0),
+         "mesh_in_speed_median": ("mm/s", 1e3), "mesh_in_speed_max": ("mm/s", 1e3),
+         "mesh_in_count": ("", 1.0), "rattle_count": ("", 1.0),
+         "mean_drive_force": ("N", 1.0)}
+
+
+def mesh_window(time: np.ndarray, frequency: float, settle: float) -> tuple[float, float, int]:
+    """The last whole number of mesh periods of ``time`` after ``settle``: ``(t0, t1, periods)``.
+
+    A window of whole periods puts every mesh order on an exact bin of the discrete
+    Fourier transform, so a signal periodic in the mesh period has no leakage
+    (rectangular window).
+    """
+    t_start = max(float(time[0]), float(time[0]) + settle)
+    t_end = float(time[-1])
+    periods = int(math.floor((t_end - t_start) * frequency * (1.0 + 1e-12)))
+    if periods < 1:
+        raise CaseError(f"{t_end - t_start:.4g} s after settle hold no whole mesh period "
+                        f"({1.0 / frequency:.4g} s): run longer")
+    return t_end - periods / frequency, t_end, periods
+
+
+def mesh_harmonics(time: np.ndarray, signal: np.ndarray, frequency: float, periods: int,
+                   t0: float, orders: int = HARMONICS,
+                   per_period: int = RESAMPLE) -> np.ndarray:
+    """Amplitudes of mesh orders ``1..orders`` of ``signal`` over ``periods`` whole periods.
+
+    The signal is resampled linearly at ``per_period`` points per period from ``t0``
+    (``M = periods per_period`` points, ends excluded), its mean removed, and order
+    ``h`` read from DFT bin ``h periods``: amplitude ``2 |X_k| / M``, exact for
+    ``a sin(2 pi h f t + phi)`` (no window needed: the window holds whole periods).
+
+    Returns
+    -------
+    ndarray, shape (orders,)
+        Amplitudes in the signal's unit.
+    """
+    if per_period <= 2 * orders:
+        raise CaseError(f"per_period = {per_period} must exceed 2 orders = {2 * orders} "
+                        "(Nyquist)")
+    m = periods * per_period
+    t = t0 + np.arange(m) / (per_period * frequency)
+    y = np.interp(t, time, signal)
+    spectrum = np.fft.rfft(y - y.mean())
+    bins = periods * np.arange(1, orders + 1)
+    return 2.0 * np.abs(spectrum[bins]) / m
+
+
+def _stat(values: np.ndarray, how) -> float:
+    return float(how(values)) if values.size else math.nan
+
+
+def mesh_metrics(record: RollingRecord) -> MeshMetrics:
+    """Reduce a record to its `MeshMetrics` over whole mesh periods after ``settle``."""
+    f = record.mesh_frequency
+    t0, t1, periods = mesh_window(record.time, f, record.condition.settle)
+    inside = (record.time >= t0) & (record.time <= t1)
+    te = record.te[inside]
+    te = te - te.mean()
+    harmonics = mesh_harmonics(record.time, record.te, f, periods, t0)
+    mesh_in = record.events.select("mesh-in", t0, t1)
+    rattle = record.events.select("rattle", t0, t1)
+    return MeshMetrics(
+        source=record.source, condition=record.condition.name, mesh_frequency=f,
+        periods=periods, window=(t0, t1), te_peak_to_peak=float(np.ptp(te)),
+        te_rms=float(np.sqrt(np.mean(te**2))), te_harmonics=tuple(float(a) for a in harmonics),
+        mean_drive_force=float(np.mean(record.drive_force[inside])),
+        mean_coast_force=float(np.mean(record.coast_force[inside])),
+        mesh_in_count=len(mesh_in),
+        mesh_in_force_median=_stat(mesh_in.peak_force, np.median),
+        mesh_in_force_max=_stat(mesh_in.peak_force, np.max),
+        mesh_in_speed_median=_stat(mesh_in.closing_speed, np.median),
+        mesh_in_speed_max=_stat(mesh_in.closing_speed, np.max),
+        rattle_count=len(rattle), rattle_force_max=_stat(rattle.peak_force, np.max),
+        rattle_speed_max=_stat(rattle.closing_speed, np.max))
+
+
+def relative_difference(value: float, reference: float) -> float:
+    """``(value - reference) / |reference|``; 0 when both are 0, NaN when only the
+    reference is 0 or either is NaN."""
+    if math.isnan(value) or math.isnan(reference):
+        return math.nan
+    if reference == 0.0:
+        return 0.0 if value == 0.0 else math.nan
+    return (value - reference) / abs(reference)
+
+
+def compare_metrics(reference: MeshMetrics, other: MeshMetrics) -> dict[str, float]:
+    """Relative difference of each `COMPARED` figure of ``other`` from ``reference``."""
+    ref, val = reference.scalars(), other.scalars()
+    return {name: relative_difference(val[name], ref[name]) for name in COMPARED}
+
+
+@dataclass(frozen=True)
+class GoalCheck:
+    """The goal on one condition: the calibrated lumped model within `GOAL` of the FE on
+    each of `GOAL_FIGURES`, and closer to it than the closed forms.
+
+    Attributes
+    ----------
+    condition : str
+    calibrated, closed_form : dict
+        Relative differences from the FE per goal figure.
+    within : dict
+        Whether ``|calibrated| <= GOAL`` per figure (figures the FE lacks, e.g. no
+        mesh-in impact, are left out).
+    closer : dict
+        Whether ``|calibrated| < |closed_form|`` per figure.
+    """
+
+    condition: str
+    calibrated: dict
+    closed_form: dict
+    within: dict
+    closer: dict
+
+    @property
+    def passed(self) -> bool:
+        return all(self.within.values()) and all(self.closer.values())
+
+
+def check_goal(fe: MeshMetrics, calibrated: MeshMetrics, closed_form: MeshMetrics) -> GoalCheck:
+    """`GoalCheck` of one condition from the three models' metrics."""
+    cal = compare_metrics(fe, calibrated)
+    closed = compare_metrics(fe, closed_form)
+    defined = [n for n in GOAL_FIGURES if not math.isnan(fe.scalars()[n])]
+    within = {n: bool(abs(cal[n]) <= GOAL) for n in defined}
+    closer = {n: bool(abs(cal[n]) < abs(closed[n])) for n in defined}
+    return GoalCheck(fe.condition, {n: cal[n] for n in defined},
+                     {n: closed[n] for n in defined}, within, closer)
+
+
+# -- tables and plots ---------------------------------------------------------------------
+#: The record the others are compared with, when present.
+REFERENCE = "rolling FE"
+
+
+def _by_condition(records) -> dict[str, list[RollingRecord]]:
+    out: dict[str, list[RollingRecord]] = {}
+    for record in records:
+        out.setdefault(record.condition.name, []).append(record)
+    return out
+
+
+def comparison_rows(records, reference: str = REFERENCE) -> list[dict]:
+    """One row per condition and compared figure: each model's value (table units) and,
+    when ``reference`` is among the condition's records, each other's relative
+    difference from it."""
+    rows = []
+    for name, group in _by_condition(records).items():
+        metrics = {r.source: mesh_metrics(r) for r in group}
+        ref = metrics.get(reference)
+        for figure in COMPARED:
+            unit, scale = UNITS[figure]
+            row = {"condition": name, "figure": figure, "unit": unit}
+            for source, m in metrics.items():
+                row[source] = m.scalars()[figure] * scale
+            if ref is not None:
+                for source, m in metrics.items():
+                    if source != reference:
+                        row[f"{source} vs FE"] = compare_metrics(ref, m)[figure]
+            rows.append(row)
+    return rows
+
+
+def _cell(value) -> str:
+    if isinstance(value, str):
+        return value
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return f"{value:.4g}"
+
+
+def markdown_table(rows: list[dict]) -> str:
+    """The rows as a Markdown table (relative differences in percent)."""
+    columns = list(dict.fromkeys(k for row in rows for k in row))
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for row in rows:
+        cells = []
+        for c in columns:
+            v = row.get(c)
+            if c.endswith(" vs FE") and isinstance(v, float) and not math.isnan(v):
+                cells.append(f"{100.0 * v:+.1f}%")
+            else:
+                cells.append(_cell(v))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_comparison(out: str | Path, records, reference: str = REFERENCE,
+                     goal: dict | None = None) -> list[Path]:
+    """Write ``compare.md``, ``compare.csv``, ``compare.json`` and one PNG per condition.
+
+    Parameters
+    ----------
+    out : path
+        Folder (made if missing).
+    records : sequence of RollingRecord
+    reference : str
+        The source the others are compared with.
+    goal : dict, optional
+        Condition name -> `GoalCheck`, written into the JSON and the Markdown.
+    """
+    from fe_impact.output.files import atomic_path, write_csv, write_json
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = comparison_rows(records, reference)
+    columns = list(dict.fromkeys(k for row in rows for k in row))
+    text = markdown_table(rows)
+    if goal:
+        text += "\n" + goal_lines(goal)
+    with atomic_path(out / "compare.md") as tmp:
+        tmp.write_text(text)
+    paths = [out / "compare.md",
+             write_csv(out / "compare.csv", columns, [[row.get(c) for c in columns]
+                                                      for row in rows])]
+    metrics = [mesh_metrics(r).__dict__ | {"law_source": r.info.get("law_source")}
+               for r in records]
+    conditions = {r.condition.name: r.condition.__dict__ for r in records}
+    payload = {"schema": "fe-impact/rolling-compare/1", "reference": reference,
+               "goal_tolerance": GOAL, "conditions": conditions, "metrics": metrics,
+               "rows": rows,
+               "goal": {k: v.__dict__ | {"passed": v.passed} for k, v in (goal or {}).items()}}
+    paths.append(write_json(out / "compare.json", payload))
+    for name, group in _by_condition(records).items():
+        paths.append(plot_condition(group, out / f"compare_{name}.png"))
+    return paths
+
+
+def goal_lines(goal: dict) -> str:
+    """One Markdown line per condition's `GoalCheck`."""
+    lines = []
+    for name, check in goal.items():
+        figures = ", ".join(f"{n} {100 * check.calibrated[n]:+.1f}% (closed forms "
+                            f"{100 * check.closed_form[n]:+.1f}%)" for n in check.calibrated)
+        verdict = "met" if check.passed else "NOT met"
+        lines.append(f"- {name}: goal {verdict}: {figures or 'no figure defined'}")
+    return "\n".join(lines) + "\n"
+
+
+def plot_condition(records, path: str | Path, periods_shown: int = 6) -> Path:
+    """One PNG for one condition: TE over the last ``periods_shown`` mesh periods, its
+    mesh-order amplitudes, and the impacts (closing speed against peak force), each
+    model in its own colour."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from fe_impact.output.files import atomic_path
+
+    fig, (ax_te, ax_sp, ax_ev) = plt.subplots(1, 3, figsize=(15, 4.2))
+    width = 0.8 / max(len(records), 1)
+    markers = {"mesh-in": "o", "rattle": "x", "switch": "s", "mesh-out": "v"}
+    for j, record in enumerate(records):
+        colour = f"C{j}"
+        m = mesh_metrics(record)
+        period = 1.0 / m.mesh_frequency
+        t0 = m.window[1] - min(periods_shown, m.periods) * period
+        keep = record.time >= t0
+        inside = (record.time >= m.window[0]) & (record.time <= m.window[1])
+        mean = record.te[inside].mean()
+        ax_te.plot((record.time[keep] - t0) / period, 1e6 * (record.te[keep] - mean),
+                   color=colour, label=record.source)
+        orders = np.arange(1, len(m.te_harmonics) + 1)
+        ax_sp.bar(orders + (j - 0.5 * (len(records) - 1)) * width,
+                  1e6 * np.asarray(m.te_harmonics), width, color=colour, label=record.source)
+        ev = record.events.select(None, *m.window)
+        for kind, marker in markers.items():
+            sel = ev.kind == kind
+            if np.any(sel) and np.any(np.isfinite(ev.peak_force[sel])):
+                ax_ev.scatter(1e3 * ev.closing_speed[sel], ev.peak_force[sel], marker=marker,
+                              color=colour, label=f"{record.source}: {kind}")
+    name = records[0].condition.name if records else ""
+    ax_te.set(xlabel="time [mesh periods]", ylabel="TE - mean [um]",
+              title=f"{name}: transmission error")
+    ax_sp.set(xlabel="mesh order", ylabel="TE amplitude [um]", title="TE spectrum")
+    ax_ev.set(xlabel="closing speed [mm/s]", ylabel="peak force [N]", title="impacts")
+    for ax in (ax_te, ax_sp, ax_ev):
+        ax.grid(alpha=0.3)
+    ax_te.legend(fontsize=8)
+    if ax_ev.collections:
+        ax_ev.legend(fontsize=7)
+    fig.tight_layout()
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    return path

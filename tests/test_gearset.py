@@ -199,6 +199,26 @@ INVALID = {
         [_set(("pinion", "module_mm"), "3")],
         ["[pinion] module_mm = '3': must be a number"],
     ),
+    "negative friction coefficient": (
+        [_set(("friction", "mu_dynamic"), -0.02)],
+        ["[friction] mu_dynamic = -0.02", "[0.0, 1.0)"],
+    ),
+    "NaN friction coefficient": (
+        [_set(("friction", "mu_static"), math.nan)],
+        ["[friction] mu_static = nan", "must be a number"],
+    ),
+    "static friction below the dynamic": (
+        [_set(("friction", "mu_static"), 0.01)],
+        ["[friction] mu_static = 0.01", "at least [friction] mu_dynamic = 0.02", "swap"],
+    ),
+    "friction coefficient of 1 or more": (
+        [_set(("friction", "mu_static"), 1.5)],
+        ["[friction] mu_static = 1.5", "[0.0, 1.0)"],
+    ),
+    "unknown friction key": (
+        [_set(("friction", "mu"), 0.1)],
+        ["unknown key(s) ['mu'] in [friction]", "mu_dynamic", "mu_static"],
+    ),
 }
 
 
@@ -387,3 +407,21 @@ def test_a_pointed_shaper_is_refused(seed_data):
                                             r"pointed at its tip radius 45\.450 mm .* tip land "
                                             r"would be -0\.127 mm"):
         gearset_from_dict(data)
+
+
+def test_friction_defaults_to_the_seeds_greased_flanks_and_feeds_the_lumped_model(seed_data):
+    # Seed section 4 (eqs. 9-10): mu 0.05 static, 0.02 dynamic. Without a [friction]
+    # table the set takes them; the lumped switching model takes the set's (one source),
+    # and frictionless flanks (0 and 0) give it none.
+    from fe_impact.switching import DriveModel
+
+    data = copy.deepcopy(seed_data)
+    data.pop("friction", None)
+    plain = gearset_from_dict(data)
+    assert (plain.friction.mu_static, plain.friction.mu_dynamic) == (0.05, 0.02)
+    data["friction"] = {"mu_static": 0.08, "mu_dynamic": 0.03}
+    model = DriveModel(gearset=gearset_from_dict(data))
+    assert (model.friction.static, model.friction.dynamic) == (0.08, 0.03)
+    data["friction"] = {"mu_static": 0.0, "mu_dynamic": 0.0}
+    smooth = gearset_from_dict(data)
+    assert not smooth.friction.active and DriveModel(gearset=smooth).friction is None

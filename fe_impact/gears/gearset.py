@@ -37,6 +37,10 @@ of the records is the key without its suffix)::
     inner_limit = "conjugate"          # or "undercut": the inner-radius rule
     tip_edge_radius_mm = 0.1           # optional: rounding of the rings' tip edges
 
+    [friction]                         # optional: Coulomb friction between the flanks
+    mu_static = 0.05                   # optional, default the seed's (greased, eqs. 9-10)
+    mu_dynamic = 0.02                  # optional, default the seed's; 0 and 0: frictionless
+
     [[face_gear.stages]]               # one table per stage, inner ring first
     teeth = 56
     shaper_teeth = 21
@@ -90,6 +94,7 @@ logger = logging.getLogger(__name__)
 
 __all__ = [
     "FaceGearStage",
+    "FlankFriction",
     "GearSet",
     "Material",
     "Pinion",
@@ -135,6 +140,15 @@ DEFAULT_FACE_TIP_EDGE_RADIUS = 0.1e-3
 #: Radii at which a face gear's top land is checked against its two roundings
 #: (evenly over the face, ends included).
 _LAND_CHECKS = 9
+
+#: The seed's flank friction (section 4, eqs. 9-10: greased flanks), the default of a
+#: gear set without a ``[friction]`` table.
+SEED_MU_STATIC = 0.05
+SEED_MU_DYNAMIC = 0.02
+#: Coefficients are refused from this up: no greased or dry steel flank reaches 1
+#: (dry steel on steel about 0.6-0.8), and a coefficient of 1 or more makes the
+#: lumped model's friction torque the size of the mesh force's own.
+MAX_FLANK_FRICTION = 1.0
 
 _MM = 1e-3
 _UM = 1e-6
@@ -488,6 +502,45 @@ class FaceGearStage:
 
 
 @dataclass(frozen=True)
+class FlankFriction:
+    """Coulomb friction between the flanks of every mesh of the set.
+
+    The one source of the coefficients for the FE contact of the calibration
+    (:class:`~fe_impact.fe.case.ContactSpec`'s ``mu_static``, ``mu_dynamic``)
+    and for the lumped switching model (its ``Friction``).
+
+    Parameters
+    ----------
+    mu_static : float
+        Coefficient [-] at zero sliding speed, in [0, 1); default the seed's 0.05
+        (greased flanks, seed section 4, eqs. 9-10).
+    mu_dynamic : float
+        Coefficient [-] once sliding, in [0, ``mu_static``]; default the seed's 0.02.
+        Both 0: frictionless flanks.
+    """
+
+    mu_static: float = SEED_MU_STATIC
+    mu_dynamic: float = SEED_MU_DYNAMIC
+
+    def __post_init__(self) -> None:
+        hint = "(Coulomb coefficient of the flanks; 0 and 0: frictionless)"
+        for name in ("mu_static", "mu_dynamic"):
+            check_number(f"friction.{name}", getattr(self, name), low=0.0,
+                         high=MAX_FLANK_FRICTION, high_open=True, hint=hint,
+                         error=GeometryError)
+        if self.mu_static < self.mu_dynamic:
+            raise GeometryError(
+                f"friction.mu_static = {self.mu_static!r}: must be at least friction.mu_dynamic "
+                f"= {self.mu_dynamic!r} (the static coefficient is never below the dynamic "
+                "one); swap them?")
+
+    @property
+    def active(self) -> bool:
+        """True unless both coefficients are 0."""
+        return self.mu_static > 0.0 or self.mu_dynamic > 0.0
+
+
+@dataclass(frozen=True)
 class GearSet:
     """A pinion design, its face-gear stages and their material.
 
@@ -514,6 +567,8 @@ class GearSet:
         Radius [m] of the rounding between each face-gear flank and its top
         land, every ring, >= 0 (0: sharp edges); the top land must take both
         roundings over the whole face (:meth:`face_tip_edge_limit`).
+    friction : FlankFriction
+        Coulomb friction between the flanks (default the seed's greased flanks).
     """
 
     name: str
@@ -525,6 +580,7 @@ class GearSet:
     face_gear_module: float | None = None
     inner_limit: str = "conjugate"
     face_tip_edge_radius: float = DEFAULT_FACE_TIP_EDGE_RADIUS
+    friction: FlankFriction = FlankFriction()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "stages", tuple(self.stages))
@@ -866,6 +922,10 @@ _PINION_KEYS = {
     "inertia_kg_m2": ("inertia", _si(1.0)),
     "tip_edge_radius_mm": ("tip_edge_radius", _si(_MM)),
 }
+_FRICTION_KEYS = {
+    "mu_static": ("mu_static", _si(1.0)),
+    "mu_dynamic": ("mu_dynamic", _si(1.0)),
+}
 _FACE_GEAR_KEYS = {
     "module_mm": ("face_gear_module", _si(_MM)),
     "inner_limit": ("inner_limit", _text),
@@ -898,10 +958,11 @@ def _convert(
 ) -> dict[str, Any]:
     """Map TOML keys to record fields in SI units, rejecting unknown or missing keys.
 
-    ``more`` are further keys allowed (and required) here, read by the caller.
+    ``more`` are further keys allowed (and required unless ``optional``) here, read by
+    the caller.
     """
     r = _READER
-    r.keys(data, where, {*keys, *more}, required=set(keys) - set(optional) | set(more))
+    r.keys(data, where, {*keys, *more}, required=(set(keys) | set(more)) - set(optional))
     out: dict[str, Any] = {}
     for key in data:
         if key in keys:
@@ -929,7 +990,8 @@ def gearset_from_dict(data: Mapping[str, Any]) -> GearSet:
         names the key or field, the value and what is allowed.
     """
     r = _READER
-    top = _convert(data, _TOP_KEYS, "", _TOP_OPTIONAL, more=("material", "pinion", "face_gear"))
+    top = _convert(data, _TOP_KEYS, "", _TOP_OPTIONAL | {"friction"},
+                   more=("material", "pinion", "face_gear", "friction"))
     try:
         material = Material(**_convert(r.table(data, "", "material"), _MATERIAL_KEYS,
                                        "material", _MATERIAL_OPTIONAL))
@@ -940,7 +1002,10 @@ def gearset_from_dict(data: Mapping[str, Any]) -> GearSet:
                         more=("stages",))
         raw_stages = r.array(face_data, "face_gear", "stages", required=True)
         stages = tuple(_stage_from_dict(s, i) for i, s in enumerate(raw_stages, start=1))
-        return GearSet(pinion=pinion, stages=stages, material=material, **top, **face)
+        friction = FlankFriction(**_convert(r.table(data, "", "friction", {}), _FRICTION_KEYS,
+                                            "friction", set(_FRICTION_KEYS)))
+        return GearSet(pinion=pinion, stages=stages, material=material, friction=friction,
+                       **top, **face)
     except GeometryError as exc:
         raise GeometryError(_file_keys(str(exc))) from exc
 
@@ -950,7 +1015,7 @@ def _file_keys(message: str) -> str:
     ``[pinion] module_mm = -3 mm``, a stage's ``inner_radius = ...`` becomes
     ``inner_radius_mm = ...`` (the values are already in the keys' units)."""
     for table, keys in (("pinion", _PINION_KEYS), ("material", _MATERIAL_KEYS),
-                        ("face_gear", _FACE_GEAR_KEYS)):
+                        ("face_gear", _FACE_GEAR_KEYS), ("friction", _FRICTION_KEYS)):
         for key, (name, _) in keys.items():
             if table == "face_gear":   # its messages say face_gear.module for face_gear_module
                 name = name.removeprefix("face_gear_").removeprefix("face_")

@@ -326,8 +326,10 @@ class DriveModel:
         Constant drag on the output [N m] (bearings, seals, churning), present
         under "no load". Default 0.01 N m, an estimate for a small drive; it
         keeps an unloaded mesh on its drive flank between rattle impacts.
-    friction : Friction or None
-        None for frictionless flanks.
+    friction : Friction, None or "gearset"
+        None for frictionless flanks; "gearset" (the default): the gear set's
+        ``[friction]`` coefficients (`fe_impact.gears.gearset.FlankFriction`, the
+        seed's 0.05 and 0.02 unless the set gives others; None where both are 0).
     drive : {"speed", "torque"}
         Pinion speed prescribed by the schedule, or pinion driven by the
         segments' input torque (with its inertia).
@@ -363,7 +365,7 @@ class DriveModel:
     backlash: tuple[float, ...] | None = None
     transmission_error: float = 1e-6
     drag_torque: float = 0.01
-    friction: Friction | None = field(default_factory=Friction)
+    friction: Friction | None | str = "gearset"
     drive: str = "speed"
     ramp_time: float = 0.1
     engage_position: float = 0.0
@@ -376,6 +378,13 @@ class DriveModel:
     corners: str = "auto"
 
     def __post_init__(self) -> None:
+        if isinstance(self.friction, str):
+            if self.friction != "gearset":
+                raise CaseError(f"friction = {self.friction!r}: give a Friction, None "
+                                "(frictionless) or 'gearset' (the gear set's [friction])")
+            fr = self.gearset.friction
+            object.__setattr__(self, "friction", Friction(fr.mu_static, fr.mu_dynamic)
+                               if fr.active else None)
         if self.drive not in DRIVES:
             raise CaseError(f"drive = {self.drive!r}; pick one of {list(DRIVES)}")
         if self.corners not in ("auto", *CORNER_SOURCES):

@@ -1,0 +1,189 @@
+"""The lumped model against the rolling FE: the comparison's figures and the lumped runner."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from fe_impact.errors import CaseError
+from fe_impact.gears.gearset import default_gearset
+from fe_impact.rolling.compare import (
+    ContactEvents,
+    RollingCondition,
+    RollingRecord,
+    check_goal,
+    mesh_harmonics,
+    mesh_metrics,
+    mesh_window,
+    write_comparison,
+)
+from fe_impact.rolling.lumped import lumped_model, run_lumped
+
+GEARSET = default_gearset()
+
+
+def _condition(name="c", stage=1, speed=1000.0, torque=0.0, duration=0.05, settle=0.0,
+               **kw):
+    return RollingCondition(name, stage, speed, torque, duration, GEARSET.pinion.inertia,
+                            GEARSET.stages[stage - 1].inertia, 1.4e-4, settle=settle, **kw)
+
+
+def _record(time, te, events=None, source="model", condition=None):
+    condition = condition or _condition()
+    zero = np.zeros_like(time)
+    return RollingRecord(source, condition, GEARSET.pinion.teeth, time, te, zero + 1.0, zero,
+                         events if events is not None else ContactEvents.empty())
+
+
+# -- spectrum -------------------------------------------------------------------------------
+def test_mesh_orders_of_a_sum_of_sines_are_their_amplitudes():
+    # TE = c + sum a_h sin(2 pi h f t + phi_h): over whole periods each order's DFT bin
+    # holds a_h exactly; the only error is the linear resampling of a record sampled
+    # 1024 times a period, whose amplitude error at order h is at most
+    # 1 - cos(pi h / 1024) < 5e-5 for h <= 4: tolerance 2e-4 of the largest amplitude.
+    # A slow component off the mesh orders (a quarter order, on its own exact bin as
+    # the window holds 12 periods) must not leak into them.
+    condition = _condition(speed=1000.0, duration=0.05, settle=0.0105)
+    f = condition.mesh_frequency(GEARSET.pinion.teeth)
+    a = np.array([1.3e-6, 0.4e-6, 0.25e-6, 0.1e-6])
+    phase = np.array([0.3, -1.1, 2.0, 0.7])
+    t = np.arange(0.0, condition.duration, 1.0 / (1024 * f))
+    te = 5e-5 + sum(a[h] * np.sin(2 * np.pi * (h + 1) * f * t + phase[h]) for h in range(4))
+    t0, t1, periods = mesh_window(t, f, condition.settle)
+    assert periods == math.floor((t[-1] - condition.settle) * f) == 12
+    assert t1 - t0 == pytest.approx(periods / f, rel=1e-12)
+    got = mesh_harmonics(t, te + 0.3e-6 * np.sin(0.5 * np.pi * f * t), f, periods, t0)
+    np.testing.assert_allclose(got, a, rtol=0, atol=2e-4 * a.max())
+    m = mesh_metrics(_record(t, te, condition=condition))
+    np.testing.assert_allclose(m.te_harmonics, a, rtol=0, atol=2e-4 * a.max())
+    # RMS of a sum of sines: sqrt(sum a^2 / 2); the sample mean over a closed window of
+    # ~12k samples carries one extra end sample: relative bias ~1e-4, tolerance 1e-3
+    assert m.te_rms == pytest.approx(math.sqrt(np.sum(a**2) / 2), rel=1e-3)
+
+
+def test_peak_to_peak_of_one_sine_and_a_too_short_window():
+    condition = _condition(speed=300.0, duration=0.1)
+    f = condition.mesh_frequency(GEARSET.pinion.teeth)
+    t = np.linspace(0.0, 0.1, 20001)
+    m = mesh_metrics(_record(t, 2e-6 * np.cos(2 * np.pi * f * t), condition=condition))
+    # 210 samples a period: the sampled crest is within 1 - cos(pi / 210) = 1.1e-4 of 2a
+    assert m.te_peak_to_peak == pytest.approx(4e-6, rel=2e-4)
+    assert m.periods == 9 and m.te_harmonics[0] == pytest.approx(2e-6, rel=1e-3)
+    with pytest.raises(CaseError, match="no whole mesh period"):
+        mesh_window(t[:100], f, 0.0)
+
+
+# -- events ---------------------------------------------------------------------------------
+def test_event_statistics_count_only_the_window_and_their_kind():
+    condition = _condition(speed=300.0, duration=0.1, settle=0.03)
+    f = condition.mesh_frequency(GEARSET.pinion.teeth)
+    t = np.linspace(0.0, 0.1, 4001)
+    # window: the last floor(0.07 f) = 6 periods, from 0.1 - 6 / 95 = 0.0368 s
+    events = ContactEvents(
+        time=[0.01, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.095],
+        kind=["mesh-in", "mesh-in", "rattle", "mesh-in", "mesh-out", "mesh-in", "rattle",
+              "rattle"],
+        flank=[1, 1, -1, 1, 1, 1, 1, -1],
+        closing_speed=[9.0, 0.02, 0.1, 0.04, 0.5, 0.03, 0.2, 0.15],
+        peak_force=[5000.0, 700.0, 30.0, 760.0, math.nan, 690.0, 80.0, 20.0],
+        location=["flank", "corner-approach", "flank", "corner-approach", "flank",
+                  "corner-approach", "flank", "flank"],
+        position=np.full(8, math.nan))
+    m = mesh_metrics(_record(t, np.zeros_like(t), events, condition=condition))
+    assert m.window[0] == pytest.approx(0.1 - 6 / f, rel=1e-12)
+    # the mesh-in at 0.01 s is before the window: 700, 760, 690 remain
+    assert m.mesh_in_count == 3
+    assert m.mesh_in_force_median == 700.0 and m.mesh_in_force_max == 760.0
+    assert m.mesh_in_speed_median == 0.03 and m.mesh_in_speed_max == 0.04
+    assert m.rattle_count == 3 and m.rattle_force_max == 80.0 and m.rattle_speed_max == 0.2
+    none = mesh_metrics(_record(t, np.zeros_like(t), condition=condition))
+    assert none.mesh_in_count == 0 and math.isnan(none.mesh_in_force_median)
+    with pytest.raises(CaseError, match="events.kind"):
+        ContactEvents([0.0], ["impact"], [1], [0.1], [1.0], ["flank"], [0.0])
+
+
+def test_goal_check_and_files(tmp_path):
+    condition = _condition(speed=300.0, duration=0.1)
+    f = condition.mesh_frequency(GEARSET.pinion.teeth)
+    t = np.linspace(0.0, 0.1, 4001)
+
+    def model(source, amplitude, force):
+        ev = ContactEvents([0.05], ["mesh-in"], [1], [0.04], [force], ["corner-approach"],
+                           [math.nan])
+        return _record(t, amplitude * np.sin(2 * np.pi * f * t), ev, source, condition)
+
+    fe = model("rolling FE", 1e-6, 700.0)
+    cal = model("lumped, calibrated", 1.05e-6, 740.0)     # +5%, +5.7%
+    closed = model("lumped, closed-form", 1.3e-6, 800.0)  # +30%, +14%
+    goal = check_goal(*(mesh_metrics(r) for r in (fe, cal, closed)))
+    assert goal.passed
+    assert goal.calibrated["mesh_in_force_max"] == pytest.approx(40.0 / 700.0, rel=1e-12)
+    far = check_goal(mesh_metrics(fe), mesh_metrics(model("x", 1.2e-6, 700.0)),
+                     mesh_metrics(closed))
+    assert not far.passed and not far.within["te_peak_to_peak"]
+    paths = write_comparison(tmp_path, [fe, cal, closed], goal={condition.name: goal})
+    assert {p.name for p in paths} >= {"compare.md", "compare.csv", "compare.json",
+                                       f"compare_{condition.name}.png"}
+    data = json.loads((tmp_path / "compare.json").read_text())
+    row = next(r for r in data["rows"] if r["figure"] == "mesh_in_force_max")
+    assert row["lumped, closed-form vs FE"] == pytest.approx(100.0 / 700.0, rel=1e-12)
+    assert "goal met" in (tmp_path / "compare.md").read_text()
+
+
+# -- the lumped runner ----------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def loaded():
+    """Stage 1 at 1000 r/min under 50 N m, no friction, 30 mesh periods."""
+    return run_lumped(_condition("loaded", 1, 1000.0, 50.0, duration=0.1, settle=0.005,
+                                 drag_torque=0.01))
+
+
+def test_lumped_mean_mesh_force_balances_the_load(loaded):
+    # Torque balance of the face-gear rotor over whole mesh periods: r_b2 <F> = T + drag
+    # (no friction). The residual is the rotor's mean angular acceleration over the
+    # window, J |d omega| / T_w / r_b2: the mesh mode's ringing, ~1 um at ~2 kHz, moves
+    # the ring by ~0.2 rad/s, i.e. ~0.3 N against 634 N: tolerance 0.2%.
+    lever = 0.5 * GEARSET.module * GEARSET.stages[0].teeth * math.cos(math.radians(20.0))
+    m = mesh_metrics(loaded)
+    assert m.mean_drive_force == pytest.approx((50.0 + 0.01) / lever, rel=2e-3)
+    assert m.mean_coast_force == 0.0 and m.rattle_count == 0
+    # a tooth pair enters each mesh period
+    assert abs(m.mesh_in_count - m.periods) <= 1
+
+
+def test_lumped_te_spectrum_peaks_at_the_mesh_frequency(loaded):
+    # the strongest line of the TE's whole spectrum (not only the mesh orders) is the
+    # tooth-mesh frequency N_p n / 60 = 316.7 Hz: a rigid-kinematics truth
+    m = mesh_metrics(loaded)
+    inside = (loaded.time >= m.window[0]) & (loaded.time < m.window[1])
+    t, te = loaded.time[inside], loaded.te[inside]
+    spectrum = np.abs(np.fft.rfft(te - te.mean()))
+    freq = np.fft.rfftfreq(te.size, t[1] - t[0])
+    assert freq[np.argmax(spectrum)] == pytest.approx(19 * 1000.0 / 60.0, rel=1e-9)
+
+
+def test_lumped_calibrated_on_the_closed_forms_is_the_closed_form_run(tmp_path):
+    # a calibration file holding stage 2's closed-form flank laws must give stage 2's
+    # closed-form run: the stage is picked and renumbered right (stage 1's or 3's laws
+    # would change the mesh stiffness and the TE)
+    condition = _condition("s2", 2, 300.0, 20.0, duration=0.02)
+    closed = lumped_model(condition).law_set
+    cases = [{"stage": 2, "kind": kind, "impact_speed": float(v),
+              "impact": {"k": float(k), "exponent": float(n), "cmax": float(c), "d": float(d)}}
+             for kind in ("mesh", "switch")
+             for v, k, n, c, d in zip(*(getattr(closed.table(1, kind), a) for a in
+                                        ("impact_speed", "k", "exponent", "cmax", "d")),
+                                      strict=True)]
+    path = tmp_path / "calibration.json"
+    path.write_text(json.dumps({"schema": "fe-impact/calibration/1", "cases": cases}))
+    a = run_lumped(condition, "calibrated", calibration=path)
+    b = run_lumped(condition, "closed-form")
+    np.testing.assert_allclose(a.te, b.te, rtol=0, atol=1e-15)
+    with pytest.raises(CaseError, match="needs a calibration file"):
+        run_lumped(condition, "calibrated")
+    with pytest.raises(CaseError, match="stages 1..3"):
+        run_lumped(replace(_condition(), stage=4))

@@ -70,6 +70,7 @@ __all__ = [
     "mesh_metrics",
     "mesh_window",
     "plot_condition",
+    "record_from_roll",
     "write_comparison",
 ]
 
@@ -290,6 +291,39 @@ class RollingRecord:
     def mesh_frequency(self) -> float:
         """[Hz]."""
         return self.condition.mesh_frequency(self.pinion_teeth)
+
+
+#: The rolling FE's names of where a pair touched, as `LOCATIONS`.
+_FE_WHERE = {"flank": "flank", "approach-edge": "corner-approach",
+             "recess-edge": "corner-recess"}
+_FE_FLANK = {"drive": 1, "coast": -1}
+
+
+def record_from_roll(result, condition: RollingCondition, pinion_teeth: int,
+                     source: str = "rolling FE") -> RollingRecord:
+    """The `RollingRecord` of a rolling FE run (`fe_impact.rolling.run.RollResult`).
+
+    Flank forces are the sums of the tooth pairs' (``pair_force_n[..., 0]`` drive,
+    ``[..., 1]`` coast; NaN, out of reach, counts 0); each `ContactEvent` keeps its
+    kind, closing speed, peak force, place and ``s``.
+    """
+    forces = np.nan_to_num(np.asarray(result.pair_force_n, dtype=float))
+    rows = []
+    for e in result.events:
+        if e.where not in _FE_WHERE or e.flank not in _FE_FLANK or e.kind not in EVENT_KINDS:
+            raise CaseError(f"{source}: event at {e.time_s:g} s has kind = {e.kind!r}, "
+                            f"where = {e.where!r}, flank = {e.flank!r}; expected "
+                            f"{list(EVENT_KINDS)}, {list(_FE_WHERE)}, {list(_FE_FLANK)}")
+        rows.append((e.time_s, e.kind, _FE_FLANK[e.flank], e.closing_speed_m_s, e.peak_force_n,
+                     _FE_WHERE[e.where], e.s_m))
+    rows.sort(key=lambda r: r[0])
+    columns = list(zip(*rows, strict=True)) if rows else [[]] * 7
+    events = (ContactEvents(*columns) if rows else ContactEvents.empty())
+    return RollingRecord(
+        source=source, condition=condition, pinion_teeth=pinion_teeth,
+        time=result.time_s, te=result.te_m, drive_force=forces[..., 0].sum(axis=1),
+        coast_force=forces[..., 1].sum(axis=1), events=events,
+        pair_force=forces.reshape(forces.shape[0], -1), info=dict(result.info))
 
 
 # -- metrics ------------------------------------------------------------------------------

@@ -18,6 +18,7 @@ of the records is the key without its suffix)::
     density_kg_m3 = 7860.0
     yield_strength_pa = 835e6
     contact_stress_limit_pa = 1500e6   # optional: ISO 6336-5 sigma_Hlim
+    bending_stress_limit_pa = 500e6    # optional: ISO 6336-5 sigma_Flim
 
     [pinion]
     teeth = 19
@@ -124,6 +125,11 @@ PINIONS_RANGE = (1, 4)
 #: the seed's 20CrMnTi, carburised and quenched to 58-62 HRC, is such a steel
 #: (GB/T 3480.5, the Chinese adoption of ISO 6336-5, gives the same chart).
 DEFAULT_CONTACT_STRESS_LIMIT = 1500e6
+#: ``sigma_Flim`` [Pa] when a gear set gives none: ISO 6336-5:2016, case-hardened
+#: (carburised) wrought steels, material quality MQ, 500 MPa (ML 312, ME 525): the
+#: nominal stress number of the reference test gear, whose local root stress is
+#: ``Y_ST = 2`` times it (:mod:`fe_impact.gears.root_stress`).
+DEFAULT_BENDING_STRESS_LIMIT = 500e6
 _RANGE_HINT = "(the design range fe-impact's face-gear geometry is checked over)"
 
 #: Crowning above this fraction of the module is taken for a unit mistake
@@ -204,6 +210,10 @@ class Material:
         Allowable contact stress [Pa] the Hertz peak pressure is compared with:
         the endurance limit for contact stress ``sigma_Hlim`` of ISO 6336-5.
         Default :data:`DEFAULT_CONTACT_STRESS_LIMIT` (case-carburised steel).
+    bending_stress_limit : float
+        The nominal stress number for bending ``sigma_Flim`` of ISO 6336-5 [Pa]
+        (root stresses are compared with ``2 sigma_Flim``). Default
+        :data:`DEFAULT_BENDING_STRESS_LIMIT` (case-carburised steel).
     """
 
     youngs_modulus: float
@@ -211,6 +221,7 @@ class Material:
     density: float
     yield_strength: float
     contact_stress_limit: float = DEFAULT_CONTACT_STRESS_LIMIT
+    bending_stress_limit: float = DEFAULT_BENDING_STRESS_LIMIT
 
     def __post_init__(self) -> None:
         check_number("material.youngs_modulus", self.youngs_modulus, low=0.0, low_open=True,
@@ -223,6 +234,9 @@ class Material:
         check_number("material.poisson_ratio", self.poisson_ratio, low=-1, high=0.5,
                      low_open=True, high_open=True, error=GeometryError)
         check_number("material.contact_stress_limit", self.contact_stress_limit, low=0.0,
+                     low_open=True, high=self.youngs_modulus, high_open=True, unit="MPa",
+                     scale=1e-6, hint="(below the Young's modulus)", error=GeometryError)
+        check_number("material.bending_stress_limit", self.bending_stress_limit, low=0.0,
                      low_open=True, high=self.youngs_modulus, high_open=True, unit="MPa",
                      scale=1e-6, hint="(below the Young's modulus)", error=GeometryError)
 
@@ -908,6 +922,7 @@ _MATERIAL_KEYS = {
     "density_kg_m3": ("density", _si(1.0)),
     "yield_strength_pa": ("yield_strength", _si(1.0)),
     "contact_stress_limit_pa": ("contact_stress_limit", _si(1.0)),
+    "bending_stress_limit_pa": ("bending_stress_limit", _si(1.0)),
 }
 _PINION_KEYS = {
     "teeth": ("teeth", _count),
@@ -942,7 +957,7 @@ _STAGE_KEYS = {
 }
 # the keys each table may leave out (their fields have defaults)
 _TOP_OPTIONAL = {"notes", "n_pinions"}
-_MATERIAL_OPTIONAL = {"contact_stress_limit_pa"}
+_MATERIAL_OPTIONAL = {"contact_stress_limit_pa", "bending_stress_limit_pa"}
 _PINION_OPTIONAL = {"tip_edge_radius_mm"}
 _FACE_GEAR_OPTIONAL = {"inner_limit", "module_mm", "tip_edge_radius_mm"}
 _STAGE_OPTIONAL = {"force_shaper"}

@@ -331,6 +331,8 @@ def record_from_roll(result, condition: RollingCondition, pinion_teeth: int,
 HARMONICS = 4
 #: Samples per mesh period of the resampled transmission error.
 RESAMPLE = 128
+#: Fraction of a mesh period by which the metrics' window may start before ``settle``.
+SLACK = 0.02
 
 
 @dataclass(frozen=True)
@@ -410,7 +412,8 @@ UNITS = {"te_peak_to_peak": ("um", 1e6), "te_rms": ("um", 1e6),
 
 
 def mesh_window(time: np.ndarray, frequency: float, settle: float) -> tuple[float, float, int]:
-    """The last whole number of mesh periods of ``time`` after ``settle``: ``(t0, t1, periods)``.
+    """The last whole number of mesh periods of ``time`` after ``settle``: ``(t0, t1, periods)``
+    (``t0`` may precede ``settle`` by up to `SLACK` of a period).
 
     A window of whole periods puts every mesh order on an exact bin of the discrete
     Fourier transform, so a signal periodic in the mesh period has no leakage
@@ -418,7 +421,9 @@ def mesh_window(time: np.ndarray, frequency: float, settle: float) -> tuple[floa
     """
     t_start = max(float(time[0]), float(time[0]) + settle)
     t_end = float(time[-1])
-    periods = int(math.floor((t_end - t_start) * frequency * (1.0 + 1e-12)))
+    # a record sampled up to its duration may end a sample short of it: the window may
+    # reach back up to SLACK of a period into the settling time
+    periods = int(math.floor((t_end - t_start) * frequency + SLACK))
     if periods < 1:
         raise CaseError(f"{t_end - t_start:.4g} s after settle hold no whole mesh period "
                         f"({1.0 / frequency:.4g} s): run longer")

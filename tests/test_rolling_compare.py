@@ -187,3 +187,28 @@ def test_lumped_calibrated_on_the_closed_forms_is_the_closed_form_run(tmp_path):
         run_lumped(condition, "calibrated")
     with pytest.raises(CaseError, match="stages 1..3"):
         run_lumped(replace(_condition(), stage=4))
+
+
+def test_record_of_a_rolling_fe_run_sums_its_pairs_and_names_its_events():
+    from types import SimpleNamespace
+
+    t = np.linspace(0.0, 0.01, 5)
+    forces = np.zeros((5, 3, 2))
+    forces[:, 0, 0], forces[:, 1, 0], forces[:, 2, 1] = 100.0, 50.0, 7.0
+    forces[2, 1, 0] = np.nan                                # out of reach: no force
+    event = SimpleNamespace(time_s=0.004, flank="drive", tooth=1, kind="mesh-in",
+                            closing_speed_m_s=0.04, peak_force_n=690.0, where="approach-edge",
+                            s_m=1e-3, end_time_s=0.009, end_s_m=0.016)
+    result = SimpleNamespace(time_s=t, te_m=np.zeros(5), pair_force_n=forces, events=[event],
+                             info={"dofs": 1})
+    from fe_impact.rolling.compare import record_from_roll
+
+    record = record_from_roll(result, _condition(), GEARSET.pinion.teeth)
+    np.testing.assert_array_equal(record.drive_force, [150.0, 150.0, 100.0, 150.0, 150.0])
+    np.testing.assert_array_equal(record.coast_force, np.full(5, 7.0))
+    assert record.events.location.tolist() == ["corner-approach"]
+    assert record.events.flank.tolist() == [1] and record.events.kind.tolist() == ["mesh-in"]
+    bad = SimpleNamespace(**{**result.__dict__,
+                             "events": [SimpleNamespace(**{**event.__dict__, "where": "tip"})]})
+    with pytest.raises(CaseError, match="where = 'tip'"):
+        record_from_roll(bad, _condition(), GEARSET.pinion.teeth)

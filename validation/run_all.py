@@ -1,11 +1,12 @@
 """Run every validation study and benchmark; one pass/fail line per study at the end.
 
 ``python validation/run_all.py`` (``make validate``) runs each study's
-``main`` in its own process (the static Hertz study needs 9 GB at its
-finest level), writes their output under ``out/<study>`` and exits 1 if any
-study fails a check or stops with an error. ``--quick`` passes ``--quick``
-to every study (about twelve minutes in all, and five more where CalculiX
-runs the peer check); ``--only a,b`` runs a subset.
+``main`` in its own process, one after another (the static Hertz study
+needs 5 GB at its finest level), writes their output under ``out/<study>``
+and exits 1 if any study fails a check or stops with an error. ``--quick``
+passes ``--quick`` to every study that has a coarse setting (those in
+:data:`NO_QUICK` run as they are); ``--only a,b`` runs a subset. The
+studies left out, and why, are in :data:`LEFT_OUT`; each runs by itself.
 A study that needs a program the machine lacks (the CalculiX peer check
 without ``ccx``) exits with :data:`SKIPPED` and a ``<study>: SKIPPED``
 line; it is listed as skipped, neither passed nor failed.
@@ -21,18 +22,37 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ("hertz_static", "hertz_impact", "patch_test", "plastic_impact", "time_step",
-           "mesh_cycle", "two_pair", "corner_gaps", "corner_contact", "bench_static",
-           "bench_dynamic", "bench_static_pair", "bench_tooth_impact", "bench_switching",
-           "bench_sweep", "calculix_pair")
+           "mesh_cycle", "two_pair", "corner_gaps", "corner_contact", "friction_sliding",
+           "friction_oblique", "friction_cattaneo", "nearfield_hertz", "face_gear_limits",
+           "exudyn_export", "bench_static", "bench_dynamic", "bench_static_pair",
+           "bench_tooth_impact", "bench_switching", "bench_sweep", "calculix_pair")
+#: Studies with no coarse setting: ``--quick`` runs them as they are (the near
+#: field's Hertz check takes half a minute; the Exudyn comparison needs its whole
+#: 5 s ensemble for its checks to mean anything).
+NO_QUICK = frozenset({"nearfield_hertz", "exudyn_export"})
+#: Studies left out of ``make validate``, each with the reason (docs/validation/index.md).
+LEFT_OUT = {
+    "four_pinion_torque": "a whole two-stage calibration, about 17 minutes; run it by itself",
+    "nearfield_pair": "its 1% target against the refined FE is not met yet",
+    "friction_tooth": "a measurement of what friction changes, with no check",
+    "compare_calibrations": "a tool comparing two calibrations, not a study",
+    "rolling_compare": "needs a calibration and the rolling FE's outputs as its inputs",
+}
 #: Exit status of a study that could not run here (a peer program missing).
 SKIPPED = 2
 
 
+def study_argv(name: str, out: Path, quick: bool) -> list[str]:
+    """The command line of one study (``--quick`` only where it has a coarse setting)."""
+    argv = [sys.executable, str(ROOT / "validation" / f"{name}.py"), "--out", str(out / name)]
+    if quick and name not in NO_QUICK:
+        argv.append("--quick")
+    return argv
+
+
 def run_study(name: str, out: Path, quick: bool) -> tuple[int, str, float]:
     """Run one study; its exit status, its summary line and the wall time."""
-    argv = [sys.executable, str(ROOT / "validation" / f"{name}.py"), "--out", str(out / name)]
-    if quick:
-        argv.append("--quick")
+    argv = study_argv(name, out, quick)
     t = time.perf_counter()
     proc = subprocess.run(argv, cwd=ROOT, text=True, capture_output=True)
     (out / name).mkdir(parents=True, exist_ok=True)
@@ -64,6 +84,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {line} [{secs:.0f} s]")
     skipped = sum(code == SKIPPED and ": SKIPPED" in line for code, line, _ in results)
     failed = sum(code != 0 for code, _, _ in results) - skipped
+    if not args.only:
+        for name, why in LEFT_OUT.items():
+            print(f"  not run here: {name} ({why})")
     print(f"{len(results) - failed - skipped} passed, {failed} failed, {skipped} skipped")
     return 1 if failed else 0
 

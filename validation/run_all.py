@@ -34,6 +34,7 @@ NO_QUICK = frozenset({"nearfield_hertz", "exudyn_export"})
 LEFT_OUT = {
     "four_pinion_torque": "a whole two-stage calibration, about 17 minutes; run it by itself",
     "nearfield_pair": "its 1% target against the refined FE is not met yet",
+    "bench_nearfield": "the cost of nearfield_pair's near field; it joins with that study",
     "friction_tooth": "a measurement of what friction changes, with no check",
     "compare_calibrations": "a tool comparing two calibrations, not a study",
     "rolling_compare": "needs a calibration and the rolling FE's outputs as its inputs",

@@ -35,7 +35,10 @@ the same run, never an absolute time (the machine is shared).
 5. Friction: items 1 and 2 again with the seed's greased flanks (mu_static
    0.05, mu_dynamic 0.02): the Newmark run's CPU time from reading the case to
    the last step, and the explicit step's CPU time, each against its
-   frictionless item of the same run. Target: at most 1.3 x (the issue's 30%).
+   frictionless item of the same run. The Newmark runs alternate, frictionless
+   and with friction, :data:`FRICTION_REPEATS` times and the best of each side
+   is taken (the explicit items are each the best of :data:`TIMED_RUNS`).
+   Target: at most 1.3 x (the issue's 30%).
 """
 
 from __future__ import annotations
@@ -303,13 +306,33 @@ def _run(quick: bool, out: Path) -> dict:
     return result
 
 
+#: Newmark runs of each side (frictionless, with friction), alternated, for item 5
+FRICTION_REPEATS = 3
+
+
 def friction_items(out: Path, result: dict, steps: int, h: float) -> dict:
-    """Item 5: the Newmark run and the explicit step with the seed's friction."""
-    nm = newmark(out, h=h, friction=True)
+    """Item 5: the Newmark run and the explicit step with the seed's friction.
+
+    The Newmark runs alternate (item 1's run counts as the first frictionless
+    one), so that a slow spell of the shared machine weighs on both sides; the
+    best of each side is compared.
+    """
+    off = [result["newmark"]["cpu_s"]]
+    runs = []
+    for k in range(FRICTION_REPEATS):
+        runs.append(newmark(out, h=h, friction=True))
+        if k + 1 < FRICTION_REPEATS:
+            off.append(newmark(out, h=h)["cpu_s"])
+    nm = min(runs, key=lambda x: x["cpu_s"])
     step, _, res = _timed_run(_mesh(out, h), steps, plastic_=False, friction=True)
-    base_nm, base_ex = result["newmark"], result["explicit"]
-    return {"newmark": {"cpu_s": nm["cpu_s"], "frictionless_cpu_s": base_nm["cpu_s"],
-                        "over_frictionless": nm["cpu_s"] / base_nm["cpu_s"],
+    base_ex = result["explicit"]
+    base_cpu = min(off)
+    return {"newmark": {"cpu_s": nm["cpu_s"], "frictionless_cpu_s": base_cpu,
+                        "over_frictionless": nm["cpu_s"] / base_cpu,
+                        "runs_cpu_s": [x["cpu_s"] for x in runs],
+                        "frictionless_runs_cpu_s": off,
+                        "n_dofs": nm["n_dofs"], "projections": nm["projections"],
+                        "frictionless_projections": result["newmark"]["projections"],
                         "timings_s": nm["timings_s"], "energy_error": nm["energy_error"],
                         "peak_force_error_vs_hertz": nm["peak_force_error_vs_hertz"]},
             "explicit": {"step_ms": step * 1e3, "frictionless_step_ms": base_ex["step_ms"],

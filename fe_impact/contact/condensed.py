@@ -331,8 +331,9 @@ class CondensedContact:
         #: :class:`~fe_impact.contact.friction.ImplicitFriction` of a contact model with
         #: friction: the zone is condensed on all three coordinates of its nodes
         self.friction = friction
-        self._fdelassus: tuple | None = None   # (projection, rows, S^-1 B^T) of the last step
+        self._fdelassus: list | None = None    # see _frictional_columns
         self._fjac: tuple | None = None        # (projection, the rows' condensed Jacobian)
+        self._fwarm: tuple | None = None       # (projection, the last frictional solution)
         self.K_eff = K_eff
         self.solver = ZoneSolver(K_eff, schur_solves)
         self.force_factor = force_factor
@@ -352,7 +353,7 @@ class CondensedContact:
         """Condense anew after the contact zone changed."""
         self.frames, self.compliance = self._condensation()
         self._delassus_at = self._jacobian_at = -1
-        self._fdelassus = self._fjac = None
+        self._fdelassus = self._fjac = self._fwarm = None
 
     def _condensation(self) -> tuple[ZoneFrames, ZoneCompliance]:
         """Schur complement of ``K_eff`` on the zone nodes' normal coordinates.
@@ -420,9 +421,11 @@ class CondensedContact:
         compliance ``f B_c S^-1 B_c^T`` of the normal and tangential rows near
         contact, and the forces are added. The coefficient is taken at the
         contact-free slip speed. While the kept Schur factorisation serves, one
-        forward and one backward substitution make the step, as without friction
-        (:meth:`_through_schur`: the forces act on the condensed coordinates
-        only); otherwise two solves.
+        forward and one backward substitution make the step, as without friction:
+        the forces act on the condensed coordinates only, and their part of the
+        solution, ``f S^-1 B_c^T p``, is made of the columns ``S^-1 b^T`` the
+        compliance was formed of (:meth:`_frictional_columns`), with no second
+        pass over the zone's factor. Otherwise two solves.
         """
         from fe_impact.contact.friction import solve_frictional
 
@@ -432,27 +435,44 @@ class CondensedContact:
         t_old = fr.start(c)
         Bz_ref = c.B @ c.z_ref
         Bt_n = c.Bt @ z_n
+        block = self._frictional_blocks(B_all, r)
         out = {"sol": None}
 
         def forces(x_c: np.ndarray) -> np.ndarray | None:
+            """The rows' forces stacked (normal, t1, t2) at the contact-free ``x_c``
+            (None: none)."""
             y = B_all @ x_c
             h = np.where(c.active_rows, c.g_ref + y[:r] - Bz_ref, np.inf)
             if not np.any(h < 0) and not np.any(t_old):
                 return None
             s0 = (y[r:] - Bt_n).reshape(2, r).T
             mu = c.row_coefficients(np.linalg.norm(s0, axis=1) / fr.dt)
-            sol = solve_frictional(self._frictional_blocks(B_all, r), h, s0, c.eps_w, c.eps_w,
-                                   mu, t_old)
+            # the last solve's forces start the iteration while the projection holds
+            warm = self._fwarm[1] if self._fwarm and self._fwarm[0] == c.n_projections \
+                else None
+            sol = solve_frictional(block, h, s0, c.eps_w, c.eps_w, mu, t_old, warm=warm)
+            self._fwarm = (c.n_projections, sol)
             out["sol"] = sol
             p = np.concatenate([sol.lam, sol.t[:, 0], sol.t[:, 1]])
-            return B_all.T @ p if p.any() else None
+            return p if p.any() else None
 
         if self.solver.partial:
-            z = self._through_schur(rhs, forces)
+            cond = self.frames.condensed
+            y = self.solver.forward(rhs)
+            x_c = self.compliance.apply(y[cond])
+            p = forces(x_c)
+            if p is not None:     # f S^-1 B_c^T p from the kept columns
+                on = np.flatnonzero(p)
+                pos = self._frictional_columns(B_all, on)
+                q = np.zeros(self._fdelassus[4])
+                q[pos] = p[on]
+                x_c = x_c + f * (self._fdelassus[2][:, :len(q)] @ q)
+            y[cond] = x_c
+            z = self.solver.backward(y)
         else:
             z_star = self.solver.solve(rhs)
-            g = forces(self._condensed_part(z_star))
-            z = z_star if g is None else self.solver.solve(rhs + f * self._full_force(out["sol"]))
+            p = forces(self._condensed_part(z_star))
+            z = z_star if p is None else self.solver.solve(rhs + f * self._full_force(out["sol"]))
         sol = out["sol"]
         if sol is None:
             return StepContact(np.zeros(r), z, None, np.zeros((r, 2)))
@@ -470,28 +490,46 @@ class CondensedContact:
     def _frictional_blocks(self, B_all: sp.csr_matrix, r: int):
         """``D(idx)`` and ``D(idx, other)`` of
         :func:`~fe_impact.contact.friction.solve_frictional`: ``f B_c S^-1 B_c^T`` on
-        the rows asked for. The columns ``S^-1 b^T`` of the
-        rows met are kept for the current projection, so a step solves only for
-        rows it meets first (a contact patch's rows repeat from step to step)."""
-        c, f = self.contact, self.force_factor
-        kept = self._fdelassus
-        if kept is None or kept[0] != c.n_projections:
-            kept = (c.n_projections, {}, [])
-            self._fdelassus = kept
-        index, columns = kept[1], kept[2]
+        the rows asked for, from the kept columns of :meth:`_frictional_columns`."""
+        f = self.force_factor
 
         def block(idx, other=None):
             rows = np.concatenate([idx, r + idx, 2 * r + idx])
-            new = [int(k) for k in rows if int(k) not in index]
-            if new:
-                X = self.compliance.apply(B_all[new].T.toarray())
-                for j, k in enumerate(new):
-                    index[k] = len(columns)
-                    columns.append(X[:, j])
-            X = np.stack([columns[index[int(k)]] for k in rows], axis=1)
-            return f * np.asarray(B_all[rows if other is None else other] @ X)
+            pos = self._frictional_columns(B_all, rows)
+            BX = self._fdelassus[3]
+            return f * (BX[np.ix_(rows, pos)] if other is None else BX[np.ix_(other, pos)])
 
         return block
+
+    def _frictional_columns(self, B_all: sp.csr_matrix, rows: np.ndarray) -> np.ndarray:
+        """The places of the rows ``rows`` of ``B_all`` among the kept columns
+        ``X = S^-1 b^T`` and ``B_all X`` (``_fdelassus[2]``, (m, k), and ``[3]``,
+        (3 r, k)), solving for the rows not met yet. They are kept for the current
+        projection, so a step solves only for rows it meets first (a contact
+        patch's rows repeat from step to step), and the Delassus blocks are read
+        from ``B_all X`` with no product."""
+        c = self.contact
+        kept = self._fdelassus
+        if kept is None or kept[0] != c.n_projections:
+            kept = [c.n_projections, -np.ones(B_all.shape[0], dtype=np.int64),
+                    np.empty((self.compliance.size, 0)), np.empty((B_all.shape[0], 0)), 0]
+            self._fdelassus = kept
+        index, used = kept[1], kept[4]
+        new = np.unique(rows[index[rows] < 0])
+        if len(new):
+            X = self.compliance.apply(np.ascontiguousarray(B_all[new].T.toarray()))
+            X = X.reshape(self.compliance.size, len(new))
+            if used + len(new) > kept[2].shape[1]:      # grow by doubling
+                cap = max(2 * kept[2].shape[1], used + len(new))
+                for j in (2, 3):
+                    grown = np.empty((kept[j].shape[0], cap))
+                    grown[:, :used] = kept[j][:, :used]
+                    kept[j] = grown
+            kept[2][:, used:used + len(new)] = X
+            kept[3][:, used:used + len(new)] = B_all @ X
+            index[new] = np.arange(used, used + len(new))
+            kept[4] = used + len(new)
+        return index[rows]
 
     def _frictional_jacobian(self) -> sp.csr_matrix:
         """The normal then the two tangential rows on the condensed coordinates."""

@@ -33,12 +33,18 @@ class ContactModel:
     frictionless). With friction on any pair, each projection also forms the
     rows' tangential frames and slip Jacobians (:attr:`Bt_full`, :attr:`Bt`);
     without, nothing of it is formed.
+
+    ``tolerance`` (m): the zone's deformation that calls for a re-projection;
+    ``slip_tolerance`` (m, friction only): the slide of a row's slave point along
+    its master face that does (see :meth:`moved`).
     """
 
     def __init__(self, mesh: FEMesh, model: ElasticModel, kin: Kinematics, zone: ContactZone,
-                 tolerance: float, laws: list | None = None) -> None:
+                 tolerance: float, laws: list | None = None,
+                 slip_tolerance: float | None = None) -> None:
         self.mesh, self.model, self.kin, self.zone = mesh, model, kin, zone
         self.tolerance = tolerance
+        self.slip_tolerance = slip_tolerance
         self.laws = list(laws) if laws is not None and any(
             law is not None for law in laws) else None
         self.n_projections = 0
@@ -102,6 +108,8 @@ class ContactModel:
         self.Bt_full = sp.vstack([mask @ sp.vstack(B1), mask @ sp.vstack(B2)]).tocsr()
         self.Bt = (self.Bt_full @ self.kin.T).tocsr()
         self.row_law = np.concatenate(law)
+        self._slip_cols, Bt_held = _held_columns(self.Bt)
+        self._Bt_held = SparseProduct(Bt_held)
 
     def row_keys(self) -> np.ndarray:
         """A key per row naming its pair and slave node (stable over projections)."""
@@ -156,11 +164,29 @@ class ContactModel:
         return out
 
     def moved(self, z: np.ndarray) -> bool:
-        """True if the zone moved by more than the re-projection tolerance."""
+        """True if the zone deformed by more than :attr:`tolerance` since the projection
+        or, with friction and a :attr:`slip_tolerance`, a row's slave point slid along
+        its master face by more than that.
+
+        The deformation (the zone nodes' motion less its mean) bounds the error of
+        the linearised gaps, as without friction; the slide, that of the slips and
+        the tangent frames, which hold while a slave point stays near its master
+        point. Friction without a slip tolerance takes the deformation alone.
+        """
         c = self._zone_cols
         du = (self._T_zone_held @ (z[c] - self.z_ref[c])).reshape(-1, 3)
         du -= du.mean(axis=0)
-        return float(np.abs(du).max(initial=0.0)) > self.tolerance
+        if float(np.abs(du).max(initial=0.0)) > self.tolerance:
+            return True
+        return self.slip_tolerance is not None and self.laws is not None and \
+            self.slide(z) > self.slip_tolerance
+
+    def slide(self, z: np.ndarray) -> float:
+        """The largest slide (m) of a row's slave point along its master face from the
+        projection to ``z``: the norm of the row's slip ``B_t (z - z_ref)`` (friction)."""
+        c = self._slip_cols
+        s = (self._Bt_held @ (z[c] - self.z_ref[c])).reshape(2, -1)
+        return float(np.sqrt(s[0] * s[0] + s[1] * s[1]).max(initial=0.0))
 
     def gaps(self, z: np.ndarray) -> np.ndarray:
         c = self._gap_cols      # B (z - z_ref) on the coordinates B reaches

@@ -140,3 +140,64 @@ def test_same_load_needs_unfolded_hats():
     with pytest.raises(ValueError, match="same_load"):
         nff.FarField(load_mesh(MESHES / "hertz_coarse.msh"), np.arange(3), lambda b: b,
                      study.sides(), fold=True, same_load=True)
+
+
+def test_surface_height_is_the_cylinder_and_nan_past_its_end():
+    # a cylinder of radius R about the y axis, touching the plane z = 0 at the
+    # origin, in a non-affine parametrisation (angle, t -> y = t + 50 t^2): its
+    # height over the plane is R - sqrt(R^2 - x^2) (exact geometry; Newton's
+    # residual 1e-9 m of 1e-3 m is the only error); the surface ends at
+    # angle 0.2 rad (x = R sin 0.2), beyond which the height is NaN.
+    R = 5e-3
+
+    def cylinder(a, t):
+        return np.column_stack([R * np.sin(a), t + 50 * t ** 2, R * (1 - np.cos(a))])
+
+    frame = (np.zeros(3), np.eye(3)[0], np.eye(3)[1], np.eye(3)[2])
+    h = nff.surface_height(cylinder, (0.0, 0.0), frame, (1e-6, 1e-6),
+                           inside=lambda a, t: a <= 0.2)
+    x = np.linspace(-0.9e-3, 0.9e-3, 7)
+    y = np.linspace(-1e-3, 1e-3, 7)
+    z = h(x, y)
+    inside = x <= R * np.sin(0.2)
+    assert np.allclose(z[inside], R - np.sqrt(R ** 2 - x[inside] ** 2), rtol=1e-8, atol=1e-15)
+    assert np.all(np.isnan(z[~inside]))
+
+
+def test_masked_cells_are_a_smaller_grid():
+    # cells outside `allowed` (past a flank's end) must act as if the grid ended
+    # there: the same sphere-on-half-space problem on a grid cut at the same
+    # cell boundary (a different FFT size) gives the same pressure; cut through
+    # the Hertz circle, the contact is more compliant than Hertz (less area).
+    E, NU, R = 210e9, 0.3, 10e-3
+    e_star = nf.effective_modulus(E, NU, E, NU)
+    c = hertz.sphere_contact(200.0, R, e_star)
+    n, cut = 48, 30                       # keep cells 0..29 along x (x < 0.325 a)
+    g = nf.Grid.centred(1.3 * c.a, 1.3 * c.a, n, n)
+    X, Y = g.centres()
+    allowed = np.zeros(g.shape, dtype=bool)
+    allowed[:cut] = True
+    full = nf.solve_pressure((X ** 2 + Y ** 2) / (2 * R),
+                             nf.Convolution(g, nf.surface_kernel(g, e_star)).apply,
+                             200.0, g.cell_area, allowed=allowed)
+    small = nf.Grid(cut, n, g.dx, g.dy, g.x0, g.y0)
+    Xs, Ys = small.centres()
+    part = nf.solve_pressure((Xs ** 2 + Ys ** 2) / (2 * R),
+                             nf.Convolution(small, nf.surface_kernel(small, e_star)).apply,
+                             200.0, small.cell_area)
+    assert np.all(full.pressure[cut:] == 0.0)
+    assert full.approach == pytest.approx(part.approach, rel=1e-6)
+    assert np.allclose(full.pressure[:cut], part.pressure, rtol=0, atol=1e-6 * part.pressure.max())
+    assert full.approach > 1.05 * c.a ** 2 / R
+
+
+def test_hat_spread_stays_on_the_surface():
+    # a surface ending at x = 0.3 mm: each hat's force is spread only where it
+    # exists (the FE is loaded on its own surface), all of it (shares sum to 1)
+    hats = nff.HatBasis(1e-3, 0.2e-3, 5, 2)
+    x, y, phi = nff.hat_samples(hats, lambda x, y: x <= 0.3e-3)
+    phi = phi.toarray()
+    assert np.allclose(phi.sum(axis=0), 1.0)
+    # hats with samples on the surface put nothing past its end
+    on = (phi[x <= 0.3e-3] > 0).any(axis=0)
+    assert np.all(phi[x > 0.3e-3][:, on] == 0.0)

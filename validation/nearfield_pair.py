@@ -71,6 +71,12 @@ SAME_LOAD = True
 #: length along the ellipse (1.3 mm) rounded up, so the coarse FE resolves
 #: each hat's load.
 SAME_LOAD_HAT_SPACING = 1.5e-3
+#: The separation of the flanks themselves (not the relative curvature's quadratic
+#: form), no pressure beyond the face gear's inner end (1.5 mm from the pitch point's
+#: contact along the major axis: the ellipse runs past it from about 130 N), and the
+#: far field's loads spread only on the flank; ``--quadratic-gap`` for the quadratic
+#: separation over the whole grid.
+TRUE_GAP = True
 #: The far-field mesh: the coarse level (36k DOFs; refinement 0.5, 9k DOFs, is
 #: 5-7% stiffer: the far field is not converged there).
 COARSE = {"level": "coarse", "refinement": 1.0, "design_force": max(FORCES)}
@@ -101,9 +107,47 @@ def hat_counts(half_x: float, half_y: float, spacing: float) -> tuple[int, int]:
             max(2, int(np.ceil(2 * half_y / spacing)) + 1))
 
 
+def flank_heights(gearset, analysis, stage: int = 1):
+    """Heights (m) of the pinion's and the face gear's flanks over the contact plane.
+
+    From the flanks themselves (:func:`~fe_impact.contact.nearfield_fe.surface_height`
+    on the tooth contact analysis' surfaces at the contact's roll and face
+    angles), NaN beyond the face gear's inner and outer ends: the grid's
+    cells there hold no face-gear flank and carry no pressure.
+    """
+    from fe_impact.gears.tca import GearPair
+
+    pair = GearPair.from_gearset(gearset, stage)
+    c = analysis.contact
+    frame = (np.asarray(c.point), np.asarray(c.relative.major), np.asarray(c.relative.minor),
+             np.asarray(c.normal))
+    m = pair.pinion.module
+    face = pair.face
+
+    def pinion(u, theta):
+        return pair.pinion_to_mesh(pair.pinion.flank_surface(u, theta, side=1).points,
+                                   c.roll_angle)
+
+    def face_gear(radius, height):
+        return pair.face_to_mesh(face.flank(radius, height, side=1, strict=False).points,
+                                 c.face_angle)
+
+    def on_face(radius, height):
+        return (radius >= face.face_inner) & (radius <= face.face_outer)
+
+    steps = (1e-3 * m, 1e-3 * m / pair.pinion.base_radius)
+    return (nff.surface_height(pinion, c.pinion_parameters, frame, steps),
+            nff.surface_height(face_gear, c.face_parameters, frame, (1e-3 * m, 1e-3 * m),
+                               inside=on_face))
+
+
 def near_field_model(gearset, pair_mesh, depth: float = DEPTH, same_load: bool = SAME_LOAD,
-                     hat_spacing: float | None = None):
-    """Factorise the coarse pair with both hubs held; its far field in the TCA frame."""
+                     hat_spacing: float | None = None, true_gap: bool = TRUE_GAP):
+    """Factorise the coarse pair with both hubs held; its far field in the TCA frame.
+
+    ``true_gap``: the far field's loads and probes on the flanks themselves
+    (:func:`flank_heights`), the face gear's loads only where its flank
+    exists; else on the contact plane."""
     from fe_impact.fe.elasticity import build_model
     from fe_impact.fe.linalg import SPDSolver
     from fe_impact.fe.mesh import load_mesh
@@ -121,6 +165,11 @@ def near_field_model(gearset, pair_mesh, depth: float = DEPTH, same_load: bool =
     flat = lambda x, y: np.zeros_like(x)  # noqa: E731 (surfaces on the tangent plane)
     sides = (nff.Side("pinion", mat.youngs_modulus, mat.poisson_ratio, flat, +1.0),
              nff.Side("face_gear", mat.youngs_modulus, mat.poisson_ratio, flat, -1.0))
+    if true_gap:
+        heights = flank_heights(gearset, pair_mesh.analysis)
+        sides = tuple(nff.Side(sd.volume, sd.youngs, sd.poisson, _finite(h), sd.inward,
+                               _exists(h) if sd.volume == "face_gear" else None)
+                      for sd, h in zip(sides, heights, strict=True))
     frame = (np.asarray(c.point), np.asarray(c.relative.major), np.asarray(c.relative.minor),
              np.asarray(c.normal))
     ell = an.design_ellipse      # the ellipse of the largest force
@@ -133,6 +182,16 @@ def near_field_model(gearset, pair_mesh, depth: float = DEPTH, same_load: bool =
     return far, model.n_dofs, an
 
 
+def _finite(height):
+    """The height where the flank exists, the contact plane beyond its end (the far
+    field's probes there carry no pressure)."""
+    return lambda x, y: np.nan_to_num(height(x, y), nan=0.0)
+
+
+def _exists(height):
+    return lambda x, y: np.isfinite(height(x, y))
+
+
 def ellipse_at(analysis, force: float):
     from fe_impact.gears.tca import contact_ellipse
 
@@ -140,8 +199,14 @@ def ellipse_at(analysis, force: float):
 
 
 def solve_force(far, analysis, force: float, depth: float = DEPTH,
-                far_field: bool = True) -> tuple[nf.PressureSolution, nf.Grid]:
-    """Approach under ``force`` (N) on the grid over its Hertz ellipse."""
+                far_field: bool = True, heights=None, quadratic: bool = False
+                ) -> tuple[nf.PressureSolution, nf.Grid]:
+    """Approach under ``force`` (N) on the grid over its Hertz ellipse.
+
+    ``heights``: the flanks' heights (:func:`flank_heights`): no pressure beyond
+    the face gear's ends, and the separation of the flanks themselves unless
+    ``quadratic`` (the relative curvature's quadratic form); without them the
+    quadratic separation over the whole grid."""
     ell = ellipse_at(analysis, force)
     grid = nf.Grid.centred(GRID_SPAN * ell.a, GRID_SPAN * ell.b, CELLS, CELLS)
     nff.check_grid(grid, ell.a, ell.b, key="grid")
@@ -153,19 +218,36 @@ def solve_force(far, analysis, force: float, depth: float = DEPTH,
         e_star = analysis.effective_modulus
         conv = nf.Convolution(grid, nf.surface_kernel(grid, e_star))
         return nf.solve_pressure(sep, conv.apply, force, grid.cell_area), grid
+    allowed = None
+    if heights is not None:
+        true = heights[0](X, Y) - heights[1](X, Y)
+        allowed = np.isfinite(true)
+        if not quadratic:
+            sep = true
     near = nf.Convolution(grid, far.near_kernel(grid, depth)).apply
     return nff.solve_combined(sep, near, far.operator(grid, depth), force,
-                              grid.cell_area), grid
+                              grid.cell_area, allowed=allowed), grid
 
 
-def refined_fe(gearset, text: str, cache: Path) -> dict:
-    """Today's refined FE at the default level: the mesh cycle's position."""
+#: The mesh cycle's family of the default level (every size and the gradation
+#: scaled): its observed order at the pitch point, 500 N (validation/mesh_cycle.py,
+#: check 2: sizes x 1.5, 1, 1/1.5), used to extrapolate from two of its members.
+FAMILY_ORDER = 2.59
+FAMILY_COARSER = 2.0 / 3.0
+
+
+def refined_fe(gearset, text: str, cache: Path, refinement: float = 1.0) -> dict:
+    """Today's refined FE at the default level: the mesh cycle's position
+    (``refinement``: the family's member, 1 the default level itself)."""
     from fe_impact.calibration import meshcycle as mc
+    from validation.mesh_cycle import first_touch_offset
 
     case = mc.PositionCase(1, gearset.stages[0].teeth, 0.0, FORCES, "")
     t = time.perf_counter()
-    rec = mc.run_position(case, "default", 2, text, cache)
-    return {"seconds": time.perf_counter() - t, "n_dofs": rec.n_dofs,
+    rec = mc.run_position(case, "default", 2, text, cache, refinement)
+    seconds = time.perf_counter() - t
+    offset = first_touch_offset(gearset, text, case, "default", cache, refinement)
+    return {"seconds": seconds, "n_dofs": rec.n_dofs, "first_touch_offset": offset,
             "approaches": [float(a) for a in rec.approaches],
             "timings": {k: float(v) for k, v in rec.timings_s.items()}}
 
@@ -174,7 +256,8 @@ def run(out: str | Path = "out/nearfield_pair", baseline: bool = True,
         depth: float = DEPTH, refinement: float = COARSE["refinement"],
         level: str = COARSE["level"], design_force: float = COARSE["design_force"],
         same_load: bool = SAME_LOAD, hat_spacing: float | None = None,
-        cache: Path | None = None) -> dict:
+        cache: Path | None = None, true_gap: bool = TRUE_GAP,
+        flank_end: bool = True, family: bool = False) -> dict:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     gs, text = _gearset()
@@ -186,11 +269,13 @@ def run(out: str | Path = "out/nearfield_pair", baseline: bool = True,
         t_mesh = time.perf_counter() - t0
         tracemalloc.start()
         t = time.perf_counter()
-        far, n_dofs, an = near_field_model(gs, pm, depth, same_load, hat_spacing)
+        far, n_dofs, an = near_field_model(gs, pm, depth, same_load, hat_spacing, true_gap)
+        heights = flank_heights(gs, an) if (true_gap or flank_end) else None
         t_setup = time.perf_counter() - t
         rows = []
         for f in FORCES:
-            sol, grid = solve_force(far, an, f, depth)
+            sol, grid = solve_force(far, an, f, depth, heights=heights,
+                                    quadratic=not true_gap)
             hs, _ = solve_force(far, an, f, far_field=False)
             ell = ellipse_at(an, f)
             rows.append({"force": f, "approach": sol.approach, "p0": float(sol.pressure.max()),
@@ -205,12 +290,24 @@ def run(out: str | Path = "out/nearfield_pair", baseline: bool = True,
                   "near_field_seconds": t_nf, "far_solves": far.solves,
                   "python_peak_MiB_near_field": peak, "depth_m": depth, "grid_cells": CELLS ** 2,
                   "refinement": refinement, "level": level, "design_force": design_force,
-                  "same_load": same_load, "hats": [far.hats.nx, far.hats.ny], "rows": rows}
+                  "same_load": same_load, "true_gap": true_gap, "flank_end": flank_end,
+                  "hats": [far.hats.nx, far.hats.ny], "rows": rows}
         if baseline:
             result["refined"] = refined_fe(gs, text, cache / "refined")
+        if baseline and family:
+            result["refined_coarser"] = refined_fe(gs, text, cache / "refined", FAMILY_COARSER)
+            result["extrapolated"] = extrapolate(result["refined"], result["refined_coarser"])
     result["peak_rss_MiB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     (out / "nearfield_pair.json").write_text(json.dumps(result, indent=1))
     return result
+
+
+def extrapolate(fine: dict, coarse: dict, order: float = FAMILY_ORDER) -> list[float]:
+    """Richardson's extrapolation (m) of the approach at each force from two members of
+    the default level's mesh family, ``h = n_dofs^(-1/3)``, at the family's order."""
+    r = (fine["n_dofs"] / coarse["n_dofs"]) ** (1.0 / 3.0)
+    return [f + (f - c) / (r ** order - 1.0)
+            for f, c in zip(fine["approaches"], coarse["approaches"], strict=True)]
 
 
 def check(result: dict) -> list[ck.Check]:
@@ -246,6 +343,22 @@ def report(result: dict) -> str:
                      f"| {r['approach'] / refa - 1:+.2%} "
                      f"| {r['half_space_approach'] / r['hertz_approach'] - 1:+.2%} "
                      f"| {r['contact_area'] / r['hertz_area'] - 1:+.2%} |")
+    ext = result.get("extrapolated")
+    if ext:
+        co = result["refined_coarser"]
+        lines += ["", f"Reference's own error: the default level ({ref['n_dofs']} DOFs) and "
+                  f"its family's member with every size x {1 / FAMILY_COARSER:g} "
+                  f"({co['n_dofs']} DOFs), extrapolated at order {FAMILY_ORDER}; the FE's "
+                  f"first-touch offset {ref['first_touch_offset'] * 1e9:.1f} nm "
+                  f"({co['first_touch_offset'] * 1e9:.1f} nm on the coarser).", "",
+                  "| force (N) | coarser (um) | default (um) | extrapolated (um) | default vs "
+                  "extrapolated | near field vs extrapolated | offset / default |",
+                  "|---|---|---|---|---|---|---|"]
+        for i, r in enumerate(result["rows"]):
+            d, c, e = ref["approaches"][i], co["approaches"][i], ext[i]
+            lines.append(f"| {r['force']:g} | {c * 1e6:.4f} | {d * 1e6:.4f} | {e * 1e6:.4f} "
+                         f"| {d / e - 1:+.2%} | {r['approach'] / e - 1:+.2%} "
+                         f"| {ref['first_touch_offset'] / d:.2%} |")
     lines.append("")
     return "\n".join(lines)
 
@@ -264,6 +377,14 @@ def main(argv: list[str] | None = None) -> int:
                    help="subtract the grid pressure's half-space displacement at depth "
                         "(hats at half the depth) instead of the FE's own loads'")
     p.add_argument("--hat-spacing", type=float, default=None, help="hat spacing (m)")
+    p.add_argument("--quadratic-gap", action="store_true",
+                   help="the relative curvature's quadratic separation instead of the "
+                        "flanks' own (far-field loads and probes on the contact plane)")
+    p.add_argument("--family", action="store_true",
+                   help="also the refined FE with every size x 1.5 and Richardson's "
+                        "extrapolation of the reference (90 s more)")
+    p.add_argument("--no-flank-end", action="store_true",
+                   help="with --quadratic-gap: pressure allowed past the face gear's end")
     p.add_argument("--cache", type=Path, default=None,
                    help="keep the meshes in this folder (default: a temporary one)")
     args = p.parse_args(argv)
@@ -272,7 +393,10 @@ def main(argv: list[str] | None = None) -> int:
     result = run(args.out, baseline=not args.no_baseline, depth=args.depth,
                  refinement=args.refinement, level=args.level,
                  design_force=args.design_force, same_load=not args.depth_matching,
-                 hat_spacing=args.hat_spacing, cache=args.cache)
+                 hat_spacing=args.hat_spacing, cache=args.cache,
+                 true_gap=not args.quadratic_gap,
+                 flank_end=not (args.quadratic_gap and args.no_flank_end),
+                 family=args.family)
     checks = check(result)
     text = report(result) + "\n## Checks\n\n" + ck.markdown(checks)
     (args.out / "nearfield_pair.md").write_text(text)

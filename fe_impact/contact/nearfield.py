@@ -242,7 +242,8 @@ class PressureSolution:
 
 def solve_pressure(separation: np.ndarray, compliance: Callable[[np.ndarray], np.ndarray],
                    force: float, cell_area: float, tol: float = PRESSURE_TOLERANCE,
-                   start: np.ndarray | None = None) -> PressureSolution:
+                   start: np.ndarray | None = None,
+                   allowed: np.ndarray | None = None) -> PressureSolution:
     """Polonsky-Keer conjugate gradient for the contact pressure under a given force.
 
     Finds ``p >= 0`` with ``sum(p) cell_area = force`` and a gap
@@ -262,14 +263,24 @@ def solve_pressure(separation: np.ndarray, compliance: Callable[[np.ndarray], np
         Area of a cell (m^2).
     start : ndarray, optional
         A starting pressure (a previous solution): fewer iterations.
+    allowed : ndarray of bool, optional
+        Cells where both surfaces exist (default all): the others, beyond
+        the end of a flank, carry no pressure whatever their gap.
     """
     if force <= 0.0:
         raise ValueError(f"near-field solve: force {force} N; give a positive force")
     h = np.asarray(separation, dtype=float)
-    if start is not None and np.sum(start) > 0:
-        p = start * (force / (np.sum(start) * cell_area))
+    if allowed is None:
+        allowed = np.ones(h.shape, dtype=bool)
+    if not np.any(allowed):
+        raise ValueError("near-field solve: no grid cell lies on both surfaces; "
+                         "centre the grid on the contact")
+    h = np.where(allowed, h, np.inf)
+    if start is not None and np.sum(start[allowed]) > 0:
+        p = np.where(allowed, start, 0.0)
+        p = p * (force / (np.sum(p) * cell_area))
     else:
-        p = np.full(h.shape, force / (h.size * cell_area))
+        p = np.where(allowed, force / (np.count_nonzero(allowed) * cell_area), 0.0)
     t = np.zeros_like(p)
     g_old, delta = 1.0, 0.0
     it, change = 0, np.inf

@@ -169,6 +169,10 @@ class Side:
         undeformed surface over the grid point (x, y) of the contact plane.
     inward : float
         +1 if the body lies on the normal's side of its surface, -1 on the other.
+    exists : callable, optional
+        ``exists(x, y)`` -> bool: where the body's surface lies over the
+        plane (a flank's end crossing the grid); default everywhere. The far
+        field's hat loads are spread only there (:func:`hat_samples`).
     """
 
     volume: str
@@ -176,6 +180,7 @@ class Side:
     poisson: float
     height: Callable[[np.ndarray, np.ndarray], np.ndarray]
     inward: float
+    exists: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -226,21 +231,37 @@ def _hat_1d(x: np.ndarray, half: float, n: int) -> tuple[np.ndarray, np.ndarray]
 HAT_SAMPLES = 8
 
 
-def hat_samples(hats: HatBasis) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
+def hat_samples(hats: HatBasis, exists: Callable[[np.ndarray, np.ndarray], np.ndarray]
+                | None = None) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
     """How each hat's unit force is spread: sample points ``x, y`` (m) on a lattice
     of :data:`HAT_SAMPLES` per hat spacing, and their shares ``phi`` (samples,
-    hats; each column sums to 1, in proportion to the hat's value)."""
+    hats; each column sums to 1, in proportion to the hat's value).
+
+    ``exists(x, y)`` -> bool: where the body's surface exists (a flank's end
+    crossing the lattice); the samples beyond it are dropped and each hat's
+    force is spread over those left, so the FE is loaded only on its own
+    surface and the half-space term subtracted sees the same load. A hat
+    with no sample left keeps its whole spread (no cell inside loads it).
+    """
     mx, my = (hats.nx - 1) * HAT_SAMPLES + 1, (hats.ny - 1) * HAT_SAMPLES + 1
     X, Y = np.meshgrid(np.linspace(-hats.half_x, hats.half_x, mx),
                        np.linspace(-hats.half_y, hats.half_y, my), indexing="ij")
     x, y = X.ravel(), Y.ravel()
     phi = hats.weights(x, y)
+    if exists is not None:
+        keep = np.asarray(exists(x, y), dtype=bool)
+        inside = phi.multiply(keep[:, None]).tocsr()
+        empty = np.asarray(inside.sum(axis=0)).ravel() == 0.0
+        phi = (inside + phi @ sp.diags(empty.astype(float))).tocsr()
+        phi.eliminate_zeros()
     phi = (phi @ sp.diags(1.0 / np.asarray(phi.sum(axis=0)).ravel())).tocsr()
     return x, y, phi
 
 
 def hat_half_space(hats: HatBasis, x: np.ndarray, y: np.ndarray, depth: float,
-                   youngs: float, poisson: float) -> np.ndarray:
+                   youngs: float, poisson: float,
+                   exists: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+                   ) -> np.ndarray:
     """Half-space normal displacement (m/N) at ``depth`` (m, 0 for the surface) under
     the points (x, y) of each hat's unit force spread as :func:`hat_samples`
     spreads it on the FE: (n_points, n_hats).
@@ -248,8 +269,9 @@ def hat_half_space(hats: HatBasis, x: np.ndarray, y: np.ndarray, depth: float,
     Each sample carries its share of the force on its own cell: Love's
     rectangle at the surface (Johnson 1985, eq. 3.25), Boussinesq's axial
     displacement (eq. 3.21a) over a 3 x 3 Gauss rule of the cell below it.
+    ``exists``: as :func:`hat_samples`.
     """
-    sx, sy, phi = hat_samples(hats)
+    sx, sy, phi = hat_samples(hats, exists)
     hx = 2.0 * hats.half_x / ((hats.nx - 1) * HAT_SAMPLES)
     hy = 2.0 * hats.half_y / ((hats.ny - 1) * HAT_SAMPLES)
     dx, dy = x[:, None] - sx[None, :], y[:, None] - sy[None, :]
@@ -336,9 +358,9 @@ class FarField:
         """Per side, ``K_ff^-1`` of each hat's unit load (n_free, n_hats), solved once."""
         if self._hat_responses is None:
             hb = self.hats
-            x, y, phi = hat_samples(hb)
             self._hat_responses = []
             for s in self.sides:
+                x, y, phi = hat_samples(hb, s.exists)
                 surf = probe_matrix(self.mesh, self._points(x, y, s), s.volume, self.frame[3])
                 F = (surf[:, self.free].T @ phi).toarray()      # unit resultant per hat
                 self._hat_responses.append(np.asarray(self.solve(F)).reshape(F.shape))
@@ -347,7 +369,7 @@ class FarField:
 
     def _hat_half_space(self, x: np.ndarray, y: np.ndarray, depth: float, side: Side
                         ) -> np.ndarray:
-        return hat_half_space(self.hats, x, y, depth, side.youngs, side.poisson)
+        return hat_half_space(self.hats, x, y, depth, side.youngs, side.poisson, side.exists)
 
     def near_kernel(self, grid: nf.Grid, depth: float):
         """The half-space part that goes with this far field: with ``same_load``
@@ -432,21 +454,91 @@ def layer_kernel(grid: nf.Grid, sides, depth: float):
     return kernel
 
 
+#: Newton iterations of :func:`surface_height` (the map from surface parameters
+#: to the contact plane is nearly affine over a patch: two or three suffice).
+HEIGHT_ITERATIONS = 6
+
+
+def surface_height(surface: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                   start: tuple[float, float], frame, step: tuple[float, float],
+                   inside: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+                   ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Height over the contact plane of a parametric surface, from the surface itself.
+
+    Parameters
+    ----------
+    surface : callable
+        ``surface(s, t)`` -> points (n, 3) in the mesh frame (m), element-wise
+        in the parameter arrays; evaluated past the flank's ends where asked.
+    start : (float, float)
+        Parameters of the contact point.
+    frame : tuple
+        ``(origin, t1, t2, normal)`` of the contact plane (m, unit vectors).
+    step : (float, float)
+        Parameter steps of the finite-difference Jacobian.
+    inside : callable, optional
+        ``inside(s, t)`` -> bool: where the surface exists (a flank's ends);
+        the height is NaN elsewhere.
+
+    Returns
+    -------
+    callable
+        ``height(x, y)`` (m, along the normal) at the plane points (x, y): the
+        surface point whose projection on the plane is (x, y), found by
+        Newton's method on the parameters (the true flank, not its quadratic
+        Taylor form and not the FE's facets).
+    """
+    o, t1, t2, n = (np.asarray(v, dtype=float) for v in frame)
+
+    def plane(s, t):
+        d = np.asarray(surface(s, t), dtype=float) - o
+        return d @ t1, d @ t2, d @ n
+
+    def height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        shape = np.broadcast(x, y).shape
+        x, y = np.broadcast_to(x, shape).ravel(), np.broadcast_to(y, shape).ravel()
+        s = np.full(x.shape, float(start[0]))
+        t = np.full(x.shape, float(start[1]))
+        for _ in range(HEIGHT_ITERATIONS):
+            px, py, _ = plane(s, t)
+            ax, ay, _ = plane(s + step[0], t)
+            bx, by, _ = plane(s, t + step[1])
+            j11, j21 = (ax - px) / step[0], (ay - py) / step[0]
+            j12, j22 = (bx - px) / step[1], (by - py) / step[1]
+            det = j11 * j22 - j12 * j21
+            rx, ry = x - px, y - py
+            s = s + (j22 * rx - j12 * ry) / det
+            t = t + (-j21 * rx + j11 * ry) / det
+        px, py, pz = plane(s, t)
+        miss = np.hypot(px - x, py - y)
+        if np.nanmax(miss, initial=0.0) > 1e-9:
+            logger.warning("near field: surface height not converged (%.2e m off)",
+                           float(np.nanmax(miss)))
+        if inside is not None:
+            pz = np.where(inside(s, t), pz, np.nan)
+        return pz.reshape(shape)
+
+    return height
+
+
 def solve_combined(separation: np.ndarray, near: Callable[[np.ndarray], np.ndarray],
                    far: Callable[[np.ndarray], np.ndarray], force: float, cell_area: float,
-                   start: np.ndarray | None = None) -> nf.PressureSolution:
+                   start: np.ndarray | None = None,
+                   allowed: np.ndarray | None = None) -> nf.PressureSolution:
     """Pressure under ``force`` (N) with compliance ``near + far``.
 
     ``near`` (symmetric, the half-space layer) goes to the Polonsky-Keer CG;
     ``far`` (the coarse FE, smooth over the patch, not symmetric) is iterated
     on: ``p_k+1 = CG(separation + far(p_k))``. The returned approach includes
-    the far field.
+    the far field. ``allowed``: the cells where both surfaces exist
+    (:func:`fe_impact.contact.nearfield.solve_pressure`).
     """
-    sol = nf.solve_pressure(separation, near, force, cell_area, start=start)
+    sol = nf.solve_pressure(separation, near, force, cell_area, start=start, allowed=allowed)
     shift = far(sol.pressure)
     for _ in range(MAX_FAR_ITERATIONS):
         sol = nf.solve_pressure(separation + shift, near, force, cell_area,
-                                start=sol.pressure)
+                                start=sol.pressure, allowed=allowed)
         new = far(sol.pressure)
         change = float(np.abs(new - shift).max())
         shift = new
@@ -454,7 +546,7 @@ def solve_combined(separation: np.ndarray, near: Callable[[np.ndarray], np.ndarr
             break
     else:
         logger.warning("near field: far-field iteration not converged (change %.2e m)", change)
-    g = separation + shift + near(sol.pressure)
+    g = np.where(np.isfinite(separation), separation, 0.0) + shift + near(sol.pressure)
     on = sol.pressure > 0
     approach = float(np.mean(g[on]))
     return nf.PressureSolution(sol.pressure, approach, force, sol.iterations,
@@ -462,10 +554,11 @@ def solve_combined(separation: np.ndarray, near: Callable[[np.ndarray], np.ndarr
 
 
 def solve_combined_approach(separation, near, far, approach: float, cell_area: float,
-                            force_guess: float, rtol: float = 1e-9) -> nf.PressureSolution:
+                            force_guess: float, rtol: float = 1e-9,
+                            allowed: np.ndarray | None = None) -> nf.PressureSolution:
     """:func:`solve_combined` under a given rigid approach (m): secant on log force."""
     def at(force, start=None):
-        return solve_combined(separation, near, far, force, cell_area, start)
+        return solve_combined(separation, near, far, force, cell_area, start, allowed)
     return nf.secant_on_force(at, approach, force_guess, rtol)
 
 

@@ -1,0 +1,519 @@
+"""The rolling mesh: tooth sectors turning through mesh, integrated in time.
+
+Floating frame of reference (Shabana, *Dynamics of Multibody Systems*, ch. 5;
+the turning frames of Calyx, Parker, Vijayakar and Imajo 2000). Each gear's
+coordinates are ``q = (u, theta)``: ``theta`` its rotor's rotation from the
+mesh's placement (positive in the drive sense), ``u`` the small elastic
+displacement of its sector in a frame turning with the rotor, zero on the hub
+(tied to the rotor). A material point is at ``c + R(theta) (X + u - c)``,
+exactly for any ``theta``. Linearised in ``u`` and its rates, the kinetic
+energy gives the constant mass matrix ``[[M, M psi], [psi^T M, J]]``
+(``psi`` = the rigid rotation mode of the sector, ``J`` = the gear set's
+inertia of the gear; the sector's own share ``psi^T M psi`` is part of it)
+and the stiffness ``[[K, 0], [0, 0]]``; both are constant for the whole
+path, so one factorisation of the Newmark matrix ``M + beta dt^2 K`` serves
+every step. The centrifugal and Coriolis terms (``omega^2`` and
+``2 omega u_dot``) are left out; :func:`inertial_terms` states their size.
+
+Contact. Pair ``k`` is pinion tooth ``k`` with face-gear tooth ``k`` on the
+drive flanks, and pinion tooth ``k`` with the face-gear tooth it faces on
+the coast flanks (backlash ``b``). Where the turned flanks touch comes from
+the exact flanks: the gear pair's tooth contact analysis
+(:class:`~fe_impact.gears.tca.GearPair`) gives the contact point and normal
+at each roll angle, and the line-of-action geometry
+(:func:`~fe_impact.gears.kinematics.mesh_geometry`: path ends and the gaps of
+the rounded tip edges beyond them) the rigid gap, in the torsional model's
+coordinate ``x = r_bp theta_p - r_b2 theta_f + b/2``: drive gap
+``g(s) + b/2 - x``, coast gap ``g(s_c) + b/2 + x``. The elastic sectors add
+their normal displacements at the contact point (interpolated on the flank
+triangle that holds it), and the Hertz approach of the two flanks' local
+curvatures is added to the gap (``P = K_H delta^1.5``,
+:func:`~fe_impact.gears.tca.equivalent_radius`); the force follows from the
+complementarity of gap and force at each step.
+
+Integration: Newmark's average acceleration (``beta = 1/4``, ``gamma =
+1/2``): no numerical damping, and for the linear part an exact discrete
+energy balance, so the energy check measures the contact's share.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from fe_impact.errors import CaseError
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Body", "ContactGeometry", "RollSettings", "Roller", "inertial_terms"]
+
+BETA, GAMMA = 0.25, 0.5
+
+
+def _rz(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _ry(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+_MIRROR = np.diag([-1.0, 1.0, 1.0])
+
+
+# -- the exact flanks: contact points along the path -------------------------------------------
+@dataclass(frozen=True)
+class ContactGeometry:
+    """The stage's contact path, in the tooth-0 frames of the two gears.
+
+    Attributes
+    ----------
+    s : ndarray (n,)
+        Positions on the line of action [m] (from the base tangency) of the table.
+    pinion_points, face_points : ndarray (n, 3)
+        The contact point in the pinion's and the face gear's own frame
+        (tooth 0; :meth:`~fe_impact.gears.tca.GearPair.pinion_to_mesh`).
+    pinion_normals, face_normals : ndarray (n, 3)
+        The face gear's outward flank normal at the point, in the same frames.
+    hertz_k : ndarray (n,)
+        ``K_H`` of ``P = K_H delta^1.5`` [N/m^1.5] of the flanks' curvatures.
+    """
+
+    pair: object = field(repr=False)
+    mesh: object = field(repr=False)       # MeshGeometry
+    backlash: float
+    s: np.ndarray
+    pinion_points: np.ndarray
+    face_points: np.ndarray
+    pinion_normals: np.ndarray
+    face_normals: np.ndarray
+    hertz_k: np.ndarray
+
+    @property
+    def base_radii(self) -> tuple[float, float]:
+        """``r_bp``, ``r_b2`` [m]: the torques of a unit normal force."""
+        p = self.pair
+        cos_a = math.cos(p.pinion.pressure_angle)
+        return p.pinion.pitch_radius * cos_a, p.face.pitch_radius * cos_a
+
+    @classmethod
+    def build(cls, gearset, stage: int, backlash: float | None = None, n: int = 61,
+              corners: str = "3d", stiffen: float = 1.0) -> ContactGeometry:
+        """TCA over the path of contact of ``stage`` (``n`` roll angles); ``stiffen``
+        multiplies Young's modulus (the kinematic check's stiffened material)."""
+        from fe_impact.gears.kinematics import default_backlash, mesh_geometry
+        from fe_impact.gears.tca import GearPair, equivalent_radius
+        from fe_impact.physics import hertz
+
+        pair = GearPair.from_gearset(gearset, stage)
+        geo = mesh_geometry(gearset, stage, corners)
+        if backlash is None:
+            backlash = default_backlash(gearset.module, pair.pinion.pitch_radius,
+                                        pair.face.pitch_radius)
+        # a hair inside the ends: the TCA's flanks end there
+        s = np.linspace(geo.s_start, geo.s_end, n)
+        rolls = geo.roll_at(s)
+        path = pair.path(rolls)
+        mat = gearset.material
+        e_star = hertz.effective_modulus(mat.youngs_modulus * stiffen, mat.poisson_ratio)
+        pp, fp, pn, fn, kh = [], [], [], [], []
+        t_p = np.array([0.0, pair.pinion.pitch_radius, pair.z0])
+        for c in path.points:
+            rp, rf = pair.pinion_rotation(c.roll_angle), pair.face_rotation(c.face_angle)
+            pp.append(rp.T @ (c.point - t_p))
+            pn.append(rp.T @ c.normal)
+            fp.append(rf.T @ c.point)
+            fn.append(rf.T @ c.normal)
+            radius = equivalent_radius(c.relative, e_star)
+            kh.append(4.0 / 3.0 * e_star * math.sqrt(radius))
+        return cls(pair, geo, float(backlash), s, np.array(pp), np.array(fp), np.array(pn),
+                   np.array(fn), np.array(kh))
+
+    def at(self, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """Points, normals (pinion, face frames of tooth 0) and ``K_H`` at ``s``
+        (clamped to the path: beyond it, a tip edge touches at the path's end)."""
+        s = float(np.clip(s, self.s[0], self.s[-1]))
+        i = int(np.clip(np.searchsorted(self.s, s) - 1, 0, len(self.s) - 2))
+        w = (s - self.s[i]) / (self.s[i + 1] - self.s[i])
+
+        def lerp(a):
+            return (1.0 - w) * a[i] + w * a[i + 1]
+
+        return (lerp(self.pinion_points), lerp(self.face_points), lerp(self.pinion_normals),
+                lerp(self.face_normals), float(lerp(self.hertz_k)))
+
+    def gap(self, s: float) -> tuple[float, float]:
+        """Rigid gap of a pair at ``s`` [m] and its slope ``dg/ds``."""
+        g, dg = self.mesh.gap(np.array([s]))
+        return float(g[0]), float(dg[0])
+
+    def reach(self) -> tuple[float, float]:
+        """Line-of-action range [m] where a pair can touch (its gap below the corner cap)."""
+        return (self.mesh.s_start - self.mesh.approach.delta_max,
+                self.mesh.s_end + self.mesh.recess.delta_max)
+
+
+# -- one gear: its sector and its rotor ---------------------------------------------------------
+@dataclass(eq=False)
+class Body:
+    """A gear's coordinates ``(u, theta)`` and their constant matrices.
+
+    ``u`` may be empty (a rigid gear). ``psi`` is the rigid rotation mode of
+    the sector's free DOFs; the mesh frame ``to_ref`` rotation maps the gear's
+    own frame (tooth 0 at its TCA position) to the mesh's placement.
+    """
+
+    name: str
+    M: sp.csr_matrix            # (n, n), rotor last
+    K: sp.csr_matrix
+    axis_point: np.ndarray
+    axis: np.ndarray            # unit, drive-sense rotation = -axis (right hand)
+    points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))   # flank nodes, ref
+    triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), int))
+    tri_dofs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), int))
+    solver: object = None
+    tree: object = None
+    n_dofs_mesh: int = 0
+    free_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+
+    @property
+    def n(self) -> int:
+        return self.M.shape[0]
+
+    @property
+    def elastic(self) -> bool:
+        return self.n > 1
+
+    def factorise(self, dt: float, prescribed: bool) -> None:
+        """Factorise ``M + beta dt^2 K`` (without the rotor row if ``prescribed``)."""
+        S = (self.M + BETA * dt * dt * self.K).tocsc()
+        if prescribed:
+            S = S[:-1, :-1]
+        if S.shape[0] == 0:
+            self.solver = None
+            return
+        if S.shape[0] == 1:
+            value = float(S[0, 0])
+            self.solver = lambda b: b / value
+            return
+        try:
+            from fe_impact.fe.linalg import SPDSolver
+            self.solver = SPDSolver(S.tocsr()).solve
+        except Exception:   # noqa: BLE001 - no MKL: SuperLU
+            from scipy.sparse.linalg import splu
+            lu = splu(S)
+            self.solver = lu.solve
+
+    def locate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Free-DOF indices (3, 3) and weights (3,) of the flank triangle holding
+        reference point ``x`` (linear shape functions of its corners), and the
+        point's distance from that triangle [m]."""
+        _, near = self.tree.query(x, k=min(12, len(self.triangles)))
+        best = None
+        for t in np.atleast_1d(near):
+            a, b, c = self.points[self.triangles[t]]
+            e1, e2 = b - a, c - a
+            nrm = np.cross(e1, e2)
+            nrm /= np.linalg.norm(nrm)
+            d = x - a
+            h = d @ nrm
+            p = d - h * nrm
+            m = np.array([[e1 @ e1, e1 @ e2], [e1 @ e2, e2 @ e2]])
+            l1, l2 = np.linalg.solve(m, [p @ e1, p @ e2])
+            w = np.array([1.0 - l1 - l2, l1, l2])
+            outside = -min(w.min(), 0.0)
+            score = abs(h) + outside * math.sqrt(nrm @ nrm) * np.linalg.norm(e1)
+            if best is None or score < best[0]:
+                best = (score, t, np.clip(w, 0.0, None) / np.clip(w, 0.0, None).sum(), abs(h))
+        _, t, w, h = best
+        return self.tri_dofs[t], w, h
+
+
+def rigid_body(name: str, inertia: float, axis_point, axis) -> Body:
+    """A gear without elastic DOFs (its rotor only)."""
+    return Body(name, sp.csr_matrix(np.array([[inertia]])), sp.csr_matrix((1, 1)),
+                np.asarray(axis_point, float), np.asarray(axis, float))
+
+
+# -- settings and records ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RollSettings:
+    """Operating point and time stepping.
+
+    Attributes
+    ----------
+    speed : float
+        Pinion speed [rad/s] (positive: driving the drive flanks).
+    torque : float
+        Load torque on the face gear [N m] (opposes its drive-sense rotation).
+    cycles : float
+        Mesh cycles to simulate.
+    steps_per_cycle : int
+    ramp_cycles : float
+        The load torque rises as ``sin^2`` over these cycles (0: at once).
+    start_cycles : float or None
+        Where pair 0 starts, in base pitches after the path's start; None: at the
+        start of the longest stretch the sectors hold (:meth:`Roller.held_window`).
+    te_amplitude : float
+        A kinematic transmission error [m] (a pinion profile error, the torsional
+        model's ``e = A sin(2 pi u / p_b)``, ``u`` the pinion's roll on the line of
+        action since the start): it closes the drive gaps and opens the coast gaps
+        by ``e``. 0: exact flanks.
+    """
+
+    speed: float
+    torque: float = 0.0
+    cycles: float = 1.0
+    steps_per_cycle: int = 400
+    ramp_cycles: float = 0.0
+    speed_ramp_cycles: float = 0.0
+    start_cycles: float | None = None
+    te_amplitude: float = 0.0
+
+
+def inertial_terms(sector_mass: float, radius: float, speed: float, mesh_force: float,
+                   elastic_speed: float) -> dict[str, float]:
+    """Size of the centrifugal and Coriolis forces left out, against the mesh force.
+
+    ``m omega^2 r`` of the sector's mass at its radius and ``2 m omega v`` for
+    elastic speeds ``v`` [m/s], each divided by ``mesh_force`` [N].
+    """
+    centrifugal = sector_mass * speed**2 * radius
+    coriolis = 2.0 * sector_mass * speed * elastic_speed
+    return {"centrifugal_n": centrifugal, "coriolis_n": coriolis,
+            "centrifugal_fraction": centrifugal / mesh_force if mesh_force else math.inf,
+            "coriolis_fraction": coriolis / mesh_force if mesh_force else math.inf}
+
+
+# -- the time integration -----------------------------------------------------------------------
+class Roller:
+    """Newmark integration of the two gears in contact (see the module text).
+
+    Parameters
+    ----------
+    geometry : ContactGeometry
+    pinion, face : Body
+        Their reference configuration is the mesh's placement, pinion tooth 0 at
+        TCA roll ``roll_placed``, face-gear tooth 0 at ``face_placed``.
+    teeth : range
+        Tooth numbers present in both sectors.
+    """
+
+    def __init__(self, geometry: ContactGeometry, pinion: Body, face: Body, teeth: range,
+                 roll_placed: float, face_placed: float, settings: RollSettings) -> None:
+        self.geo, self.p, self.f, self.teeth = geometry, pinion, face, teeth
+        self.roll_placed, self.face_placed = roll_placed, face_placed
+        self.set = settings
+        pair = geometry.pair
+        self.r_bp, self.r_b2 = geometry.base_radii
+        self.ratio = pair.ratio
+        self.pitch_p = 2 * math.pi / pair.pinion.teeth
+        self.pitch_f = 2 * math.pi / pair.face.teeth
+        self.p_b = geometry.mesh.base_pitch
+        self.period = self.pitch_p / settings.speed
+        self.dt = self.period / settings.steps_per_cycle
+        self.n_steps = int(round(settings.cycles * settings.steps_per_cycle))
+        self.t_p = np.array([0.0, pair.pinion.pitch_radius, pair.z0])
+        self._coast_tooth: dict[int, int] = {}
+        lo, hi = self.held_window()
+        margin = 0.01 * self.pitch_p
+        #: mesh cycles the sectors hold
+        self.capacity = max((hi - lo - 2 * margin) / self.pitch_p, 0.0)
+        if settings.start_cycles is None:
+            #: pinion rotor angle at t = 0 [rad, drive sense, from the placement]
+            self.theta0 = lo + margin
+        else:   # pair 0 at the path's start plus start_cycles pitches
+            s0 = geometry.mesh.s_start + settings.start_cycles * self.p_b
+            self.theta0 = roll_placed - (geometry.mesh.s_pitch - s0) / self.r_bp
+        end = self.pinion_motion(self.n_steps * self.dt)[0]
+        if not (lo <= self.theta0 and end <= hi):
+            raise CaseError(
+                f"cycles = {settings.cycles:g}: the sectors ({len(teeth)} teeth each) hold "
+                f"{self.capacity:.2f} mesh cycles from the start of their window; ask for "
+                "fewer cycles")
+        pinion.factorise(self.dt, prescribed=True)
+        face.factorise(self.dt, prescribed=False)
+
+    # -- kinematics of the pinion (prescribed) --------------------------------------------------
+    def pinion_motion(self, t: float) -> tuple[float, float, float]:
+        """Drive-sense angle [rad], speed, acceleration of the pinion rotor at ``t``.
+
+        With ``speed_ramp_cycles`` the speed rises from 0 as ``sin^2`` (the
+        acceleration continuous at both ends, so that no step of it rings the
+        contact); then it is constant.
+        """
+        w, tr = self.set.speed, self.set.speed_ramp_cycles * self.period
+        if tr <= 0.0 or t >= tr:
+            return self.theta0 + w * (t - 0.5 * max(tr, 0.0)), w, 0.0
+        c = math.pi / tr
+        return (self.theta0 + w * (0.5 * t - math.sin(c * t) / (2.0 * c)),
+                w * math.sin(0.5 * c * t) ** 2, 0.5 * w * c * math.sin(c * t))
+
+    def load(self, t: float) -> float:
+        tr = self.set.ramp_cycles * self.period
+        if tr <= 0.0 or t >= tr:
+            return self.set.torque
+        return self.set.torque * math.sin(0.5 * math.pi * t / tr) ** 2
+
+    # -- pair positions ---------------------------------------------------------------------------
+    def _pairs(self, theta_p: float, teeth) -> list[tuple[int, int, float, bool]]:
+        """``(flank, tooth, s, held)`` of every pair in reach whose pinion tooth is in
+        ``teeth`` (flank 0 drive, 1 coast); ``held``: both its teeth are in the sectors."""
+        lo, hi = self.geo.reach()
+        out = []
+        for k in teeth:
+            phi = self.roll_placed - theta_p - k * self.pitch_p   # roll of pinion tooth k
+            s_d = self.geo.mesh.s_pitch - self.r_bp * phi
+            s_c = 2 * self.geo.mesh.s_pitch + 0.5 * self.p_b - s_d
+            if lo < s_d < hi:
+                out.append((0, k, s_d, k in self.teeth))
+            if lo < s_c < hi:
+                held = k in self.teeth and self._coast_face_tooth(k, theta_p) in self.teeth
+                out.append((1, k, s_c, held))
+        return out
+
+    def positions(self, theta_p: float) -> list[tuple[int, int, float]]:
+        """``(flank, tooth, s)`` of every pair in reach that the sectors hold."""
+        return [(fl, k, s) for fl, k, s, held in self._pairs(theta_p, self.teeth) if held]
+
+    def held(self, theta_p: float) -> bool:
+        """Whether every pair in reach at ``theta_p`` is in the sectors."""
+        wide = range(min(self.teeth) - 3, max(self.teeth) + 4)
+        return all(h for *_, h in self._pairs(theta_p, wide))
+
+    def held_window(self) -> tuple[float, float]:
+        """The longest range of pinion angles [rad, drive sense] the sectors hold."""
+        grid = self.roll_placed + np.linspace(-8, 8, 3201) * self.pitch_p
+        ok = np.array([self.held(t) for t in grid])
+        best, start = (0, 0), None
+        for i, v in enumerate(np.append(ok, False)):
+            if v and start is None:
+                start = i
+            elif not v and start is not None:
+                if i - 1 - start > best[1] - best[0]:
+                    best = (start, i - 1)
+                start = None
+        return float(grid[best[0]]), float(grid[best[1]])
+
+    def _ref_points(self, fl: int, k: int, s: float, theta_p: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """Contact point and face-outward normal in each body's reference frame.
+
+        A coast contact is the drive contact of the mirror image (``x -> -x``;
+        both teeth are symmetric about their centre planes): pinion tooth ``k``
+        at roll ``phi`` is, mirrored, at ``-pi/N_p - phi``, and it meets the
+        face-gear tooth whose mirrored angle is the conjugate one there.
+        """
+        xp, xf, np_, nf, kh = self.geo.at(s)
+        n = k
+        if fl == 1:
+            xp, xf, np_, nf = (_MIRROR @ v for v in (xp, xf, np_, nf))
+            n = self._coast_face_tooth(k, theta_p)
+        pair = self.geo.pair
+        rp = pair.pinion_rotation(self.roll_placed - k * self.pitch_p)
+        rf = pair.face_rotation(self.face_placed - n * self.pitch_f)
+        return rp @ xp + self.t_p, rf @ xf, rp @ np_, rf @ nf, kh
+
+    def _coast_face_tooth(self, k: int, theta_p: float) -> int:
+        """The face-gear tooth that pinion tooth ``k``'s coast flank faces."""
+        if k not in self._coast_tooth:
+            pair = self.geo.pair
+            phi = self.roll_placed - theta_p - k * self.pitch_p
+            face0 = self.face_placed - self.ratio * theta_p
+            mirrored = pair.nominal_face_angle(-math.pi / pair.pinion.teeth - phi)
+            val = (mirrored + face0) / self.pitch_f
+            n_face = pair.face.teeth
+            base = round(val)
+            self._coast_tooth[k] = min((base + j * n_face for j in (-1, 0, 1)),
+                                       key=lambda n: abs(n - k))
+        return self._coast_tooth[k]
+
+    def excitation(self, theta_p: float) -> tuple[float, float]:
+        """Kinematic transmission error ``e`` [m] and ``de/dtheta_p`` [m/rad]."""
+        a = self.set.te_amplitude
+        if a == 0.0:
+            return 0.0, 0.0
+        phase = 2.0 * math.pi / self.p_b
+        u = self.r_bp * (theta_p - self.theta0)
+        return a * math.sin(phase * u), a * phase * self.r_bp * math.cos(phase * u)
+
+    def world(self, x_ref: np.ndarray, theta: float, body: str) -> np.ndarray:
+        """Mesh-frame position of reference point ``x_ref`` of ``body`` (``"pinion"`` or
+        ``"face_gear"``) when its rotor is at ``theta`` (drive sense, from the placement)."""
+        pair = self.geo.pair
+        if body == "pinion":
+            rot = (pair.pinion_rotation(self.roll_placed - theta)
+                   @ pair.pinion_rotation(self.roll_placed).T)
+            return rot @ (x_ref - self.t_p) + self.t_p
+        rot = pair.face_rotation(self.face_placed - theta) @ pair.face_rotation(
+            self.face_placed).T
+        return rot @ x_ref
+
+    # -- contact rows ----------------------------------------------------------------------
+    def _rows(self, theta_p: float, theta_f: float) -> list[dict]:
+        """Every pair in reach: rigid gap, its slopes and each body's row."""
+        out = []
+        m = self.geo
+        for fl, k, s in self.positions(theta_p):
+            g, dg = m.gap(s)
+            xp, xf, np_, nf, kh = self._ref_points(fl, k, s, theta_p)
+            sign = 1.0 if fl == 0 else -1.0
+            e, de = self.excitation(theta_p)
+            row = {"flank": fl, "tooth": k, "s": s, "g": g + 0.5 * m.backlash - sign * e,
+                   "kh": kh, "dtheta_p": -sign * self.r_bp * (1.0 - dg) - sign * de,
+                   "dtheta_f": sign * self.r_b2,
+                   "sign": sign, "xp": xp, "xf": xf}
+            for body, x, nrm, sg, key in ((self.p, xp, np_, 1.0, "p"),
+                                          (self.f, xf, nf, -1.0, "f")):
+                if not body.elastic:
+                    row[key] = None
+                    continue
+                dofs, w, dist = body.locate(x)
+                if dist > 0.5 * self.p_b:
+                    raise CaseError(f"pair {k} ({'drive' if fl == 0 else 'coast'}): the "
+                                    f"contact point lies {dist * 1e3:.3g} mm off the "
+                                    f"{body.name} sector's flanks")
+                row[key] = (dofs.ravel(), (sg * w[:, None] * nrm[None, :]).ravel())
+            out.append(row)
+        return out
+
+
+def solve_contact(gfree: np.ndarray, D: np.ndarray, kh: np.ndarray, tol: float = 1e-13,
+                  sweeps: int = 500) -> np.ndarray:
+    """Forces ``lam >= 0`` with ``h = gfree + D lam + (lam / kh)^(2/3) >= 0``, ``lam h = 0``.
+
+    Projected Gauss-Seidel; each scalar problem ``a + D_ii t^3 + t^2 / kh^(2/3) = 0``
+    in ``t = lam^(1/3)`` is convex and increasing for ``t > 0``, so Newton from
+    above converges monotonically. ``D`` symmetric positive semi-definite with a
+    positive diagonal: the problem is strictly monotone, its solution unique.
+    """
+    n = len(gfree)
+    lam = np.zeros(n)
+    c = kh ** (-2.0 / 3.0)
+    for _ in range(sweeps):
+        change = 0.0
+        for i in range(n):
+            a = gfree[i] + D[i] @ lam - D[i, i] * lam[i]
+            if a >= 0.0:
+                new = 0.0
+            else:
+                t = max((-a / D[i, i]) ** (1 / 3), math.sqrt(-a / c[i]))
+                for _ in range(60):
+                    f = a + D[i, i] * t**3 + c[i] * t * t
+                    df = 3 * D[i, i] * t * t + 2 * c[i] * t
+                    step = f / df
+                    t -= step
+                    if abs(step) <= 1e-15 * t:
+                        break
+                new = t**3
+            change = max(change, abs(new - lam[i]))
+            lam[i] = new
+        if change <= tol * max(lam.max(initial=0.0), 1e-30):
+            break
+    return lam

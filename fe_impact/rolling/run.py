@@ -1,0 +1,303 @@
+"""The time loop of the rolling mesh and its record.
+
+:func:`integrate` steps a :class:`~fe_impact.rolling.model.Roller` and returns a
+:class:`RollResult`: the transmission error on the line of action, each pair's
+force, place and contact point, the contact events and the energy balance.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from fe_impact.rolling.model import BETA, GAMMA, Roller, solve_contact
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["ContactEvent", "RollResult", "integrate"]
+
+#: Pairs whose free gap is below this take part in the step's contact problem [m].
+CANDIDATE_GAP = 20e-6
+
+
+@dataclass(frozen=True)
+class ContactEvent:
+    """One contact of one tooth pair, from first touch to separation.
+
+    ``kind`` as the torsional model counts them: ``rattle``, a touch while no pair
+    of that flank was in contact the step before (the end of a free flight
+    across the backlash), else ``mesh-in`` (a pair taking up load beside a loaded
+    one); ``flank_loaded`` says which. The contact's end (``end_time_s``,
+    ``end_s_m``) is its mesh-out. ``where``: ``approach-edge`` (before the path:
+    the face gear's tip edge), ``recess-edge`` (after it: the pinion's), or
+    ``flank``. ``closing_speed_m_s``: the rate the free gap closed at over the
+    step before the touch (NaN at the first step).
+    """
+
+    time_s: float
+    flank: str
+    tooth: int
+    kind: str
+    closing_speed_m_s: float
+    peak_force_n: float
+    where: str
+    s_m: float
+    flank_loaded: bool
+    end_time_s: float
+    end_s_m: float
+
+
+@dataclass(frozen=True)
+class RollResult:
+    """Time series of a rolling run (SI units; ``te_m`` is the torsional model's ``x``).
+
+    Attributes
+    ----------
+    time_s, te_m, pinion_speed_rad_s, face_speed_rad_s : ndarray (n,)
+    teeth : tuple of int
+        Tooth numbers of the pairs (axis 1 of the pair arrays).
+    pair_force_n, pair_s_m : ndarray (n, n_teeth, 2)
+        Normal force and place on the line of action, ``[..., 0]`` drive, ``[..., 1]``
+        coast (NaN: out of reach).
+    contact_point_m : ndarray (n, n_teeth, 2, 3)
+        The pinion's contact point in the mesh frame (NaN: no force).
+    energy : dict of ndarray (n,)
+        ``kinetic``, ``strain``, ``hertz``, ``drive_work``, ``load_work``, ``error``.
+    events : list of ContactEvent
+    info : dict
+        Inputs, sizes and costs.
+    """
+
+    time_s: np.ndarray
+    te_m: np.ndarray
+    pinion_speed_rad_s: np.ndarray
+    face_speed_rad_s: np.ndarray
+    teeth: tuple
+    pair_force_n: np.ndarray
+    pair_s_m: np.ndarray
+    contact_point_m: np.ndarray
+    energy: dict
+    events: list = field(default_factory=list)
+    info: dict = field(default_factory=dict)
+
+    def energy_error(self) -> float:
+        """Largest ``|E - E_0 - W_drive - W_load|`` over the run, divided by the largest of
+        the drive's work, the load's work and the kinetic energy's change [-]."""
+        e = self.energy
+        scale = max(np.abs(e["drive_work"]).max(initial=0.0),
+                    np.abs(e["load_work"]).max(initial=0.0),
+                    np.ptp(e["kinetic"]) if len(e["kinetic"]) else 0.0, 1e-300)
+        return float(np.abs(e["error"]).max(initial=0.0) / scale)
+
+    def to_dict(self) -> dict:
+        return {"time_s": self.time_s.tolist(), "te_m": self.te_m.tolist(),
+                "pinion_speed_rad_s": self.pinion_speed_rad_s.tolist(),
+                "face_speed_rad_s": self.face_speed_rad_s.tolist(), "teeth": list(self.teeth),
+                "pair_force_n": np.nan_to_num(self.pair_force_n).tolist(),
+                "pair_s_m": np.where(np.isnan(self.pair_s_m), None, self.pair_s_m).tolist(),
+                "energy": {k: v.tolist() for k, v in self.energy.items()},
+                "events": [asdict(e) for e in self.events], "info": self.info}
+
+
+class _State:
+    def __init__(self, n: int) -> None:
+        self.q, self.v, self.a = np.zeros(n), np.zeros(n), np.zeros(n)
+
+
+def _body_solve(body, rhs: np.ndarray) -> np.ndarray:
+    return body.solver(rhs) if body.solver is not None else np.zeros(0)
+
+
+def integrate(roller: Roller, progress=None, stop=None) -> RollResult:
+    """Integrate ``roller`` over its steps.
+
+    ``progress(step, n_steps)`` is called each step; ``stop()`` returning True ends
+    the run early (what is done is returned, ``info["complete"]`` False).
+    """
+    started, cpu0 = time.perf_counter(), time.process_time()
+    r, p, f = roller, roller.p, roller.f
+    dt, n_steps = r.dt, r.n_steps
+    teeth = tuple(r.teeth)
+    col = {k: i for i, k in enumerate(teeth)}
+    Mp, Kp, Mf, Kf = p.M.tocsr(), p.K.tocsr(), f.M.tocsr(), f.K.tocsr()
+    npu = p.n - 1
+    sp_, sf = _State(p.n), _State(f.n)
+    th, w, al = r.pinion_motion(0.0)
+    sp_.q[-1], sp_.v[-1], sp_.a[-1] = th, w, al
+    sf.q[-1], sf.v[-1] = r.ratio * th, r.ratio * w
+    c = r.geo.backlash
+    te = np.zeros(n_steps + 1)
+    wp_, wf_ = np.zeros(n_steps + 1), np.zeros(n_steps + 1)
+    force = np.zeros((n_steps + 1, len(teeth), 2))
+    place = np.full((n_steps + 1, len(teeth), 2), np.nan)
+    point = np.full((n_steps + 1, len(teeth), 2, 3), np.nan)
+    en = {k: np.zeros(n_steps + 1) for k in ("kinetic", "strain", "hertz", "drive_work",
+                                              "load_work", "error")}
+
+    def x_of(qp, qf):
+        return r.r_bp * qp[-1] - r.r_b2 * qf[-1] + 0.5 * c
+
+    def kinetic():
+        return 0.5 * (sp_.v @ (Mp @ sp_.v) + sf.v @ (Mf @ sf.v))
+
+    def strain():
+        return 0.5 * (sp_.q @ (Kp @ sp_.q) + sf.q @ (Kf @ sf.q))
+
+    te[0], wp_[0], wf_[0] = x_of(sp_.q, sf.q) - 0.5 * c, w, sf.v[-1]
+    en["kinetic"][0] = kinetic()
+    e0 = en["kinetic"][0]
+    torque_drive, torque_load = 0.0, -r.load(0.0)
+    w_drive = w_load = 0.0
+    th0, thf0 = th, sf.q[-1]
+    open_events: dict = {}
+    events: list[ContactEvent] = []
+    prev_gap: dict = {}
+    done = n_steps
+    for n in range(1, n_steps + 1):
+        t1 = n * dt
+        th1, w1, al1 = r.pinion_motion(t1)
+        load1 = -r.load(t1)
+        # predictors
+        qt_p = sp_.q + dt * sp_.v + (0.5 - BETA) * dt * dt * sp_.a
+        vt_p = sp_.v + (1 - GAMMA) * dt * sp_.a
+        qt_f = sf.q + dt * sf.v + (0.5 - BETA) * dt * dt * sf.a
+        vt_f = sf.v + (1 - GAMMA) * dt * sf.a
+        a_p = np.zeros(p.n)
+        a_p[-1] = al1
+        if npu:
+            rhs = -(Kp @ np.append(qt_p[:-1], 0.0))[:-1] - Mp[:-1, -1].toarray().ravel() * al1
+            a_p[:-1] = _body_solve(p, rhs)
+        rhs_f = -(Kf @ qt_f)
+        rhs_f[-1] += load1
+        a_f = f.solver(rhs_f) if f.solver is not None else rhs_f / Mf[0, 0]
+        q_p = qt_p + BETA * dt * dt * a_p
+        q_p[-1] = th1
+        q_f = qt_f + BETA * dt * dt * a_f
+        rows = r._rows(th1, q_f[-1])
+        x1 = x_of(q_p, q_f)
+        cand, gfree = [], []
+        for row in rows:
+            g = row["g"] - row["sign"] * x1
+            if row["p"] is not None:
+                g += row["p"][1] @ q_p[row["p"][0]]
+            if row["f"] is not None:
+                g += row["f"][1] @ q_f[row["f"][0]]
+            row["gfree"] = g
+            if g < CANDIDATE_GAP:
+                cand.append(row)
+                gfree.append(g)
+        lam = np.zeros(0)
+        if cand:
+            m = len(cand)
+            yp = np.zeros((m, p.n))
+            yf = np.zeros((m, f.n))
+            for i, row in enumerate(cand):
+                bp = np.zeros(p.n)
+                if row["p"] is not None:
+                    np.add.at(bp, row["p"][0], row["p"][1])
+                if npu:
+                    yp[i, :-1] = _body_solve(p, bp[:-1])
+                bf = np.zeros(f.n)
+                if row["f"] is not None:
+                    np.add.at(bf, row["f"][0], row["f"][1])
+                bf[-1] += row["dtheta_f"]
+                yf[i] = f.solver(bf) if f.solver is not None else bf / Mf[0, 0]
+            A_p = np.zeros((m, p.n))
+            A_f = np.zeros((m, f.n))
+            for i, row in enumerate(cand):
+                if row["p"] is not None:
+                    np.add.at(A_p[i], row["p"][0], row["p"][1])
+                if row["f"] is not None:
+                    np.add.at(A_f[i], row["f"][0], row["f"][1])
+                A_f[i, -1] += row["dtheta_f"]
+            D = BETA * dt * dt * (A_p @ yp.T + A_f @ yf.T)
+            D = 0.5 * (D + D.T)
+            kh = np.array([row["kh"] for row in cand])
+            lam = solve_contact(np.array(gfree), D, kh)
+            a_p = a_p + lam @ yp
+            a_f = a_f + lam @ yf
+            a_p[-1] = al1
+        sp_.q = qt_p + BETA * dt * dt * a_p
+        sp_.q[-1] = th1
+        sp_.v = vt_p + GAMMA * dt * a_p
+        sp_.v[-1] = w1
+        sp_.a = a_p
+        sf.q = qt_f + BETA * dt * dt * a_f
+        sf.v = vt_f + GAMMA * dt * a_f
+        sf.a = a_f
+        # the drive torque: the pinion rotor's equation solved for it
+        contact_torque = sum(li * row["dtheta_p"] for li, row in zip(lam, cand, strict=True))
+        t_drive1 = float((Mp[-1] @ a_p)[0]) - contact_torque
+        w_drive += 0.5 * (torque_drive + t_drive1) * (th1 - th0)
+        w_load += 0.5 * (torque_load + load1) * (sf.q[-1] - thf0)
+        torque_drive, torque_load, th0, thf0 = t_drive1, load1, th1, sf.q[-1]
+        # record
+        hertz_pe = 0.0
+        active = set()
+        for li, row in zip(lam, cand, strict=True):
+            j, fl = col[row["tooth"]], row["flank"]
+            force[n, j, fl] = li
+            if li > 0.0:
+                hertz_pe += 0.4 * li * (li / row["kh"]) ** (2.0 / 3.0)
+                point[n, j, fl] = r.world(row["xp"], th1, "pinion")
+                active.add((row["tooth"], fl))
+        for row in rows:
+            place[n, col[row["tooth"]], row["flank"]] = row["s"]
+        _events(r, n * dt, rows, lam, cand, active, open_events, events, prev_gap, dt)
+        te[n] = x_of(sp_.q, sf.q) - 0.5 * c
+        wp_[n], wf_[n] = w1, sf.v[-1]
+        en["kinetic"][n] = kinetic()
+        en["strain"][n] = strain()
+        en["hertz"][n] = hertz_pe
+        en["drive_work"][n], en["load_work"][n] = w_drive, w_load
+        en["error"][n] = (en["kinetic"][n] + en["strain"][n] + hertz_pe - e0 - w_drive
+                          - w_load)
+        if progress is not None:
+            progress(n, n_steps)
+        if stop is not None and stop():
+            done = n
+            break
+    for ev in open_events.values():     # contacts still open at the end
+        events.append(ContactEvent(**ev, end_time_s=math.nan, end_s_m=math.nan))
+    k = done + 1
+    info = {"n_steps": done, "complete": done == n_steps, "dt_s": dt,
+            "dofs": {"pinion": p.n, "face_gear": f.n},
+            "wall_s": time.perf_counter() - started, "cpu_s": time.process_time() - cpu0,
+            "cycles_done": done / max(r.set.steps_per_cycle, 1)}
+    return RollResult(np.arange(k) * dt, te[:k], wp_[:k], wf_[:k], teeth, force[:k],
+                      place[:k], point[:k], {key: v[:k] for key, v in en.items()},
+                      sorted(events, key=lambda e: e.time_s), info)
+
+
+def _events(r: Roller, t: float, rows, lam, cand, active, open_events, events, prev_gap,
+            dt) -> None:
+    """Open, grow and close :class:`ContactEvent` records."""
+    lam_of = {(row["tooth"], row["flank"]): li for li, row in zip(lam, cand, strict=True)}
+    geo = r.geo.mesh
+    loaded = {fl for (_, fl) in open_events}     # flanks in contact the step before
+    for row in rows:
+        key = (row["tooth"], row["flank"])
+        li = lam_of.get(key, 0.0)
+        if li > 0.0 and key not in open_events:
+            g_prev = prev_gap.get(key)
+            speed = (g_prev - row["gfree"]) / dt if g_prev is not None else math.nan
+            s = row["s"]
+            where = ("approach-edge" if s < geo.s_start else "recess-edge" if s > geo.s_end
+                     else "flank")
+            flank_loaded = row["flank"] in loaded
+            kind = "mesh-in" if flank_loaded else "rattle"
+            open_events[key] = dict(time_s=t, flank="drive" if row["flank"] == 0 else "coast",
+                                    tooth=row["tooth"], kind=kind, closing_speed_m_s=speed,
+                                    peak_force_n=li, where=where, s_m=s,
+                                    flank_loaded=flank_loaded)
+        elif li > 0.0:
+            ev = open_events[key]
+            ev["peak_force_n"] = max(ev["peak_force_n"], li)
+        elif key in open_events:
+            ev = open_events.pop(key)
+            events.append(ContactEvent(**ev, end_time_s=t, end_s_m=row["s"]))
+        prev_gap[key] = row["gfree"]

@@ -182,27 +182,28 @@ def test_newmark_oblique_impact_and_energy_balance(tmp_path):
 
 
 def test_cattaneo_mindlin_coarse(tmp_path):
-    # The study's coarse mesh (h = 0.2 mm, about two elements across the contact
-    # radius) with six tangential steps. Asserted: the friction force never exceeds
-    # mu P (Coulomb), the stick radius within half an element of Mindlin's (the
-    # rows place an edge to half an element: the rule the static Hertz study
-    # applies to the contact radius), and the compliance's microslip part
-    # positive and growing with the load. The 3% of the study holds on its
-    # finest mesh (validation/friction_cattaneo.py).
+    # A coarse mesh (h = 0.2 mm, about two elements across the contact radius)
+    # with six tangential steps. Asserted: the friction force never exceeds mu P
+    # (Coulomb); the stick radius by the stiffness (the study's measure, against
+    # Mindlin's c = a (1 - Q/(mu P))^(1/3)) within half an element at every
+    # interior step (a contact edge is placed to half an element: the rule the
+    # static Hertz study applies to the contact radius); the compliance's
+    # microslip part positive and growing with the load. The 3% of the study
+    # holds on its finest mesh (validation/friction_cattaneo.py).
     from validation import friction_cattaneo as fc
 
-    level = fc.run_level(tmp_path, "coarse", fc.LEVELS["coarse"], steps=6)
-    h = fc.LEVELS["coarse"]
+    h = 0.2e-3
+    level = fc.run_level(tmp_path, "test", h, steps=6)
     micro = []
     for s in level["steps"]:
         assert s["Q"] <= fc.MU * s["P"] * (1.0 + 1e-6)
-        if 0.3 < s["x"] < 0.95:
-            c_fe = s["c_over_a"] * s["a_fe"]
-            c_th = s["c_over_a_theory"] * s["a_fe"]
+        if "c_over_a_stiffness" in s:
+            c_fe = s["c_over_a_stiffness"] * s["a_hertz"]
+            c_th = s["c_over_a_theory"] * s["a_hertz"]
             assert abs(c_fe - c_th) <= 0.5 * h
         micro.append(s["microslip_fe_m"])
-    assert all(b > a for a, b in zip(micro[1:], micro[2:], strict=False))
-    assert micro[-1] > 0.0
+    assert all(b > a for a, b in zip(micro, micro[1:], strict=False))
+    assert micro[0] > 0.0
 
 
 def test_load_control_with_friction_recovers_the_motion():

@@ -203,6 +203,13 @@ def test_command_prints_a_column_per_stage_and_json_round_trips(rows, tmp_path, 
     (lambda d: ["geometry", str(d)], ["GEARSET", "is a folder"]),
     (lambda d: ["geometry", "--torque", "0"], ["--torque 0 N m", "> 0"]),
     (lambda d: ["geometry", "--json", str(d)], ["--json", "is a folder", "file name"]),
+    (lambda d: ["geometry", "--schedule", str(d / "none.toml")],
+     ["--schedule", "none.toml", "no such file", "schedule TOML file"]),
+    (lambda d: ["geometry", "--torque", "5", "--schedule", str(_schedule(d, 1))],
+     ["--torque 5", "--schedule", "give one of them"]),
+    (lambda d: ["geometry", "--schedule", str(_schedule(d, 4))],
+     ["[segments[1]] stage = 4", "stages 1..3"]),
+    (lambda d: ["geometry", "--root-stress", "xfem"], ["--root-stress", "xfem", "iso"]),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, expected, tmp_path, capsys):
     assert main(argv(tmp_path)) == 2
@@ -212,6 +219,54 @@ def test_bad_input_is_one_line_and_exit_2(argv, expected, tmp_path, capsys):
     assert len(lines) == 1
     for text in expected:
         assert text in lines[0]
+
+
+def _schedule(folder, second_stage: int, loads=(40.0, 25.0)):
+    """A two-segment schedule: stage 1 at ``loads[0]``, then ``second_stage`` ramping to
+    ``loads[1]`` N m."""
+    path = folder / f"duty{second_stage}.toml"
+    path.write_text(f"""name = "duty"
+[[segments]]
+stage = 1
+duration_s = 1.0
+speed_rpm = 300
+load_Nm = {loads[0]}
+[[segments]]
+stage = {second_stage}
+duration_s = 1.0
+speed_rpm = 300
+load_Nm = {{ from = 5, to = {loads[1]} }}
+""")
+    return path
+
+
+def test_schedule_sets_each_stages_load(tmp_path, capsys, gearset):
+    """Each stage at its own largest load in the schedule (the ramp's end), the stage
+    the schedule leaves out at the schedule's largest; the Hertz and root-bending
+    numbers follow: the normal force is T / (n_pinions l_2) with that stage's T."""
+    out = tmp_path / "g.json"
+    assert main(["geometry", str(SEED), "--schedule", str(_schedule(tmp_path, 2)),
+                 "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "stage 3: not in the schedule; at the schedule's largest, 40 N m" in printed
+    data = json.loads(out.read_text())
+    assert data["load_torque_Nm"] == [40.0, 25.0, 40.0]
+    assert data["load_torque_source"] == "--schedule"
+    for row, torque in zip(data["stages"], (40.0, 25.0, 40.0), strict=True):
+        pp = row["pitch_point"]
+        assert pp["load_torque_Nm"] == torque
+        assert pp["normal_force_N"] == pytest.approx(
+            torque / (gearset.n_pinions * abs(row["masses"]["face_lever_m"])), rel=1e-12)
+        rb = row["root_bending"]
+        assert rb["allowable_Pa"] == 2.0 * gearset.material.bending_stress_limit
+        assert rb["fe_pinion_Pa"] is None          # --root-stress iso: no FE
+    # the pinion's section does not depend on the stage; sigma_F0 is linear in the force
+    # over the face width
+    r1, r2 = (row["root_bending"] for row in data["stages"][:2])
+    assert r1["Y_F"] == pytest.approx(r2["Y_F"], rel=1e-12)
+    f1, f2 = (row["pitch_point"]["normal_force_N"] for row in data["stages"][:2])
+    assert r1["sigma_F0_Pa"] / r2["sigma_F0_Pa"] == pytest.approx(
+        f1 / r1["face_width_m"] / (f2 / r2["face_width_m"]), rel=1e-12)
 
 
 # -- tip edges and the first touch on them ------------------------------------------------------

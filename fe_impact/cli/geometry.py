@@ -2,7 +2,8 @@
 
 ::
 
-    fe-impact geometry [GEARSET] [--torque NM] [--json FILE]
+    fe-impact geometry [GEARSET] [--torque NM | --schedule FILE] [--root-stress {iso,fe}]
+                       [--json FILE]
 
 Prints one column per face-gear stage: the face-width limits (undercut,
 conjugate tip, pointing) and the chosen radii, the path of contact in pinion
@@ -80,6 +81,24 @@ TABLE: dict[str, tuple[tuple[str, str, float, str], ...]] = {
         ("ellipse_nearest_edge", "ellipse: nearest edge", 1.0, "s"),
         ("ellipse_past_edge_m", "  cut off past it (+) / short of it (-) [mm]", 1e3, "+.4g"),
     ),
+    "root_bending": (
+        ("load_radius_m", "load at pinion radius [mm]", 1e3, ".4g"),
+        ("s_Fn_m", "30 deg section chord s_Fn [mm]", 1e3, ".4g"),
+        ("h_Fe_m", "bending arm h_Fe [mm]", 1e3, ".4g"),
+        ("rho_F_m", "fillet radius rho_F there [mm]", 1e3, ".4g"),
+        ("Y_F", "form factor Y_F [-]", 1.0, ".4f"),
+        ("Y_S", "stress correction Y_S [-]", 1.0, ".4f"),
+        ("face_width_m", "b: face-gear face width [mm]", 1e3, ".4g"),
+        ("sigma_F0_Pa", "ISO-style sigma_F0 = F_t/(b m) Y_F Y_S [MPa]", 1e-6, ".4g"),
+        ("fe_pinion_Pa", "FE: pinion fillet, peak tension [MPa]", 1e-6, ".4g"),
+        ("fe_pinion_element_m", "  element size at the peak [mm]", 1e3, ".3g"),
+        ("fe_over_iso", "  FE / ISO-style [-]", 1.0, ".3f"),
+        ("fe_face_Pa", "FE: face-gear root (sharp corner) [MPa]", 1e-6, ".4g"),
+        ("fe_face_element_m", "  element size at the peak [mm]", 1e3, ".3g"),
+        ("allowable_Pa", "allowable 2 sigma_Flim (material) [MPa]", 1e-6, ".4g"),
+        ("iso_ratio", "sigma_F0 / allowable [-]", 1.0, ".3f"),
+        ("fe_ratio", "FE pinion peak / allowable [-]", 1.0, ".3f"),
+    ),
     "masses": (
         ("pinion_inertia_kg_m2", "pinion inertia I_1 [kg m^2]", 1.0, ".4g"),
         ("face_inertia_kg_m2", "face-gear inertia I_2 [kg m^2]", 1.0, ".4g"),
@@ -125,6 +144,7 @@ _TITLES = {
     "face_width": "face width",
     "path_of_contact": "path of contact (pinion roll angle from the pitch point)",
     "pitch_point": "Hertz contact at the pitch point (roll angle 0), nominal load",
+    "root_bending": "tooth-root bending at the pitch point, one pair carrying the normal force",
     "masses": "rotor masses reduced to the contact normal at the pitch point",
     "tip_edges": "tip edges, and the line of action of the torsional model (s from the "
                  "base-circle tangency)",
@@ -148,6 +168,16 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--torque", type=float, default=None, metavar="NM",
                    help="load torque on the output [N m] for the Hertz numbers (default: the "
                         "largest load of the seed presets, 1 N m)")
+    p.add_argument("--schedule", type=Path, default=None, metavar="FILE",
+                   help="a schedule file: each stage at the largest load its segments give it "
+                        "(a stage the schedule leaves out: at the schedule's largest load)")
+    p.add_argument("--root-stress", default="iso", metavar="{iso,fe}",
+                   help="iso: the pinion's ISO 6336-3 style root stress only (default); fe: "
+                        "also mesh each stage's tooth pair (coarse) and press it with the "
+                        "normal force, for the FE's peak root tensions (about 20 s of CPU a "
+                        "stage)")
+    p.add_argument("--cache", type=Path, default=Path("cache"),
+                   help="mesh cache folder of --root-stress fe (default: cache)")
     p.add_argument("--json", type=Path, default=None, metavar="FILE",
                    help="also write the numbers to FILE as JSON, in SI units")
     p.set_defaults(func=run)
@@ -160,6 +190,15 @@ def _check(args: argparse.Namespace) -> None:
 
     if args.torque is not None and not (math.isfinite(args.torque) and args.torque > 0.0):
         raise CaseError(f"--torque {args.torque:g} N m: must be a number > 0")
+    if args.root_stress not in ("iso", "fe"):
+        raise CaseError(f"--root-stress {args.root_stress}: must be iso (the ISO 6336-3 style "
+                        "figure) or fe (also the FE's peak root tensions)")
+    if args.torque is not None and args.schedule is not None:
+        raise CaseError(f"--torque {args.torque:g} and --schedule {args.schedule}: give one "
+                        "of them (the schedule sets each stage's load)")
+    if args.schedule is not None and not args.schedule.is_file():
+        what = "is a folder" if args.schedule.is_dir() else "no such file"
+        raise CaseError(f"--schedule {args.schedule}: {what}; give a schedule TOML file")
     if args.json is not None:
         if args.json.is_dir():
             raise CaseError(f"--json {args.json}: is a folder; give a file name "
@@ -183,6 +222,32 @@ def _load(path: Path | None):
         return read_gearset(path)
     except GeometryError as exc:
         raise GeometryError(f"GEARSET {exc}") from exc
+
+
+def _schedule_torques(path: Path, gearset) -> tuple[list[float], list[str]]:
+    """Each stage's load [N m] from the schedule at ``path``: the largest of its
+    segments on that stage, the schedule's largest for a stage it leaves out; and a
+    note per stage saying which."""
+    from fe_impact.switching.schedule import read_schedule
+
+    duty = read_schedule(path)
+    duty.check_gearset(gearset)
+    segments = duty.schedule.segments
+    top = duty.max_load
+    if not top > 0.0:
+        raise CaseError(f"--schedule {path}: every segment's load_Nm is 0; give a schedule "
+                        "with a load, or --torque")
+    torques, notes = [], []
+    for number in range(1, len(gearset.stages) + 1):
+        loads = [seg.max_load for seg in segments if seg.stage == number]
+        if loads and max(loads) > 0.0:
+            torques.append(max(loads))
+            notes.append(f"stage {number}: {max(loads):g} N m, its largest in the schedule")
+        else:
+            torques.append(top)
+            why = "not loaded" if loads else "not in the schedule"
+            notes.append(f"stage {number}: {why}; at the schedule's largest, {top:g} N m")
+    return torques, notes
 
 
 def _cell(row: dict, section: str, key: str, scale: float, spec: str) -> str:
@@ -220,6 +285,13 @@ def format_table(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+def _torque_text(torque: float | list[float]) -> str:
+    """``100`` or ``100 / 250 / 250`` (one per stage)."""
+    if isinstance(torque, list):
+        return " / ".join(f"{t:g}" for t in torque)
+    return f"{torque:g}"
+
+
 def run(args: argparse.Namespace) -> int:
     """Handler of ``fe-impact geometry``; returns the exit status."""
     from fe_impact.api import TOP_LAND_MIN, geometry_report, seed_load_torque
@@ -227,11 +299,16 @@ def run(args: argparse.Namespace) -> int:
 
     _check(args)
     gearset = _load(args.gearset)
-    default = args.torque is None
-    torque = seed_load_torque() if default else args.torque
-    source = ("the largest load of the seed presets\n(table4, variable-load; --torque "
-              "changes it)" if default else "from --torque")
-    rows = geometry_report(gearset, torque)
+    default = args.torque is None and args.schedule is None
+    notes: list[str] = []
+    if args.schedule is not None:
+        torque, notes = _schedule_torques(args.schedule, gearset)
+        source = f"from --schedule {args.schedule}"
+    else:
+        torque = seed_load_torque() if default else args.torque
+        source = ("the largest load of the seed presets\n(table4, variable-load; --torque "
+                  "changes it)" if default else "from --torque")
+    rows = geometry_report(gearset, torque, root_stress=args.root_stress, cache=args.cache)
     print(f"{gearset.name}: {len(rows)} stage(s), pinion {gearset.pinion.teeth} teeth, "
           f"module {gearset.module * 1e3:g} mm, {gearset.n_pinions} pinion(s)")
     print(format_table(rows))
@@ -241,14 +318,24 @@ def run(args: argparse.Namespace) -> int:
           "it is "
           f"{TOP_LAND_MIN * 1e3:g} mm.\nRoll angles: pinion rotation from the pitch-point "
           "position; first and last in the order\na driving pinion meets them.\n"
-          f"Load: {torque:g} N m on the output, {source}: each of the "
+          f"Load: {_torque_text(torque)} N m on the output, {source}: each of the "
           f"{gearset.n_pinions} meshes carries\nF = T / (n_pinions l_2).\n"
+          + "".join(f"  {note}\n" for note in notes) +
           "Ellipse: how far the Hertz ellipse at the pitch point runs past the nearest edge of "
           "the\nworking flanks (< 0: it fits; > 0: it is cut off, and the pressure at that edge "
           "exceeds p0).\n"
           "First touch: 3-D gaps are how far the pinion (approach) or the face gear "
           "(recess)\nturns from the conjugate position to touch, times its base lever; "
-          "'-' for a sharp edge.")
+          "'-' for a sharp edge.\n"
+          "Root bending: ISO 6336-3 method B's 30 deg tangent section on the pinion's "
+          "generated fillet,\nthe load at the pitch point on one pair, b the face gear's "
+          "face width; the allowable is\nY_ST sigma_Flim = 2 x the material's "
+          "bending_stress_limit_pa (ISO 6336-5). "
+          + ("FE: the largest maximum\nprincipal stress in the loaded root at the pitch "
+             "point (coarse mesh: the peak is\nunderestimated where the element is larger "
+             "than rho_F); the face gear's root is a\nsharp corner in the mesh, its figure "
+             "mesh-dependent." if args.root_stress == "fe" else
+             "--root-stress fe adds the FE's peak\nroot tensions."))
     if args.json is not None:
         write_json(args.json, {
             "schema": JSON_SCHEMA,
@@ -259,7 +346,9 @@ def run(args: argparse.Namespace) -> int:
             "module_m": gearset.module,
             "inner_limit_rule": gearset.inner_limit,
             "load_torque_Nm": torque,
-            "load_torque_source": "seed presets (largest load)" if default else "--torque",
+            "load_torque_source": ("seed presets (largest load)" if default else
+                                   "--torque" if args.schedule is None else "--schedule"),
+            "schedule_file": None if args.schedule is None else str(args.schedule),
             "stages": rows,
         })
         print(f"wrote {args.json}")

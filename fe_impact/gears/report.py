@@ -17,6 +17,9 @@
   (:func:`~fe_impact.gears.pairanalysis.analyse_stage_pair`): principal and
   relative curvatures, equivalent radius, ``E*``, ellipse semi-axes, peak
   pressure and approach;
+- the pinion's tooth-root bending there, ISO 6336-3 style (the 30 deg tangent
+  section on its generated fillet, ``Y_F``, ``Y_S`` and ``sigma_F0`` under the
+  nominal load, against ``2 sigma_Flim``; :mod:`fe_impact.gears.root_stress`);
 - the rotor inertias reduced to the contact normal there
   (:class:`~fe_impact.gears.pairanalysis.ReducedMasses`);
 - the tip edges: the rounding radii, the largest the face gear's top land
@@ -53,6 +56,7 @@ from fe_impact.gears.corner import REFERENCE_GAP
 from fe_impact.gears.facegear import FaceGearTooth
 from fe_impact.gears.gearset import GearSet
 from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
+from fe_impact.gears.root_stress import iso_root_bending
 from fe_impact.gears.tca import MAX_ROLL_STEP, ContactPoint, GearPair, contact_ellipse
 
 __all__ = [
@@ -349,18 +353,21 @@ def pitch_point(gearset: GearSet, number: int, torque: float) -> tuple[GearPair,
         "face_lever_m": masses.face_lever,
         "effective_mass_kg": masses.effective_mass,
     }
-    return pair, {"pitch_point": hertz, "masses": reduced, "_contact": contact}
+    bending = iso_root_bending(pair, contact, force, gearset.material.bending_stress_limit)
+    return pair, {"pitch_point": hertz, "masses": reduced, "root_bending": bending,
+                  "_contact": contact}
 
 
-def stage_geometry(gearset: GearSet, torque: float) -> list[dict]:
+def stage_geometry(gearset: GearSet, torque: float | list[float]) -> list[dict]:
     """Pre-FE checks of every stage of ``gearset`` (module docstring), SI units.
 
     Parameters
     ----------
     gearset : GearSet
-    torque : float
+    torque : float or sequence of float
         Load torque on the output [N m], > 0 (the command's default:
-        :func:`fe_impact.switching.presets.seed_load_torque`).
+        :func:`fe_impact.switching.presets.seed_load_torque`); a sequence gives
+        one per stage (a schedule's largest load on each).
 
     Returns
     -------
@@ -370,8 +377,13 @@ def stage_geometry(gearset: GearSet, torque: float) -> list[dict]:
         ``masses`` (keys carry their units: ``_m``, ``_rad``, ``_Pa``, ``_N``,
         ``_kg``, ``_Nm``, ``_1_m``).
     """
-    if torque is None or not (math.isfinite(torque) and torque > 0.0):
-        raise GeometryError(f"load torque = {torque!r} N m; must be a number > 0")
+    torques = ([torque] * len(gearset.stages) if np.ndim(torque) == 0 else list(torque))
+    if len(torques) != len(gearset.stages):
+        raise GeometryError(f"load torques: {len(torques)} given for "
+                            f"{len(gearset.stages)} stages; give one per stage")
+    for value in torques:
+        if value is None or not (math.isfinite(value) and value > 0.0):
+            raise GeometryError(f"load torque = {value!r} N m; must be a number > 0")
     from dataclasses import replace
 
     from fe_impact.gears.kinematics import mesh_geometry
@@ -383,7 +395,7 @@ def stage_geometry(gearset: GearSet, torque: float) -> list[dict]:
     line, sharp_line = mesh_geometry(gearset), mesh_geometry(sharp)
     rows = []
     for index, stage in enumerate(gearset.stages):
-        pair, pitch = pitch_point(gearset, index + 1, torque)
+        pair, pitch = pitch_point(gearset, index + 1, torques[index])
         rows.append({
             "stage": index + 1,
             "teeth": stage.teeth,

@@ -78,6 +78,8 @@ __all__ = [
     "RootPeak",
     "StageRootStress",
     "fe_root_stress",
+    "iso_for_contact",
+    "iso_root_bending",
     "iso_section",
     "peak_tension",
     "report_lines",
@@ -334,6 +336,14 @@ class StageRootStress:
     allowable: float
     contact_force: float
 
+    def fe_rows(self) -> dict:
+        """The ``fe_*`` rows of :func:`iso_root_bending`'s dict (SI units)."""
+        return {"fe_pinion_Pa": self.pinion.stress,
+                "fe_pinion_element_m": self.pinion.element_size,
+                "fe_face_Pa": self.face.stress, "fe_face_element_m": self.face.element_size,
+                "fe_ratio": self.pinion.stress / self.allowable,
+                "fe_over_iso": self.pinion.stress / self.iso_stress}
+
     def to_dict(self) -> dict:
         """JSON-ready dict (SI units)."""
         def peak(p: RootPeak) -> dict:
@@ -432,23 +442,41 @@ def fe_root_stress(gearset, stage: int, normal_force: float, *, level: str = "co
         cells = mesh.volume(body)
         cells = cells[region(pair, analysis, centroids[cells])]
         peaks.append(peak_tension(skm, mesh.order, u_dofs, cells, lame))
+    iso = iso_for_contact(pair, analysis.contact)
     face_width = pair.face.face_outer - pair.face.face_inner
-    load_radius = float(np.linalg.norm(
-        _to_frame(analysis.contact.point[None], pair.pinion_rotation(analysis.contact.roll_angle),
-                  np.array([0.0, pair.pinion.pitch_radius, pair.z0]))[0, :2]))
-    iso = iso_section(pair.pinion, load_radius)
     return StageRootStress(
         stage=stage, normal_force=float(normal_force), level=level, refinement=refinement,
         pinion=peaks[0], face=peaks[1], iso=iso,
         iso_stress=iso.nominal_stress(normal_force, face_width, pair.pinion.module,
                                       pair.pinion.pressure_angle),
-        face_width=float(face_width), allowable=Y_ST * _bending_limit(gearset),
+        face_width=float(face_width), allowable=Y_ST * gearset.material.bending_stress_limit,
         contact_force=float(step.contact_force[0]))
 
 
-def _bending_limit(gearset) -> float:
-    """``sigma_Flim`` of the gear set's material [Pa]."""
-    return float(gearset.material.bending_stress_limit)
+def iso_for_contact(pair, contact) -> IsoSection:
+    """:func:`iso_section` of ``pair``'s pinion loaded where ``contact`` (a
+    :class:`~fe_impact.gears.tca.ContactPoint`) touches its involute."""
+    local = _to_frame(contact.point[None], pair.pinion_rotation(contact.roll_angle),
+                      np.array([0.0, pair.pinion.pitch_radius, pair.z0]))[0]
+    return iso_section(pair.pinion, float(np.hypot(local[0], local[1])))
+
+
+def iso_root_bending(pair, contact, normal_force: float, bending_stress_limit: float) -> dict:
+    """The ISO-style root-bending rows of ``fe-impact geometry`` (SI units): the pinion's
+    30 deg section and factors for the load at ``contact``, ``sigma_F0`` under
+    ``normal_force`` [N] with ``b`` the face gear's face width, and the allowable
+    ``Y_ST sigma_Flim`` (``bending_stress_limit`` [Pa])."""
+    iso = iso_for_contact(pair, contact)
+    width = pair.face.face_outer - pair.face.face_inner
+    sigma = iso.nominal_stress(normal_force, width, pair.pinion.module,
+                               pair.pinion.pressure_angle)
+    allowable = Y_ST * bending_stress_limit
+    return {"load_radius_m": iso.load_radius, "s_Fn_m": iso.s_fn, "h_Fe_m": iso.h_fe,
+            "rho_F_m": iso.rho_f, "alpha_Fen_rad": iso.alpha_fen, "Y_F": iso.y_f,
+            "Y_S": iso.y_s, "q_s": iso.q_s, "face_width_m": width, "sigma_F0_Pa": sigma,
+            "allowable_Pa": allowable, "iso_ratio": sigma / allowable,
+            "fe_pinion_Pa": None, "fe_pinion_element_m": None, "fe_face_Pa": None,
+            "fe_face_element_m": None, "fe_ratio": None, "fe_over_iso": None}
 
 
 # -- 4. the report's section ---------------------------------------------------------------

@@ -251,6 +251,8 @@ def run(quick: bool = False, out: str | Path = "out/friction_cattaneo") -> dict:
                 [lv["checks"][i][key] for lv in levels])
             for i in range(len(CHECK_LOADS))
             for key in ("c_over_a_error", "microslip_error", "c_over_a_rows_error")}
+        record["orders"]["c_over_a_largest_error"] = observed_order(
+            [lv["c_over_a_largest_error"] for lv in levels])
     write_json(out / "friction_cattaneo.json", record)
     return record
 

@@ -174,7 +174,7 @@ def near_field_model(gearset, pair_mesh, depth: float = DEPTH, same_load: bool =
     if true_gap:
         heights = flank_heights(gearset, pair_mesh.analysis)
         sides = tuple(nff.Side(sd.volume, sd.youngs, sd.poisson, _finite(h), sd.inward,
-                               _exists(h) if sd.volume == "face_gear" else None)
+                               _exists(h))
                       for sd, h in zip(sides, heights, strict=True))
     frame = (np.asarray(c.point), np.asarray(c.relative.major), np.asarray(c.relative.minor),
              np.asarray(c.normal))
@@ -319,6 +319,18 @@ def extrapolate(fine: dict, coarse: dict, order: float = FAMILY_ORDER) -> list[f
             for f, c in zip(fine["approaches"], coarse["approaches"], strict=True)]
 
 
+#: Force (N) of the single-pair stiffness: the mesh cycle's secant stiffness
+#: ``F / delta`` at 500 N (validation/mesh_cycle.py, check 2).
+STIFFNESS_FORCE = 500.0
+
+
+def secant_stiffness(approaches, forces=FORCES, at: float = STIFFNESS_FORCE) -> float:
+    """``F / delta`` (N/m) at ``at`` N on the power law ``F = K delta^e`` fitted by
+    least squares on logarithms over the forces (the mesh cycle's law)."""
+    e, logk = np.polyfit(np.log(approaches), np.log(forces), 1)
+    return at / (at / np.exp(logk)) ** (1.0 / e)
+
+
 def check(result: dict) -> list[ck.Check]:
     rows = result["rows"]
     out = [ck.at_most("half-space approach vs Hertz ellipse (largest)",
@@ -330,6 +342,9 @@ def check(result: dict) -> list[ck.Check]:
                               max(abs(r["approach"] / a - 1) for r, a in zip(rows, ref,
                                                                              strict=True)),
                               APPROACH_TOLERANCE))
+        k_nf = secant_stiffness([r["approach"] for r in rows])
+        out.append(ck.at_most("single-pair stiffness at 500 N vs refined FE",
+                              abs(k_nf / secant_stiffness(ref) - 1), APPROACH_TOLERANCE))
     return out
 
 
@@ -352,6 +367,12 @@ def report(result: dict) -> str:
                      f"| {r['approach'] / refa - 1:+.2%} "
                      f"| {r['half_space_approach'] / r['hertz_approach'] - 1:+.2%} "
                      f"| {r['contact_area'] / r['hertz_area'] - 1:+.2%} |")
+    if ref:
+        k_nf = secant_stiffness([r["approach"] for r in result["rows"]])
+        k_ref = secant_stiffness(ref["approaches"])
+        lines += ["", f"Single-pair stiffness F / delta at {STIFFNESS_FORCE:g} N (power law "
+                  f"over the six forces): near field {k_nf * 1e-6:.2f} N/um, refined FE "
+                  f"{k_ref * 1e-6:.2f} N/um ({k_nf / k_ref - 1:+.2%})."]
     ext = result.get("extrapolated")
     if ext:
         co = result["refined_coarser"]

@@ -500,6 +500,9 @@ def layer_kernel(grid: nf.Grid, sides, depth: float):
 #: Newton iterations of :func:`surface_height` (the map from surface parameters
 #: to the contact plane is nearly affine over a patch: two or three suffice).
 HEIGHT_ITERATIONS = 6
+#: A plane point whose Newton iterate lies farther than this (m) from it has no
+#: surface point over it (past the parametrisation's reach): its height is NaN.
+HEIGHT_TOLERANCE = 1e-9
 
 
 def surface_height(surface: Callable[[np.ndarray, np.ndarray], np.ndarray],
@@ -553,11 +556,13 @@ def surface_height(surface: Callable[[np.ndarray, np.ndarray], np.ndarray],
             rx, ry = x - px, y - py
             s = s + (j22 * rx - j12 * ry) / det
             t = t + (-j21 * rx + j11 * ry) / det
-        px, py, pz = plane(s, t)
-        miss = np.hypot(px - x, py - y)
-        if np.nanmax(miss, initial=0.0) > 1e-9:
-            logger.warning("near field: surface height not converged (%.2e m off)",
-                           float(np.nanmax(miss)))
+        with np.errstate(invalid="ignore"):
+            px, py, pz = plane(s, t)
+            found = np.hypot(px - x, py - y) <= HEIGHT_TOLERANCE
+        if not np.all(found):
+            logger.debug("near field: %d of %d plane points have no surface point over "
+                         "them (Newton off the parametrisation)", int(np.sum(~found)), found.size)
+        pz = np.where(found, pz, np.nan)
         if inside is not None:
             pz = np.where(inside(s, t), pz, np.nan)
         return pz.reshape(shape)

@@ -82,20 +82,22 @@ def test_event_statistics_count_only_the_window_and_their_kind():
     condition = _condition(speed=300.0, duration=0.1, settle=0.03)
     f = condition.mesh_frequency(GEARSET.pinion.teeth)
     t = np.linspace(0.0, 0.1, 4001)
-    # window: the last floor(0.07 f) = 6 periods, from 0.1 - 6 / 95 = 0.0368 s
+    # TE window: the last floor(0.07 f) = 6 periods, from 0.1 - 6 / 95 = 0.0368 s;
+    # impacts from settle (0.03 s) on, mesh-in ones up to a period (10.5 ms) before the end
     events = ContactEvents(
-        time=[0.01, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.095],
+        time=[0.01, 0.032, 0.05, 0.06, 0.07, 0.08, 0.09, 0.092, 0.095],
         kind=["mesh-in", "mesh-in", "rattle", "mesh-in", "mesh-out", "mesh-in", "rattle",
-              "rattle"],
-        flank=[1, 1, -1, 1, 1, 1, 1, -1],
-        closing_speed=[9.0, 0.02, 0.1, 0.04, 0.5, 0.03, 0.2, 0.15],
-        peak_force=[5000.0, 700.0, 30.0, 760.0, math.nan, 690.0, 80.0, 20.0],
+              "mesh-in", "rattle"],
+        flank=[1, 1, -1, 1, 1, 1, 1, 1, -1],
+        closing_speed=[9.0, 0.02, 0.1, 0.04, 0.5, 0.03, 0.2, 7.0, 0.15],
+        peak_force=[5000.0, 700.0, 30.0, 760.0, math.nan, 690.0, 80.0, 9000.0, 20.0],
         location=["flank", "corner-approach", "flank", "corner-approach", "flank",
-                  "corner-approach", "flank", "flank"],
-        position=np.full(8, math.nan))
+                  "corner-approach", "flank", "corner-approach", "flank"],
+        position=np.full(9, math.nan))
     m = mesh_metrics(_record(t, np.zeros_like(t), events, condition=condition))
     assert m.window[0] == pytest.approx(0.1 - 6 / f, rel=1e-12)
-    # the mesh-in at 0.01 s is before the window: 700, 760, 690 remain
+    # the mesh-in at 0.01 s is before settle, the one at 0.092 s too close to the end
+    # for its peak to be in the record: 700, 760, 690 remain
     assert m.mesh_in_count == 3
     assert m.mesh_in_force_median == 700.0 and m.mesh_in_force_max == 760.0
     assert m.mesh_in_speed_median == 0.03 and m.mesh_in_speed_max == 0.04
@@ -132,6 +134,15 @@ def test_goal_check_and_files(tmp_path):
     row = next(r for r in data["rows"] if r["figure"] == "mesh_in_force_max")
     assert row["lumped, closed-form vs FE"] == pytest.approx(100.0 / 700.0, rel=1e-12)
     assert "goal met" in (tmp_path / "compare.md").read_text()
+    # a record survives its file (NaN peak forces included)
+    from fe_impact.rolling.compare import read_record, write_record
+
+    back = read_record(write_record(tmp_path / "fe.json", fe))
+    assert back.condition == fe.condition and np.array_equal(back.te, fe.te)
+    assert mesh_metrics(back) == mesh_metrics(fe)
+    with pytest.raises(CaseError, match="not a rolling record"):
+        (tmp_path / "bad.json").write_text("{}")
+        read_record(tmp_path / "bad.json")
 
 
 # -- the lumped runner ----------------------------------------------------------------------

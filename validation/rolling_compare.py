@@ -1,27 +1,32 @@
 """The lumped torsional model against the rolling FE, on three operating conditions.
 
-Run ``python validation/rolling_compare.py --calibration CAL --out out/rolling_compare``
-with ``CAL`` a ``calibration.json`` of the seed set (``fe-impact calibrate --level coarse
---corners --out DIR``; ``make run`` writes ``out/calibration/calibration.json``) and,
-for the FE side, ``--fe DIR`` holding one ``fe-impact roll`` output folder per
-condition (``DIR/<condition>``). Exit status: 0 when the goal holds on every condition,
-1 when it fails on one, 2 when the FE side (or the calibration) is not available: then
-the lumped side alone is computed, printed and written, and nothing is asserted.
+Run ``python validation/rolling_compare.py --calibration CAL --fe DIR --run-fe --out
+out/rolling_compare`` with ``CAL`` a ``calibration.json`` of the seed set (``fe-impact
+calibrate --level coarse --corners --out D``; ``make run`` writes
+``out/calibration/calibration.json``). ``--run-fe`` runs the rolling FE
+(`fe_impact.rolling.api.roll`, coarse) of each condition whose record is not yet in
+``DIR/<condition>/record.json`` and keeps it there; without it, the records already
+there are used. The lumped runs take about a second each. Exit status: 0 when the goal
+holds on every condition, 1 when it fails on one, 2 when the FE side (or the
+calibration) is not available: then the lumped side alone is computed, printed and
+written, and nothing is asserted.
 
 Conditions (the seed set, stage 1 unless ``--stage``, one pinion on one face-gear rotor
-of the stage's inertia, the pinion at constant speed, the stage's default backlash):
+of the stage's inertia, the pinion at constant speed from t = 0, the face gear at the
+conjugate speed touching its drive flank at zero force, the stage's default backlash,
+`CYCLES` mesh periods: what the FE's sectors hold):
 
-- ``loaded-1000``: 1000 r/min, 50 N m on the face gear (634 N a mesh on stage 1, inside
-  the mesh cycle's calibrated forces 50-1000 N): a tooth pair enters on the face
-  gear's rounded tip edge every mesh period (mesh-in impacts);
+- ``loaded-1000``: 1000 r/min, 50 N m on the face gear rising as ``sin^2`` over the
+  first period (634 N a mesh on stage 1, inside the mesh cycle's calibrated forces
+  50-1000 N): a tooth pair enters on the face gear's rounded tip edge every mesh
+  period (mesh-in impacts); the ramp's period is left out;
 - ``rattle-300``: 300 r/min, no load: the mesh rattles in its backlash;
 - ``noload-1000``: 1000 r/min, no load.
 
 The no-load cases need an excitation: a kinematic transmission error of
 `TE_AMPLITUDE` at mesh frequency and a drag of `DRAG` on the face gear (the lumped
-model's defaults, `fe_impact.switching.model.DriveModel`); the FE must run with the same
-(`RollingCondition`). Each condition runs ``--cycles`` mesh periods (the FE's own
-duration when its record is there), the first ``--settle`` periods left out.
+model's defaults, `fe_impact.switching.model.DriveModel`), both models alike. The
+tooth pairs start where `MESH_PHASE` puts them.
 
 Compared per condition (`fe_impact.rolling.compare.COMPARED`): the mean-removed TE's
 peak-to-peak and RMS and its amplitudes at mesh orders 1-4 (whole periods, exact DFT
@@ -60,8 +65,10 @@ from fe_impact.rolling.compare import (
     goal_lines,
     markdown_table,
     mesh_metrics,
+    read_record,
     record_from_roll,
     write_comparison,
+    write_record,
 )
 from fe_impact.rolling.lumped import run_lumped
 from validation import checks as ck
@@ -70,27 +77,38 @@ logger = logging.getLogger(__name__)
 
 #: Exit status when the FE side (or the calibration) is missing: nothing asserted.
 SKIPPED = 2
-#: Kinematic transmission error [m] and drag [N m]: the lumped model's defaults.
+#: Kinematic transmission error of the no-load conditions [m] and drag on the face gear
+#: [N m]: the lumped model's defaults. The drag is given as load torque (the rolling FE
+#: has no drag of its own), so both models ramp it alike.
 TE_AMPLITUDE = 1e-6
 DRAG = 0.01
 #: Load torque of the loaded condition [N m].
 LOAD = 50.0
-#: (name, pinion speed r/min, load N m) of the three conditions.
-CONDITIONS = (("loaded-1000", 1000.0, LOAD), ("rattle-300", 300.0, 0.0),
-              ("noload-1000", 1000.0, 0.0))
+#: Mesh periods the rolling FE's sectors hold (5 teeth each: 2.47 cycles).
+CYCLES = 2.4
+#: Pair 0 this many base pitches past the path's start at t = 0: a pair then enters at
+#: about 0.08, 1.08 and 2.08 cycles, so the pair entering after the 1-cycle load ramp
+#: passes its single-contact zone (0.76-1 period after entry, contact ratio 1.76), where
+#: its force peaks, before the run ends.
+MESH_PHASE = 0.85
+#: (name, pinion speed r/min, load N m, kinematic TE m, load ramp and settling time in
+#: mesh periods) of the three conditions.
+CONDITIONS = (("loaded-1000", 1000.0, LOAD, 0.0, 1.0, 1.0),
+              ("rattle-300", 300.0, 0.0, TE_AMPLITUDE, 0.0, 0.4),
+              ("noload-1000", 1000.0, 0.0, TE_AMPLITUDE, 0.0, 0.4))
 
 
-def conditions(gearset: GearSet, stage: int, cycles: float, settle: float
+def conditions(gearset: GearSet, stage: int, cycles: float = CYCLES
                ) -> list[RollingCondition]:
     """The three `RollingCondition` of the study on ``stage`` of ``gearset``."""
     backlash = _default_backlash(gearset, stage)
     out = []
-    for name, rpm, torque in CONDITIONS:
+    for name, rpm, torque, te, ramp, settle in CONDITIONS:
         period = 60.0 / (gearset.pinion.teeth * rpm)
         out.append(RollingCondition(
-            name, stage, rpm, torque, cycles * period, gearset.pinion.inertia,
-            gearset.stages[stage - 1].inertia, backlash, transmission_error=TE_AMPLITUDE,
-            drag_torque=DRAG, settle=settle * period))
+            name, stage, rpm, torque + DRAG, cycles * period, gearset.pinion.inertia,
+            gearset.stages[stage - 1].inertia, backlash, transmission_error=te,
+            settle=settle * period, load_ramp=ramp * period, mesh_phase=MESH_PHASE))
     return out
 
 
@@ -102,29 +120,49 @@ def _default_backlash(gearset: GearSet, stage: int) -> float:
                                   0.5 * gearset.module * gearset.stages[stage - 1].teeth))
 
 
-def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None
-              ) -> RollingRecord | None:
-    """The rolling FE's record of ``condition`` from ``fe/<name>``; None when absent."""
+def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
+              run_fe: bool = False, level: str = "coarse") -> RollingRecord | None:
+    """The rolling FE's record of ``condition``: ``fe/<name>/record.json`` if there, else
+    (``run_fe``) a rolling run written there; None when neither."""
     if fe is None:
         return None
-    folder = fe / condition.name
+    path = fe / condition.name / "record.json"
+    if path.is_file():
+        return read_record(path)
+    if not run_fe:
+        logger.warning("no rolling FE record for %s at %s (run with --run-fe)",
+                       condition.name, path)
+        return None
     try:
-        from fe_impact.rolling.run import read_roll  # the rolling FE's reader
+        from fe_impact.rolling.api import RollInputs, roll
     except ImportError:
-        logger.warning("the rolling FE's reader (fe_impact.rolling.run.read_roll) is not "
-                       "available")
+        logger.warning("the rolling FE (fe_impact.rolling.api) is not available")
         return None
-    if not folder.is_dir():
-        logger.warning("no rolling FE output for %s at %s", condition.name, folder)
-        return None
-    result = read_roll(folder)
-    duration = float(result.time_s[-1] - result.time_s[0])
-    condition = replace(condition, duration=duration)
-    return record_from_roll(result, condition, gearset.pinion.teeth, REFERENCE)
+    period = 1.0 / condition.mesh_frequency(gearset.pinion.teeth)
+    kwargs = dict(stage=condition.stage, speed_rpm=condition.speed_rpm,
+                  torque_nm=condition.torque + condition.drag_torque,
+                  cycles=condition.duration / period, level=level,
+                  ramp_cycles=condition.load_ramp / period,
+                  te_amplitude=condition.transmission_error)
+    if "start_cycles" in RollInputs.__dataclass_fields__:
+        kwargs["start_cycles"] = condition.mesh_phase
+    else:
+        logger.warning("the rolling FE takes no start_cycles: pair 0 starts at the path's "
+                       "start in both models")
+        condition = replace(condition, mesh_phase=0.0)
+    wall = time.perf_counter()
+    result = roll(gearset, RollInputs(**kwargs), out=fe / condition.name / "roll")
+    logger.info("%s: rolling FE %.0f s", condition.name, time.perf_counter() - wall)
+    backlash = result.info.get("backlash_m")
+    if backlash:
+        condition = replace(condition, backlash=float(backlash))
+    record = record_from_roll(result, condition, gearset.pinion.teeth, REFERENCE)
+    write_record(path, record)
+    return record
 
 
 def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int = 1,
-        cycles: float = 6.0, settle: float = 1.0) -> dict:
+        cycles: float = CYCLES, run_fe: bool = False, level: str = "coarse") -> dict:
     """Compute the records, metrics and goal checks of every condition.
 
     Returns
@@ -136,8 +174,8 @@ def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int 
     records, goal, missing = [], {}, []
     if calibration is None or not calibration.is_file():
         missing.append(f"calibration file {calibration}")
-    for condition in conditions(gearset, stage, cycles, settle):
-        fe_side = fe_record(condition, gearset, fe)
+    for condition in conditions(gearset, stage, cycles):
+        fe_side = fe_record(condition, gearset, fe, run_fe, level)
         if fe_side is not None:
             condition = fe_side.condition
             records.append(fe_side)
@@ -175,13 +213,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("gearset", nargs="?", help="gear-set TOML (default: the seed set)")
     parser.add_argument("--calibration", type=Path,
                         default=Path("out/calibration/calibration.json"))
-    parser.add_argument("--fe", type=Path, help="folder of the rolling FE's outputs, one "
-                        "sub-folder per condition")
+    parser.add_argument("--fe", type=Path, help="folder of the rolling FE's records, one "
+                        "sub-folder per condition (<name>/record.json)")
+    parser.add_argument("--run-fe", action="store_true", help="run the rolling FE of the "
+                        "conditions whose record is not in --fe yet, and keep it there")
+    parser.add_argument("--level", default="coarse", help="mesh level of the rolling FE")
     parser.add_argument("--stage", type=int, default=1)
-    parser.add_argument("--cycles", type=float, default=6.0,
-                        help="mesh periods simulated when there is no FE record (default 6)")
-    parser.add_argument("--settle", type=float, default=1.0,
-                        help="mesh periods left out at the start (default 1)")
+    parser.add_argument("--cycles", type=float, default=CYCLES,
+                        help=f"mesh periods simulated (default {CYCLES}, what the FE's "
+                        "sectors hold)")
     parser.add_argument("--out", type=Path, default=Path("out/rolling_compare"))
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(message)s")
@@ -190,10 +230,13 @@ def main(argv: list[str] | None = None) -> int:
         if not 1 <= args.stage <= len(gearset.stages):
             raise FeImpactError(f"--stage {args.stage}: the gear set has stages "
                                 f"1..{len(gearset.stages)}")
-        if not (math.isfinite(args.cycles) and args.cycles > args.settle + 1.0 > 1.0):
-            raise FeImpactError(f"--cycles {args.cycles} must exceed --settle "
-                                f"{args.settle} (>= 0) by one mesh period or more")
-        result = run(gearset, args.calibration, args.fe, args.stage, args.cycles, args.settle)
+        if not (math.isfinite(args.cycles) and args.cycles >= 2.0):
+            raise FeImpactError(f"--cycles {args.cycles}: give 2 or more (a load ramp of "
+                                "one period, then one whole period compared)")
+        if args.run_fe and args.fe is None:
+            raise FeImpactError("--run-fe needs --fe DIR (where the FE records are kept)")
+        result = run(gearset, args.calibration, args.fe, args.stage, args.cycles,
+                     args.run_fe, args.level)
     except FeImpactError as exc:
         print(f"rolling_compare: {exc}", file=sys.stderr)
         return 1

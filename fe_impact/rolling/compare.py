@@ -70,8 +70,10 @@ __all__ = [
     "mesh_metrics",
     "mesh_window",
     "plot_condition",
+    "read_record",
     "record_from_roll",
     "write_comparison",
+    "write_record",
 ]
 
 #: Kinds of `ContactEvents.kind`.
@@ -114,6 +116,12 @@ class RollingCondition:
         Coulomb friction between the flanks (the gear set's coefficients).
     settle : float
         Time [s] from the start left out of the metrics (start-up transient), >= 0.
+    load_ramp : float
+        The load torque rises from 0 as ``sin^2`` over this time [s] (0: at once); the
+        drag acts from the start.
+    mesh_phase : float
+        Where the tooth pairs stand at t = 0: pair 0 this many base pitches past the
+        start of the path of contact [-].
     """
 
     name: str
@@ -128,6 +136,8 @@ class RollingCondition:
     drag_torque: float = 0.0
     friction: bool = False
     settle: float = 0.0
+    load_ramp: float = 0.0
+    mesh_phase: float = 0.0
 
     def __post_init__(self) -> None:
         if isinstance(self.stage, bool) or not isinstance(self.stage, int) or self.stage < 1:
@@ -139,14 +149,16 @@ class RollingCondition:
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0.0):
                 raise CaseError(f"condition {self.name!r}: {name} = {value!r} must be a "
                                 "finite number > 0")
-        for name in ("torque", "transmission_error", "drag_torque", "settle"):
+        for name in ("torque", "transmission_error", "drag_torque", "settle", "load_ramp",
+                     "mesh_phase"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0.0):
                 raise CaseError(f"condition {self.name!r}: {name} = {value!r} must be a "
                                 "finite number >= 0")
-        if self.settle >= self.duration:
-            raise CaseError(f"condition {self.name!r}: settle = {self.settle!r} s must be "
-                            f"shorter than duration = {self.duration!r} s")
+        if self.settle >= self.duration or self.load_ramp > self.duration:
+            raise CaseError(f"condition {self.name!r}: settle = {self.settle!r} s and "
+                            f"load_ramp = {self.load_ramp!r} s must be shorter than "
+                            f"duration = {self.duration!r} s")
 
     def mesh_frequency(self, pinion_teeth: int) -> float:
         """Tooth-mesh frequency ``N_p n / 60`` [Hz]."""
@@ -293,6 +305,61 @@ class RollingRecord:
         return self.condition.mesh_frequency(self.pinion_teeth)
 
 
+#: Schema of `write_record`'s files.
+RECORD_SCHEMA = "fe-impact/rolling-record/1"
+
+
+def record_to_dict(record: RollingRecord) -> dict:
+    """``record`` as JSON-ready data (`RECORD_SCHEMA`)."""
+    return {"schema": RECORD_SCHEMA, "source": record.source,
+            "condition": dict(record.condition.__dict__), "pinion_teeth": record.pinion_teeth,
+            "time": record.time.tolist(), "te": record.te.tolist(),
+            "drive_force": record.drive_force.tolist(),
+            "coast_force": record.coast_force.tolist(), "events": record.events.as_dict(),
+            "pair_force": None if record.pair_force is None else record.pair_force.tolist(),
+            "info": record.info}
+
+
+def record_from_dict(data: dict, where: str = "record") -> RollingRecord:
+    """The `RollingRecord` of `record_to_dict`'s data; CaseError naming ``where`` if it
+    is not one."""
+    if not isinstance(data, dict) or data.get("schema") != RECORD_SCHEMA:
+        raise CaseError(f"{where}: not a rolling record (schema {RECORD_SCHEMA!r} expected)")
+    try:
+        events = {k: [math.nan if v is None else v for v in vals] if k in (
+            "closing_speed", "peak_force", "position") else vals
+            for k, vals in data["events"].items()}
+        pair = data.get("pair_force")
+        return RollingRecord(
+            source=data["source"], condition=RollingCondition(**data["condition"]),
+            pinion_teeth=int(data["pinion_teeth"]), time=data["time"], te=data["te"],
+            drive_force=data["drive_force"], coast_force=data["coast_force"],
+            events=ContactEvents(**events),
+            pair_force=None if pair is None else np.array(pair, dtype=float),
+            info=data.get("info") or {})
+    except (KeyError, TypeError) as exc:
+        raise CaseError(f"{where}: incomplete rolling record ({exc})") from None
+
+
+def write_record(path: str | Path, record: RollingRecord) -> Path:
+    """Write ``record`` as JSON (atomically)."""
+    from fe_impact.output.files import write_json
+
+    return write_json(path, record_to_dict(record))
+
+
+def read_record(path: str | Path) -> RollingRecord:
+    """Read a record written by `write_record`."""
+    import json
+
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise CaseError(f"{path}: cannot read a rolling record ({exc})") from None
+    return record_from_dict(data, str(path))
+
+
 #: The rolling FE's names of where a pair touched, as `LOCATIONS`.
 _FE_WHERE = {"flank": "flank", "approach-edge": "corner-approach",
              "recess-edge": "corner-recess"}
@@ -331,6 +398,10 @@ def record_from_roll(result, condition: RollingCondition, pinion_teeth: int,
 HARMONICS = 4
 #: Samples per mesh period of the resampled transmission error.
 RESAMPLE = 128
+#: A mesh-in counts when the record runs this many mesh periods past its onset: a pair's
+#: force peaks in the single-contact zone, which ends one base pitch after the pair
+#: entered the path, so its peak force is in the record.
+MESH_IN_HOLD = 1.0
 #: Fraction of a mesh period by which the metrics' window may start before ``settle``.
 SLACK = 0.02
 
@@ -348,7 +419,8 @@ class MeshMetrics:
     periods : int
         Whole mesh periods in the window the figures are taken over.
     window : tuple of float
-        ``(t0, t1)`` [s]: the last ``periods`` whole mesh periods after ``settle``.
+        ``(t0, t1)`` [s]: the last ``periods`` whole mesh periods after ``settle`` (the
+        transmission error's figures).
     te_peak_to_peak, te_rms : float
         Of the mean-removed transmission error over the window [m].
     te_harmonics : tuple of float
@@ -356,13 +428,13 @@ class MeshMetrics:
     mean_drive_force, mean_coast_force : float
         Time averages over the window [N].
     mesh_in_count : int
-        Mesh-in impacts in the window.
+        Mesh-in impacts from ``settle`` to `MESH_IN_HOLD` periods before the end.
     mesh_in_force_median, mesh_in_force_max : float
         Their peak forces [N] (NaN without any).
     mesh_in_speed_median, mesh_in_speed_max : float
         Their closing speeds [m/s] (NaN without any).
     rattle_count : int
-        Rattle impacts in the window.
+        Rattle impacts from ``settle`` on.
     rattle_force_max, rattle_speed_max : float
         Largest rattle peak force [N] and closing speed [m/s] (NaN without any).
     """
@@ -461,15 +533,21 @@ def _stat(values: np.ndarray, how) -> float:
 
 
 def mesh_metrics(record: RollingRecord) -> MeshMetrics:
-    """Reduce a record to its `MeshMetrics` over whole mesh periods after ``settle``."""
+    """Reduce a record to its `MeshMetrics`.
+
+    The transmission error over the last whole mesh periods after ``settle``
+    (`mesh_window`); the impacts from ``settle`` on (mesh-in impacts up to
+    `MESH_IN_HOLD` periods before the end).
+    """
     f = record.mesh_frequency
     t0, t1, periods = mesh_window(record.time, f, record.condition.settle)
     inside = (record.time >= t0) & (record.time <= t1)
     te = record.te[inside]
     te = te - te.mean()
     harmonics = mesh_harmonics(record.time, record.te, f, periods, t0)
-    mesh_in = record.events.select("mesh-in", t0, t1)
-    rattle = record.events.select("rattle", t0, t1)
+    start, end = record.time[0] + record.condition.settle, record.time[-1]
+    mesh_in = record.events.select("mesh-in", start, end - MESH_IN_HOLD / f)
+    rattle = record.events.select("rattle", start, end)
     return MeshMetrics(
         source=record.source, condition=record.condition.name, mesh_frequency=f,
         periods=periods, window=(t0, t1), te_peak_to_peak=float(np.ptp(te)),

@@ -6,8 +6,10 @@ constant pinion speed against a load torque on the face gear. The lumped model
 
 - the gear set reduced to the condition's stage (one ring), one pinion
   (``n_pinions = 1``: one mesh, as in the FE);
-- the pinion's speed prescribed (constant), the load and the drag torque on
-  the output;
+- the pinion's speed prescribed (constant), the load (at once, or rising as
+  ``sin^2`` over the condition's ``load_ramp``) and the drag torque on the output;
+  the tooth pairs placed at t = 0 as the condition's ``mesh_phase`` says, and the
+  mesh at rest on its drive flank under the load of t = 0 (static equilibrium);
 - the face-gear rotor's inertia ``J_g`` split between the ring (``1 - f``) and
   the output that carries the load (``f``, `OUTPUT_SHARE`), joined by the
   model's ring web. The web's mode (about 20 kHz and more for the seed's rings)
@@ -36,7 +38,7 @@ from fe_impact.errors import CaseError
 from fe_impact.gears.gearset import GearSet, default_gearset
 from fe_impact.rolling.compare import ContactEvents, RollingCondition, RollingRecord
 from fe_impact.switching.calibration import LawSet, closed_form_laws, load_calibration
-from fe_impact.switching.model import DriveModel, Segment, StageSchedule
+from fe_impact.switching.model import DriveModel, LoadSeries, Segment, StageSchedule
 from fe_impact.switching.simulation import CONTACT_NAMES, KIND_NAMES, simulate
 
 logger = logging.getLogger(__name__)
@@ -49,6 +51,8 @@ __all__ = ["LAW_SOURCES", "OUTPUT_SHARE", "lumped_model", "run_lumped", "stage_g
 OUTPUT_SHARE = 0.05
 #: Samples per mesh period of the record's time series.
 SAMPLES_PER_PERIOD = 64
+#: Samples of a load ramp (`load_series`).
+RAMP_POINTS = 32
 #: The two law sources `run_lumped` takes.
 LAW_SOURCES = ("calibrated", "closed-form")
 
@@ -96,7 +100,8 @@ def lumped_model(condition: RollingCondition, gearset: GearSet | None = None,
         gearset=single, n_pinions=1, pinion_inertia=condition.pinion_inertia,
         output_inertia=output_share * j_gear, backlash=(condition.backlash,),
         transmission_error=condition.transmission_error, drag_torque=condition.drag_torque,
-        friction="gearset" if condition.friction else None, drive="speed")
+        friction="gearset" if condition.friction else None, drive="speed",
+        mesh_phase=condition.mesh_phase, engage_position=1.0)
     if calibration is None:
         return model.with_laws(closed_form_laws(single, [model.effective_mass(1)]))
     # the file's stages are the full set's: read it on that set, with each stage's
@@ -116,6 +121,21 @@ def events_from_run(events) -> ContactEvents:
         time=events.time, kind=[KIND_NAMES[int(k)] for k in events.kind],
         flank=events.flank, closing_speed=events.speed, peak_force=events.force,
         location=[CONTACT_NAMES[int(c)] for c in events.contact], position=events.position)
+
+
+def load_series(condition: RollingCondition, points: int = RAMP_POINTS) -> LoadSeries:
+    """The load torque over the run: ``T sin^2(pi t / 2 t_r)`` up to the ramp's end
+    ``t_r``, then ``T`` (linear between ``points`` samples of the ramp; its largest
+    departure from the sine, ``T (pi / 2 points)^2 / 8`` about, is 3e-4 T for 32)."""
+    torque, ramp = condition.torque, condition.load_ramp
+    if ramp <= 0.0:
+        return LoadSeries(np.array([0.0, condition.duration]), np.array([torque, torque]),
+                          "constant load")
+    t = np.linspace(0.0, ramp, points + 1)
+    values = torque * np.sin(0.5 * np.pi * t / ramp) ** 2
+    if ramp < condition.duration:
+        t, values = np.append(t, condition.duration), np.append(values, torque)
+    return LoadSeries(t, values, f"sin^2 ramp over {ramp:g} s")
 
 
 def run_lumped(condition: RollingCondition, laws: str = "closed-form",
@@ -149,7 +169,7 @@ def run_lumped(condition: RollingCondition, laws: str = "closed-form",
     model = lumped_model(condition, gearset, calibration if laws == "calibrated" else None,
                          output_share)
     schedule = StageSchedule((Segment(condition.duration, 1, condition.speed_rpm,
-                                      load=condition.torque),))
+                                      load_series=load_series(condition)),))
     period = 1.0 / condition.mesh_frequency(gearset.pinion.teeth)
     run = simulate(model, schedule, sample_interval=period / SAMPLES_PER_PERIOD)
     s = run.series

@@ -8,9 +8,10 @@ import math
 import numpy as np
 import pytest
 
+from fe_impact.calibration.root_stress import peak_tension
 from fe_impact.errors import GeometryError
 from fe_impact.gears.pinion import PinionTooth
-from fe_impact.gears.root_stress import iso_section, peak_tension
+from fe_impact.gears.root_stress import iso_section
 
 
 def _inv(a: float) -> float:
@@ -136,3 +137,21 @@ def test_bending_stress_limit_is_checked_like_its_neighbours():
         gearset_from_dict(data)
     data["material"]["bending_stress_limit_pa"] = 430e6
     assert gearset_from_dict(data).material.bending_stress_limit == 430e6
+
+
+def test_stage_record_reads_back_what_it_wrote():
+    """The calibration's workers write the record as JSON and the report reads it back."""
+    import json
+
+    from fe_impact.calibration.root_stress import RootPeak, StageRootStress
+
+    pinion = PinionTooth(19, 3e-3, 20.0, 1.0, 0.25, 0.38, 0.02)
+    iso = iso_section(pinion, pinion.pitch_radius)
+    record = StageRootStress(
+        stage=2, normal_force=1e3, level="coarse", refinement=1.0,
+        pinion=RootPeak(1.2e8, np.array([1e-3, 2e-3, 3e-3]), 2e-3, 40),
+        face=RootPeak(9e7, np.array([4e-3, 5e-3, 6e-3]), 3e-3, 50), iso=iso,
+        iso_stress=1.1e8, face_width=0.024, allowable=1e9, contact_force=999.0)
+    back = StageRootStress.from_dict(json.loads(json.dumps(record.to_dict())))
+    assert back.to_dict() == record.to_dict()
+    assert back.iso == iso

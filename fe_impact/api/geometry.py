@@ -34,7 +34,7 @@ def geometry_report(gearset: GearSet | PathLike | None = None,
         ``"fe"`` also meshes each stage's tooth pair at the pitch point (mesh
         ``level``, kept under ``cache``) and presses it with the stage's normal
         force: the FE's peak root tensions join the ISO-style figures
-        (:func:`fe_impact.gears.root_stress.fe_root_stress`; about 20 s of CPU a
+        (:func:`fe_impact.calibration.root_stress.fe_root_stress`; about 20 s of CPU a
         stage at the coarse level).
 
     Returns
@@ -59,7 +59,7 @@ def geometry_report(gearset: GearSet | PathLike | None = None,
             raise GeometryError(f"torque = {value:g} N m: must be a number > 0")
     rows = stage_geometry(gs, seed_load_torque() if torque is None else torque)
     if root_stress == "fe":
-        from fe_impact.gears.root_stress import fe_root_stress
+        from fe_impact.calibration.root_stress import fe_root_stress
 
         for row in rows:
             force = row["pitch_point"]["normal_force_N"]

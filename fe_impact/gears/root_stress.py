@@ -1,59 +1,39 @@
-"""Tooth-root bending stress: the finite elements' peak against an ISO 6336-3 style value.
+"""Tooth-root bending of the pinion, ISO 6336-3 style: the 30 degree tangent section.
 
-Three parts, in data-flow order:
+:func:`iso_section`: the pinion's critical root section by the **30 degree
+tangent construction** of ISO 6336-3:2019 (method B, the Hofer construction):
+the points of the root fillet whose tangent makes 30 deg with the tooth
+centreline bound the section ``s_Fn``; the load line through the point where
+the normal force acts meets the centreline at height ``h_Fe`` above it,
+inclined ``alpha_Fen`` to the perpendicular of the centreline; ``rho_F`` is
+the fillet's radius of curvature there. The construction is made numerically
+on the pinion's own generated fillet (the trochoid of the rack tip round,
+:meth:`~fe_impact.gears.pinion.PinionTooth.fillet`), not by ISO's closed forms
+for a rack-cut tooth; those closed forms are the check
+(``tests/test_root_stress.py``). Then
 
-1. :func:`iso_section`: the pinion's critical root section by the **30 degree
-   tangent construction** of ISO 6336-3:2019 (method B, the Hofer construction):
-   the points of the root fillet whose tangent makes 30 deg with the tooth
-   centreline bound the section ``s_Fn``; the load line through the point
-   where the normal force acts meets the centreline at height ``h_Fe`` above
-   it, inclined ``alpha_Fen`` to the perpendicular of the centreline;
-   ``rho_F`` is the fillet's radius of curvature there. The construction is
-   made numerically on the pinion's own generated fillet (the trochoid of the
-   rack tip round, :meth:`~fe_impact.gears.pinion.PinionTooth.fillet`), not by
-   ISO's closed forms for a rack-cut tooth; those closed forms are the check
-   (``tests/test_root_stress.py``). Then
+``Y_F = 6 (h_Fe/m) cos(alpha_Fen) / ((s_Fn/m)^2 cos(alpha_n))``,
+``Y_S = (1.2 + 0.13 L) q_s^(1/(1.21 + 2.3/L))`` (``L = s_Fn/h_Fe``,
+``q_s = s_Fn/(2 rho_F)``, valid for ``1 <= q_s < 8``) and the nominal root
+stress ``sigma_F0 = F_t/(b m) Y_F Y_S Y_beta`` with ``F_t = F_n cos(alpha_n)``
+and ``Y_beta = 1`` (spur pinion).
 
-   ``Y_F = 6 (h_Fe/m) cos(alpha_Fen) / ((s_Fn/m)^2 cos(alpha_n))``,
-   ``Y_S = (1.2 + 0.13 L) q_s^(1/(1.21 + 2.3/L))`` (``L = s_Fn/h_Fe``,
-   ``q_s = s_Fn/(2 rho_F)``, valid for ``1 <= q_s < 8``) and the nominal root
-   stress ``sigma_F0 = F_t/(b m) Y_F Y_S Y_beta`` with ``F_t = F_n cos(alpha_n)``
-   and ``Y_beta = 1`` (spur pinion).
-
-   ISO's method B applies the load at the outer point of single pair tooth
-   contact; here it is applied where the finite-element case applies it (the
-   pitch point of the stage, :func:`fe_root_stress`), so both figures are for
-   one load at one place. ``b`` is the face gear's face width (the length of
-   the contact lines of a conjugate, unlocalised pair): the FE's localised
-   contact (``N_s > N_p``, crowning) loads a shorter length, so the FE's peak
-   is expected above ``sigma_F0``; their ratio plays the part of ISO's face
-   load factor ``K_Fbeta``.
-
-2. :func:`vertex_stresses`, :func:`peak_tension`: the stress tensor of a
-   solved displacement at the vertices of chosen elements (the gradient of
-   the element's own polynomial evaluated there, scikit-fem's basis on a
-   vertex quadrature), averaged at each vertex over the chosen elements
-   sharing it, and the largest maximum principal stress.
-
-3. :func:`fe_root_stress`: a stage's tooth pair at the pitch point, meshed
-   (:func:`~fe_impact.meshing.toothpair.build_pair`) and pressed by the normal
-   force quasi-statically (the mesh cycle's
-   :func:`~fe_impact.calibration.meshcycle.solve_static_pair`), and the peak
-   tension in each root: the pinion's loaded-side fillet (root circle to
-   root-form circle) and the face gear's loaded-side root (root plane to
-   ``FACE_ROOT_BAND`` above it). The face gear's flank is continued to a
-   sharp corner at the root plane (:mod:`fe_impact.meshing.toothpair`), where
-   the elastic stress is singular: its peak grows as the mesh is refined and
-   is reported with the element size as a mesh-dependent figure, not a
-   fillet stress.
+ISO's method B applies the load at the outer point of single pair tooth
+contact; here it is applied where the contact is (the pitch point in
+``fe-impact geometry`` and in the FE comparison of
+:mod:`fe_impact.calibration.root_stress`), so the FE and ISO figures are for
+one load at one place. ``b`` is the face gear's face width (the length of the
+contact lines of a conjugate, unlocalised pair): a localised contact
+(``N_s > N_p``, crowning) loads a shorter length, so an FE peak is expected
+above ``sigma_F0``; their ratio plays the part of ISO's face load factor
+``K_Fbeta``.
 
 The allowable: ISO 6336-5's ``sigma_Flim`` (the gear set's
 ``material.bending_stress_limit_pa``) is the nominal stress number of the
 standard reference test gear, whose local root stress is ``Y_ST = 2`` times
-it; a calculated local root stress (with ``Y_S``, as the FE's peak) is
-compared with ``sigma_FE = Y_ST sigma_Flim`` (ISO 6336-3, the permissible
-root stress with the life, notch, roughness and size factors and the
-safety factor 1).
+it; a calculated local root stress (with ``Y_S``) is compared with
+``sigma_FE = Y_ST sigma_Flim`` (ISO 6336-3, the permissible root stress with
+the life, notch, roughness and size factors and the safety factor 1).
 """
 
 from __future__ import annotations
@@ -61,7 +41,6 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -71,19 +50,13 @@ from fe_impact.errors import GeometryError
 logger = logging.getLogger(__name__)
 
 __all__ = [
-    "FACE_ROOT_BAND",
     "TANGENT_ANGLE_DEG",
     "Y_ST",
     "IsoSection",
-    "RootPeak",
-    "StageRootStress",
-    "fe_root_stress",
     "iso_for_contact",
     "iso_root_bending",
     "iso_section",
-    "peak_tension",
-    "report_lines",
-    "vertex_stresses",
+    "pinion_frame",
 ]
 
 #: ISO 6336-3's critical section: where the fillet's tangent makes this angle with
@@ -91,14 +64,12 @@ __all__ = [
 TANGENT_ANGLE_DEG = 30.0
 #: ISO 6336-3 stress correction factor of the standard reference test gear.
 Y_ST = 2.0
-#: Height of the face gear's root region above its root plane, in modules.
-FACE_ROOT_BAND = 0.5
 #: Fillet points sampled for the 30 deg construction: the point is interpolated
-#: between samples 1e-3 of the fillet apart; the tests hold the closed form to 0.1 %.
+#: between samples 1/4000 of the fillet apart; the tests hold the closed form to 1e-6.
 _FILLET_SAMPLES = 4001
 
 
-# -- 1. ISO 6336-3 style nominal root stress ----------------------------------------------
+# -- ISO 6336-3 style nominal root stress ----------------------------------------------
 @dataclass(frozen=True)
 class IsoSection:
     """The pinion's critical root section and ISO 6336-3 factors for one load point.
@@ -206,258 +177,17 @@ def iso_section(pinion, load_radius: float) -> IsoSection:
                       section_radius=float(np.hypot(*point)), y_f=float(y_f), y_s=float(y_s))
 
 
-# -- 2. stresses of a solved displacement -------------------------------------------------
-def vertex_stresses(skfem_mesh, order: int, u_dofs: NDArray, elements: NDArray,
-                    lame: tuple[float, float]) -> NDArray:
-    """Cauchy stress at the four vertices of each element in ``elements`` [Pa].
-
-    The displacement gradient of each element's own polynomial evaluated at its
-    vertices (scikit-fem's :class:`~skfem.CellBasis` on a quadrature made of
-    the reference tetrahedron's vertices); linear isotropic elasticity
-    ``sigma = lambda tr(eps) I + 2 mu eps``.
-
-    Parameters
-    ----------
-    skfem_mesh : skfem.MeshTet or skfem.MeshTet2
-    order : {1, 2}
-        Element order of ``u_dofs``.
-    u_dofs : ndarray
-        Displacement DOF vector of the vector basis (scikit-fem's numbering) [m].
-    elements : ndarray of int
-        The elements.
-    lame : (float, float)
-        Lame's ``lambda`` and ``mu`` [Pa].
-
-    Returns
-    -------
-    ndarray, shape (len(elements), 4, 3, 3)
-    """
-    from skfem import CellBasis, ElementTetP1, ElementTetP2, ElementVector
-
-    vertices = np.array([[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
-    element = ElementVector(ElementTetP2() if order == 2 else ElementTetP1())
-    basis = CellBasis(skfem_mesh, element, elements=np.asarray(elements),
-                      quadrature=(vertices, np.full(4, 1.0 / 24.0)))
-    grad = basis.interpolate(u_dofs).grad                   # (3, 3, n_elements, 4)
-    eps = 0.5 * (grad + np.swapaxes(grad, 0, 1))
-    lam, mu = lame
-    sigma = 2.0 * mu * eps + lam * np.einsum("iiek->ek", eps)[None, None] \
-        * np.eye(3)[:, :, None, None]
-    return np.moveaxis(sigma, (0, 1), (2, 3))
-
-
-@dataclass(frozen=True)
-class RootPeak:
-    """The largest maximum principal stress of a region and where it is.
-
-    Attributes
-    ----------
-    stress : float
-        Largest maximum principal stress, vertex-averaged [Pa].
-    point : ndarray, shape (3,)
-        Its vertex [m].
-    element_size : float
-        Mean edge length of the region's elements at that vertex [m].
-    n_elements : int
-        Elements in the region.
-    """
-
-    stress: float
-    point: NDArray
-    element_size: float
-    n_elements: int
-
-
-def peak_tension(skfem_mesh, order: int, u_dofs: NDArray, elements: NDArray,
-                 lame: tuple[float, float]) -> RootPeak:
-    """The largest maximum principal stress over the vertices of ``elements``.
-
-    Each vertex's stress is the mean of :func:`vertex_stresses` over the given
-    elements that share it (the plain nodal averaging of FE post-processors);
-    its largest eigenvalue is the maximum principal stress. Arguments as
-    :func:`vertex_stresses`.
-    """
-    elements = np.asarray(elements)
-    if elements.size == 0:
-        raise GeometryError("root region: no element lies in it")
-    sigma = vertex_stresses(skfem_mesh, order, u_dofs, elements, lame)
-    verts = skfem_mesh.t[:4, elements].T                     # (n, 4)
-    flat = verts.ravel()
-    nodes, inverse = np.unique(flat, return_inverse=True)
-    total = np.zeros((len(nodes), 3, 3))
-    np.add.at(total, inverse, sigma.reshape(-1, 3, 3))
-    counts = np.bincount(inverse, minlength=len(nodes))
-    principal = np.linalg.eigvalsh(total / counts[:, None, None])[:, -1]
-    k = int(np.argmax(principal))
-    at = np.flatnonzero(np.any(verts == nodes[k], axis=1))
-    p = skfem_mesh.p
-    edges = [np.linalg.norm(p[:, verts[e, i]] - p[:, verts[e, j]])
-             for e in at for i in range(4) for j in range(i + 1, 4)]
-    return RootPeak(stress=float(principal[k]), point=p[:, nodes[k]].copy(),
-                    element_size=float(np.mean(edges)), n_elements=int(len(elements)))
-
-
-# -- 3. a stage's tooth pair ----------------------------------------------------------------
-@dataclass(frozen=True)
-class StageRootStress:
-    """FE and ISO-style root stresses of one stage under one normal force (SI units).
-
-    Attributes
-    ----------
-    stage : int
-    normal_force : float
-        Normal force of the single pair at the pitch point [N].
-    level : str
-        Mesh level; ``refinement`` divides its element sizes.
-    refinement : float
-    pinion, face : RootPeak
-        The FE's peak tension in the pinion's fillet and the face gear's root.
-    iso : IsoSection
-        The pinion's ISO 6336-3 section for the load at the FE's contact radius.
-    iso_stress : float
-        ``sigma_F0`` [Pa].
-    face_width : float
-        ``b`` of ``sigma_F0``: the face gear's face width [m].
-    allowable : float
-        ``Y_ST sigma_Flim`` [Pa].
-    contact_force : float
-        The FE's contact force at the step [N] (the load it was pressed with).
-    """
-
-    stage: int
-    normal_force: float
-    level: str
-    refinement: float
-    pinion: RootPeak
-    face: RootPeak
-    iso: IsoSection
-    iso_stress: float
-    face_width: float
-    allowable: float
-    contact_force: float
-
-    def fe_rows(self) -> dict:
-        """The ``fe_*`` rows of :func:`iso_root_bending`'s dict (SI units)."""
-        return {"fe_pinion_Pa": self.pinion.stress,
-                "fe_pinion_element_m": self.pinion.element_size,
-                "fe_face_Pa": self.face.stress, "fe_face_element_m": self.face.element_size,
-                "fe_ratio": self.pinion.stress / self.allowable,
-                "fe_over_iso": self.pinion.stress / self.iso_stress}
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict (SI units)."""
-        def peak(p: RootPeak) -> dict:
-            return {"stress_Pa": p.stress, "point_m": [float(c) for c in p.point],
-                    "element_size_m": p.element_size, "n_elements": p.n_elements}
-
-        return {"stage": self.stage, "normal_force_N": self.normal_force,
-                "level": self.level, "refinement": self.refinement,
-                "contact_force_N": self.contact_force,
-                "pinion_fe": peak(self.pinion), "face_fe": peak(self.face),
-                "iso_sigma_F0_Pa": self.iso_stress, "iso_face_width_m": self.face_width,
-                "iso_Y_F": self.iso.y_f, "iso_Y_S": self.iso.y_s, "iso_q_s": self.iso.q_s,
-                "iso_s_Fn_m": self.iso.s_fn, "iso_h_Fe_m": self.iso.h_fe,
-                "iso_rho_F_m": self.iso.rho_f, "iso_load_radius_m": self.iso.load_radius,
-                "allowable_Pa": self.allowable}
-
-
-def _to_frame(points: NDArray, rotation: NDArray, origin: NDArray) -> NDArray:
-    """Mesh-frame points (n, 3) into a gear's frame: ``R^T (x - origin)``."""
-    return (points - origin) @ rotation
-
-
-def _pinion_root(pair, analysis, centroids: NDArray) -> NDArray:
-    """Mask of the centroids in the loaded pinion tooth's loaded-side fillet: from the
-    root circle to the root-form circle, from the centreline to mid-space."""
-    pinion = pair.pinion
-    local = _to_frame(centroids, pair.pinion_rotation(analysis.pinion_roll_placed),
-                      np.array([0.0, pinion.pitch_radius, pair.z0]))
-    radius = np.hypot(local[:, 0], local[:, 1])
-    polar = np.arctan2(local[:, 0], local[:, 1])
-    slack = 0.05 * pinion.module
-    return ((radius > pinion.root_radius - slack) & (radius < pinion.form_radius + slack)
-            & (polar > 0.0) & (polar < np.pi / pinion.teeth))
-
-
-def _face_root(pair, analysis, centroids: NDArray) -> NDArray:
-    """Mask of the centroids in the loaded face-gear tooth's loaded-side root: from the
-    root plane to ``FACE_ROOT_BAND`` modules above it, tooth centre to mid-space."""
-    face = pair.face
-    local = _to_frame(centroids, pair.face_rotation(analysis.contact.face_angle), np.zeros(3))
-    polar = np.arctan2(local[:, 0], local[:, 2])
-    height = local[:, 1]
-    slack = 0.05 * face.module
-    return ((height > face.root_height - slack)
-            & (height < face.root_height + FACE_ROOT_BAND * face.module)
-            & (polar > 0.0) & (polar < np.pi / face.teeth))
-
-
-def fe_root_stress(gearset, stage: int, normal_force: float, *, level: str = "coarse",
-                   refinement: float = 1.0, cache: str | Path = "cache") -> StageRootStress:
-    """Root stresses of ``stage``'s tooth pair at the pitch point under ``normal_force``.
-
-    Parameters
-    ----------
-    gearset : GearSet
-    stage : int
-        From 1.
-    normal_force : float
-        Normal force of the single pair [N] (> 0).
-    level : {"coarse", "default", "fine"}
-        Mesh level; ``refinement`` divides its element sizes
-        (:class:`~fe_impact.gears.pairanalysis.PairSpec`).
-    cache : str or Path
-        Mesh cache folder (the pair is kept under ``meshes/root_<key>``).
-
-    Returns
-    -------
-    StageRootStress
-    """
-    from fe_impact.calibration.meshcycle import PAIR_GAP, solve_static_pair
-    from fe_impact.fe.elasticity import lame_from_youngpoisson
-    from fe_impact.gears.pairanalysis import PairSpec, analyse_stage_pair
-    from fe_impact.meshing.toothpair import build_pair, pair_key
-
-    if not (math.isfinite(normal_force) and normal_force > 0.0):
-        raise GeometryError(f"normal force {normal_force:g} N: must be a number > 0")
-    options = dict(design_force=float(normal_force), refinement=float(refinement))
-    spec = PairSpec(stage=stage, roll_angle_deg=0.0, level=level, order=2, gap=PAIR_GAP,
-                    impact_speed=0.1, **options)
-    folder = Path(cache) / "meshes" / f"root_{pair_key(gearset, spec)}"
-    pair_mesh = build_pair(gearset, stage, 0.0, level, 2, PAIR_GAP, 0.1, folder, reuse=True,
-                           **options)
-    pair, analysis = analyse_stage_pair(gearset, spec)
-    _, result = solve_static_pair(gearset, pair_mesh, (float(normal_force),))
-    step, mesh = result.steps[-1], result.mesh
-    skm = mesh.skfem_mesh
-    u_dofs = np.zeros(result.model.n_dofs)
-    used = mesh.point_dof >= 0
-    for c in range(3):
-        u_dofs[3 * mesh.point_dof[used] + c] = step.u[used, c]
-    centroids = skm.p[:, skm.t[:4]].mean(axis=1).T
-    mat = gearset.material
-    lame = lame_from_youngpoisson(mat.youngs_modulus, mat.poisson_ratio)
-    peaks = []
-    for body, region in (("pinion", _pinion_root), ("face_gear", _face_root)):
-        cells = mesh.volume(body)
-        cells = cells[region(pair, analysis, centroids[cells])]
-        peaks.append(peak_tension(skm, mesh.order, u_dofs, cells, lame))
-    iso = iso_for_contact(pair, analysis.contact)
-    face_width = pair.face.face_outer - pair.face.face_inner
-    return StageRootStress(
-        stage=stage, normal_force=float(normal_force), level=level, refinement=refinement,
-        pinion=peaks[0], face=peaks[1], iso=iso,
-        iso_stress=iso.nominal_stress(normal_force, face_width, pair.pinion.module,
-                                      pair.pinion.pressure_angle),
-        face_width=float(face_width), allowable=Y_ST * gearset.material.bending_stress_limit,
-        contact_force=float(step.contact_force[0]))
+def pinion_frame(pair, points: NDArray, roll_angle: float) -> NDArray:
+    """Mesh-frame points (n, 3) [m] into the pinion's frame at ``roll_angle`` [rad]
+    (the inverse of :meth:`~fe_impact.gears.tca.GearPair.pinion_to_mesh`)."""
+    origin = np.array([0.0, pair.pinion.pitch_radius, pair.z0])
+    return (np.asarray(points, float) - origin) @ pair.pinion_rotation(roll_angle)
 
 
 def iso_for_contact(pair, contact) -> IsoSection:
     """:func:`iso_section` of ``pair``'s pinion loaded where ``contact`` (a
     :class:`~fe_impact.gears.tca.ContactPoint`) touches its involute."""
-    local = _to_frame(contact.point[None], pair.pinion_rotation(contact.roll_angle),
-                      np.array([0.0, pair.pinion.pitch_radius, pair.z0]))[0]
+    local = pinion_frame(pair, contact.point[None], contact.roll_angle)[0]
     return iso_section(pair.pinion, float(np.hypot(local[0], local[1])))
 
 
@@ -477,44 +207,3 @@ def iso_root_bending(pair, contact, normal_force: float, bending_stress_limit: f
             "allowable_Pa": allowable, "iso_ratio": sigma / allowable,
             "fe_pinion_Pa": None, "fe_pinion_element_m": None, "fe_face_Pa": None,
             "fe_face_element_m": None, "fe_ratio": None, "fe_over_iso": None}
-
-
-# -- 4. the report's section ---------------------------------------------------------------
-def report_lines(results: list[StageRootStress]) -> list[str]:
-    """A Markdown section: per stage the FE's peak root tensions, the ISO-style nominal
-    stress and the allowable, with the element size at each peak."""
-    if not results:
-        return []
-    r0 = results[0]
-    lines = [
-        "## Tooth-root bending stress", "",
-        f"Each stage's tooth pair at the pitch point, pressed quasi-statically by the "
-        f"largest mesh force on one pair ({r0.level} mesh"
-        + (f", sizes / {r0.refinement:g}" if r0.refinement != 1.0 else "") + "). "
-        "FE: the largest maximum principal stress in the loaded-side root of the loaded "
-        "tooth (vertex stresses averaged over the elements sharing the vertex). ISO: "
-        "ISO 6336-3 method B's sigma_F0 = F_t/(b m) Y_F Y_S of the pinion, 30 deg "
-        "tangent section on its generated fillet, load at the FE's contact point, b the "
-        "face gear's face width. Allowable: Y_ST sigma_Flim = 2 sigma_Flim (ISO 6336-5; "
-        "material.bending_stress_limit_pa).", "",
-        "| stage | F_n [N] | pinion FE [MPa] | element at peak [mm] | ISO sigma_F0 [MPa] "
-        "| FE / ISO | Y_F | Y_S | face gear FE [MPa] | element at peak [mm] "
-        "| allowable [MPa] | pinion FE / allowable |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for r in results:
-        lines.append(
-            f"| {r.stage} | {r.normal_force:.4g} | {r.pinion.stress * 1e-6:.4g} | "
-            f"{r.pinion.element_size * 1e3:.3g} | {r.iso_stress * 1e-6:.4g} | "
-            f"{r.pinion.stress / r.iso_stress:.3g} | {r.iso.y_f:.3f} | {r.iso.y_s:.3f} | "
-            f"{r.face.stress * 1e-6:.4g} | {r.face.element_size * 1e3:.3g} | "
-            f"{r.allowable * 1e-6:.4g} | {r.pinion.stress / r.allowable:.3f} |")
-    lines += [
-        "",
-        "Mesh resolution: the peak is read at vertices, on elements of the size shown; "
-        "a coarse mesh at the fillet underestimates it (the pinion's fillet radius "
-        f"rho_F is {r0.iso.rho_f * 1e3:.3g} mm on stage {r0.stage}). The face gear's "
-        "root is modelled as a sharp corner, where the elastic stress is singular: its "
-        "figure grows with refinement and is no fillet stress. FE / ISO above 1 is "
-        "expected: the localised contact loads a shorter length of the face than b.", ""]
-    return lines

@@ -321,3 +321,44 @@ def test_a_run_that_fails_before_any_case_leaves_no_output_folder(tmp_path, monk
             cal.calibrate("", cases, Settings(), out, tmp_path / "cache", workers=1,
                           scheduler="tcp://127.0.0.1:1")
         assert out.exists() == existed
+
+
+def test_friction_enters_the_resume_key_but_not_the_mesh():
+    # A changed coefficient computes a case again; a frictionless companion is a case of
+    # its own (its own id and key) on the same mesh folder as the case it companions.
+    from fe_impact.calibration import meshcycle, planning
+
+    rough = ImpactCase(1, 56, "mesh", 0.0376, 300.0, friction=(0.05, 0.02))
+    other = ImpactCase(1, 56, "mesh", 0.0376, 300.0, friction=(0.08, 0.02))
+    twin = ImpactCase(1, 56, "mesh", 0.0376, 300.0, companion=True)
+    s, g = Settings(), "gear set"
+    keys = {planning.case_hash(c, s, g) for c in (rough, other, twin)}
+    assert len(keys) == 3 and twin.id == rough.id + "_frictionless"
+    assert {planning.mesh_key(c, s, g) for c in (rough, other, twin)} == \
+        {planning.case_hash(ImpactCase(1, 56, "mesh", 0.0376, 300.0), s, g)}
+    at = meshcycle.PositionCase(1, 56, 2.0, (50.0, 100.0), friction=(0.05, 0.02))
+    alone = meshcycle.PositionCase(1, 56, 2.0, (50.0, 100.0), companion=True)
+    assert meshcycle.case_hash(at, "coarse", 2, g) != meshcycle.case_hash(alone, "coarse", 2, g)
+    assert meshcycle.mesh_hash(at, "coarse", 2, g) == meshcycle.mesh_hash(alone, "coarse", 2, g)
+
+
+def test_cases_take_the_gear_sets_friction_and_one_impact_and_position_get_companions():
+    from dataclasses import replace
+
+    from fe_impact.calibration import meshcycle
+    from fe_impact.calibration.planning import friction_companions
+    from fe_impact.gears.gearset import FlankFriction
+
+    gs = default_gearset()
+    impacts = plan_cases(gs, stages=[2, 1])
+    positions = meshcycle.plan_positions(gs, [1], positions=5)
+    assert {c.friction for c in impacts + positions} == {(0.05, 0.02)}
+    impact, position = friction_companions(gs, impacts, positions)
+    # stage 1 at the median of the planned speeds (100, 300, 1000 r/min); the stage-1
+    # position nearest the middle of the path of contact (the middle one of five)
+    assert (impact.stage, impact.speed_rpm, impact.friction) == (1, 300.0, (0.0, 0.0))
+    middle = [p for p in positions if p.stage == 1][2]
+    assert position == replace(middle, friction=(0.0, 0.0), companion=True)
+    smooth = replace(gs, friction=FlankFriction(0.0, 0.0))
+    assert friction_companions(smooth, plan_cases(smooth, [1]), positions) == []
+    assert {c.friction for c in plan_cases(smooth, [1])} == {(0.0, 0.0)}

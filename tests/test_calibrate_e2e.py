@@ -15,30 +15,52 @@ from fe_impact.physics import hertz
 from tests.test_meshcycle import rack_contact_ratio
 
 
+def frictionless_gearset(folder):
+    """The seed set with frictionless flanks ([friction] 0 and 0), as a file in ``folder``:
+    for the runs whose subject is not friction (they keep the frictionless cost)."""
+    import re
+
+    from fe_impact.gears import default_gearset_path
+
+    text = re.sub(r"(?m)^(mu_static|mu_dynamic) = .*$", r"\1 = 0.0",
+                  default_gearset_path().read_text())
+    path = folder / "seed_frictionless.toml"
+    path.write_text(text)
+    return str(path)
+
+
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
     out = tmp_path_factory.mktemp("calibration")
     argv = ["calibrate", "--stages", "1", "--impact-speeds", "0.05", "--level", "coarse",
-            "--positions", "2", "--workers", "1", "--out", str(out / "run"),
+            "--positions", "3", "--workers", "1", "--out", str(out / "run"),
             "--cache", str(out / "cache")]
     assert main(argv) == 0
     return out, argv
 
 
 def test_mesh_cycle_outputs(calibrated):
-    """The two path ends measured quasi-statically, their laws in calibration.json."""
+    """The path's two ends and middle measured quasi-statically, their laws in
+    calibration.json."""
     out, _ = calibrated
     run = out / "run"
     law = json.loads((run / "calibration.json").read_text())["mesh_cycle"]["1"]
     first, last = meshcycle.path_of_contact(default_gearset(), 1)
-    assert len(law["roll_angle_deg"]) == 2
+    assert len(law["roll_angle_deg"]) == 3
     # The ends are moved inward by the coarse level's inset of the path (the exact
     # ends are edges where the contact analysis has no contact point); --level coarse
     # puts the positions on coarse meshes too (the level below, coarse at the least).
     inset = meshcycle.END_INSETS["coarse"] * abs(first - last)
-    assert sorted(law["roll_angle_deg"]) == pytest.approx(sorted([first - inset, last + inset]),
+    ends = sorted([first - inset, last + inset])
+    assert sorted(law["roll_angle_deg"]) == pytest.approx([ends[0], sum(ends) / 2, ends[1]],
                                                           abs=1e-9)
     cycle = json.loads((run / "mesh_cycle.json").read_text())
+    pinion = default_gearset().pinion
+    # the mesh cycle is made of the positions with the seed's flank friction, or of
+    # positions that say why they were solved without it
+    assert all(p["friction"] == [0.05, 0.02] or "solved frictionless" in p["friction_note"]
+               for p in cycle["positions"])
+    assert len(cycle["positions"]) == 3
     for pos in cycle["positions"]:
         f, d, h = (np.asarray(pos[k]) for k in ("forces", "approaches", "hertz_approaches"))
         loaded = f >= meshcycle.FIT_MIN_FORCE
@@ -46,11 +68,21 @@ def test_mesh_cycle_outputs(calibrated):
         # approach of the contact alone is a lower bound from 50 N up (below,
         # the patch is narrower than an element and the FE is stiffer).
         assert np.all(d[loaded] > h[loaded])
-        # The pinion's torque is carried by the contact alone: torque / lever
-        # = contact force, to the tilt of the normal over the patch (1e-3).
+        # The pinion's torque is carried by the contact's normal force times the lever
+        # and by the flank friction's moment, which is at most mu_static F times the
+        # contact's distance from the pinion axis (inside the tip radius r_a), to the
+        # tilt of the normal over the patch (5e-3, as frictionless below).
         t = np.abs(np.asarray(pos["torques"]))
-        assert t / pos["lever"] == pytest.approx(f, rel=5e-3)
+        r_a = pinion.pitch_radius + pinion.addendum_coeff * pinion.module
+        assert np.all(np.abs(t / pos["lever"] - f) <= (0.05 * r_a / pos["lever"] + 5e-3) * f)
         assert pos["fit_error"] < 0.05
+    # Frictionless, the torque is carried by the normal force alone: torque / lever =
+    # contact force, to the tilt of the normal over the patch (1e-3).
+    (alone,) = [json.loads(p.read_text()) for p in run.glob("cases/*_frictionless/result.json")
+                if "roll" in p.parent.name]
+    assert alone["friction"] == [0.0, 0.0] and alone["companion"]
+    t = np.abs(np.asarray(alone["torques"]))
+    assert t / alone["lever"] == pytest.approx(np.asarray(alone["forces"]), rel=5e-3)
     # One mesh cycle: a roll of one angular pitch with two pairs over
     # (contact ratio - 1) of it, the contact ratio in closed form; to a sample
     # of the cycle's roll angles either way.
@@ -208,12 +240,15 @@ def test_tooth_impact_against_its_quasi_static_solve(calibrated):
     from scipy.optimize import brentq
 
     out, _ = calibrated
-    doc = json.loads((out / "run" / "calibration.json").read_text())
-    (case,) = doc["cases"]
+    # the impact's frictionless companion (the static solve is frictionless), on the
+    # impact's own mesh
+    case = json.loads((out / "run" / "cases" / "stage1_mesh_50mms_frictionless" /
+                       "result.json").read_text())
     fe = case["fe"]
+    (case_file,) = (out / "cache" / "meshes").glob(
+        "*/case_newmark_calibration_frictionless.toml")
     impact, solver, result, approach, x_c, normal = _quasi_static_tooth_pair(
-        out / "cache" / "meshes" / case["hash"] / "case_newmark_calibration.toml",
-        fe["max_approach"])
+        case_file, fe["max_approach"])
     force = np.array([s.contact_force[0] for s in result.steps])
     curve = PchipInterpolator(np.concatenate([[0.0], approach]), np.concatenate([[0.0], force]))
     work = curve.antiderivative()
@@ -287,9 +322,9 @@ def test_ctrl_c_keeps_finished_cases_and_rerun_completes(calibrated, tmp_path):
     import time
     from pathlib import Path
 
-    cache = calibrated[0] / "cache"          # the first case's mesh is already there
-    argv = ["calibrate", "--no-switching", "--stages", "1", "--impact-speeds", "0.05,0.08",
-            "--level", "coarse", "--no-mesh-cycle",
+    cache = calibrated[0] / "cache"
+    argv = ["calibrate", frictionless_gearset(tmp_path), "--no-switching", "--stages", "1",
+            "--impact-speeds", "0.05,0.08", "--level", "coarse", "--no-mesh-cycle",
             "--workers", "1", "--out", str(tmp_path / "run"), "--cache", str(cache)]
     exe = Path(sys.executable).with_name("fe-impact")
     proc = subprocess.Popen([str(exe), *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -322,7 +357,8 @@ def test_ratio_switch_impact_yields(tmp_path):
     energy balance (kinetic + strain + penalty + plastic dissipation) must
     still close within 2% (measured 0.6%).
     """
-    argv = ["calibrate", "--no-switching", "--stages", "2", "--speeds", "1000", "--switch", "eq5",
+    argv = ["calibrate", frictionless_gearset(tmp_path), "--no-switching", "--stages", "2",
+            "--speeds", "1000", "--switch", "eq5",
             "--level", "coarse", "--no-mesh-cycle",
             "--workers", "2", "--out", str(tmp_path / "run"), "--cache", str(tmp_path / "c")]
     assert main(argv) == 0
@@ -341,3 +377,39 @@ def test_ratio_switch_impact_yields(tmp_path):
     fe = json.loads((tmp_path / "run" / "cases" / switch["id"] / "fe" / "summary.json")
                     .read_text())
     assert fe["model"]["plasticity"]["dissipation"] > 0.2 * fe["history"]["total_energy"][0]
+
+
+def test_friction_section_of_the_calibration(calibrated):
+    """The seed's flank friction in the calibration, and what it changes.
+
+    The impact and the mesh-cycle position nearest the path's middle were solved
+    again frictionless. Friction only dissipates: the frictional impact's
+    restitution is at most the frictionless one's (to twice the ~1e-4 by which an
+    elastic FE rebound scatters about its true value, integrator and penalty
+    switches), and its dissipation is positive and at most the energy the impact
+    lost, ``(1 - e^2) m v^2 / 2`` (to the energy balance's 1e-3 of ``m v^2 / 2``). Under one torque
+    a static pair with friction turns no further than without: its sticking flanks
+    add tangential stiffness (a positive semi-definite term, which cannot raise the
+    compliance of the loaded rotation) and slipping ones a force opposing the slip;
+    to the solves' own tolerances (load root 1e-9, frictional Newton 1e-10: 1e-6).
+    """
+    out, _ = calibrated
+    doc = json.loads((out / "run" / "calibration.json").read_text())
+    fr = doc["friction"]
+    assert (fr["mu_static"], fr["mu_dynamic"]) == (0.05, 0.02)
+    (case,) = doc["cases"]
+    assert case["friction"] == [0.05, 0.02] and not case["companion"]
+    imp = fr["impact"]
+    assert imp["id"] == case["id"]
+    rough, smooth = imp["with"], imp["without"]
+    assert rough["restitution_measured"] <= smooth["restitution_measured"] + 2e-4
+    assert smooth["friction_dissipation"] == 0.0
+    energy = 0.5 * case["effective_mass"] * case["fe"]["impact_velocity"] ** 2
+    lost = (1.0 - rough["restitution_measured"] ** 2) * energy
+    assert 0.0 < rough["friction_dissipation"] <= lost + 1e-3 * energy
+    pos = fr["position"]
+    assert len(pos["torques"]) == 2 and pos["torques"][0] < pos["torques"][1]
+    for te, te0 in zip(pos["te_with"], pos["te_without"], strict=True):
+        assert 0.0 < te <= te0 * (1.0 + 1e-6)
+    report = (out / "run" / "report.md").read_text()
+    assert "## Flank friction" in report and imp["id"] in report and pos["id"] in report

@@ -106,7 +106,9 @@ def test_record_json_round_trip_is_exact_and_standard(tmp_path):
     path = write_record(tmp_path / "result.json", rec)
     data = _strict(path.read_text())
     assert data["differences"]["cmax"]["relative_difference"] is None
-    assert list(data) == OLD_KEYS and list(data["fe"]) == OLD_FE_KEYS
+    # the old keys keep their place; the flank friction's come after them
+    assert list(data) == [*OLD_KEYS, "friction", "companion"]
+    assert list(data["fe"]) == [*OLD_FE_KEYS, "friction_dissipation"]
     assert read_record(path) == rec            # floats written with repr: read back bit for bit
     assert CalibrationRecord.from_dict(rec.to_dict()) == rec
 
@@ -119,7 +121,7 @@ def test_calibration_file_round_trip(tmp_path):
     data = _strict(path.read_text())
     assert data["schema"] == SCHEMA and data["units"] == UNITS
     assert list(data) == ["schema", "fe_impact_version", "units", "settings", "wall_time_s",
-                          "notes", "cases", "mesh_cycle"]
+                          "notes", "cases", "mesh_cycle", "friction"]
     assert read_calibration(path) == cal
 
 

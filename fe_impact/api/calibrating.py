@@ -369,15 +369,27 @@ def _sweep(text: str, impacts: list, cycle: list, settings: Settings, out: Path,
            numba: Path | None, say: Echo) -> Path:
     """Run the planned cases (:func:`fe_impact.calibration.execution.calibrate`) and say
     what was written; returns the path of calibration.json."""
+    import tomllib
+
     from fe_impact.calibration.execution import Studies
     from fe_impact.calibration.execution import calibrate as run
+    from fe_impact.calibration.planning import friction_companions
+    from fe_impact.gears import gearset_from_dict
     from fe_impact.switching.study import seed_study_job, study_folder
 
-    cases = impacts + cycle
+    gearset = gearset_from_dict(tomllib.loads(text))
+    companions = friction_companions(gearset, impacts, cycle)
+    cases = impacts + cycle + companions
     levels = settings.level if settings.position_level == settings.level or not cycle \
         else f"{settings.level} / {settings.position_level}"
+    fr = gearset.friction
+    flanks = (f"flank friction mu_static {fr.mu_static:g}, mu_dynamic {fr.mu_dynamic:g}"
+              if fr.active else "frictionless flanks")
     say(f"calibrating {len(impacts)} impacts and {len(cycle)} mesh-cycle positions "
-        f"({levels} meshes, {settings.integrator}) -> {out}")
+        f"({levels} meshes, {settings.integrator}, {flanks}) -> {out}")
+    if companions:
+        say(f"  and {len(companions)} frictionless companions for the report's friction "
+            f"section: {', '.join(c.id for c in companions)}")
     path = run(text, cases, settings, out, cache, workers, scheduler, progress,
                Studies(tuple(studies), seed_study_job, study_folder), numba)
     say(f"wrote {path}, {out / 'calibration.csv'} and {out / 'report.md'}")

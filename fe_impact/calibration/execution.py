@@ -196,7 +196,7 @@ def _calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, o
 
         path = _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
                               "completed", gearset_text, draw,
-                              None if draw is draw_here else start)
+                              None if draw is draw_here else start, cache)
         written.append(path)
         if started:
             started[0]()
@@ -229,11 +229,17 @@ def _held_elsewhere(folder: Path) -> bool:
 def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Sweep,
                    settings: Settings, wall: float, status: str, gearset_text: str,
                    draw: Draw = draw_here,
-                   written: Callable[[Path], None] | None = None) -> Path:
+                   written: Callable[[Path], None] | None = None,
+                   cache: Path | None = None) -> Path:
     """summary.json and, for a completed run, calibration.json/.csv and report.md (its
-    pictures drawn by ``draw`` while the tables are written); ``written(path)`` is
-    called once calibration.json is complete (it must not block)."""
-    from fe_impact.calibration.report import write_calibration_report
+    pictures drawn by ``draw`` while the tables are written, with the tooth-root
+    stresses at the mesh cycle's largest force when there is a mesh ``cache``);
+    ``written(path)`` is called once calibration.json is complete (it must not block)."""
+    from fe_impact.calibration.report import (
+        friction_effect,
+        root_stress_jobs,
+        write_calibration_report,
+    )
     from fe_impact.output.files import write_json
 
     summary = {"schema": SUMMARY_SCHEMA, "fe_impact_version": __version__, "status": status,
@@ -244,8 +250,11 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
     with ignore_signals():   # the files belong together: a second Ctrl-C waits for them
         path = None
         if status == "completed":
-            records = [sweep.done[c.id] for c in cases if isinstance(c, ImpactCase)]
-            positions = [sweep.done[c.id] for c in cases if isinstance(c, PositionCase)]
+            records = [sweep.done[c.id] for c in cases
+                       if isinstance(c, ImpactCase) and not c.companion]
+            positions = [sweep.done[c.id] for c in cases
+                         if isinstance(c, PositionCase) and not c.companion]
+            companions = [sweep.done[c.id] for c in cases if c.companion]
             cycle, drawing = None, None
             if positions:
                 from fe_impact.calibration.meshcycle_report import write_mesh_cycle
@@ -253,12 +262,16 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
                 cycle, drawing = write_mesh_cycle(out, positions, gearset_text, draw)
             calibration = Calibration(cases=records, settings=settings.to_dict(),
                                       wall_time_s=wall, fe_impact_version=__version__,
-                                      notes=NOTES, mesh_cycle=cycle)
+                                      notes=NOTES, mesh_cycle=cycle,
+                                      friction=friction_effect(gearset_text, records,
+                                                               positions, companions))
             path = write_calibration(out / "calibration.json", calibration)
             if written is not None:
                 written(path)
             write_calibration_csv(out / "calibration.csv", records)
-            write_calibration_report(out, calibration, draw)
+            roots = [] if cache is None else root_stress_jobs(
+                out, gearset_text, positions, settings.position_level, cache)
+            write_calibration_report(out, calibration, draw, roots)
             if drawing is not None:
                 drawing()
         summary_path = write_json(out / "summary.json", summary)
@@ -387,7 +400,9 @@ def sweep_order(cases: list) -> list:
     The corner cases (``--corners``, ``--corner-impacts``) go before everything:
     a tip edge's contact zone is long and finely meshed (a coarse approach
     corner: 223k DOFs, 6 minutes static), the face gear's edge (approach)
-    before the pinion's.
+    before the pinion's. The frictionless companions (:func:`~fe_impact.calibration.
+    planning.friction_companions`) go last: they take the meshes of their cases,
+    which are made by then.
     """
     rank: dict[int, list] = {}
     for c in sorted((c for c in cases if not isinstance(c, PositionCase)),
@@ -395,6 +410,8 @@ def sweep_order(cases: list) -> list:
         rank.setdefault(c.stage, []).append(c.id)
 
     def group(c) -> int:
+        if c.companion:
+            return 4
         where = c.contact if isinstance(c, PositionCase) else c.kind
         return {"corner-approach": 0, "corner-recess": 1}.get(
             where, 3 if isinstance(c, PositionCase) else 2)

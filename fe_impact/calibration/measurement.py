@@ -30,7 +30,13 @@ from typing import TYPE_CHECKING
 
 from fe_impact.calibration import meshcycle
 from fe_impact.calibration.meshcycle import PositionCase
-from fe_impact.calibration.planning import ImpactCase, Settings, case_contact, case_hash
+from fe_impact.calibration.planning import (
+    ImpactCase,
+    Settings,
+    case_contact,
+    case_hash,
+    mesh_key,
+)
 from fe_impact.calibration.records import (
     CalibrationRecord,
     ClosedForm,
@@ -43,7 +49,7 @@ from fe_impact.calibration.records import (
     RestitutionModels,
     write_record,
 )
-from fe_impact.errors import CalibrationError
+from fe_impact.errors import CalibrationError, ContactError
 
 if TYPE_CHECKING:
     from fe_impact.fe.case import Case
@@ -100,13 +106,10 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
         return _run_position(case, settings, gearset_text, out, cache)
 
     from fe_impact.fe.linalg import limit_threads
-    from fe_impact.fe.mesh import load_mesh
     from fe_impact.gears import gearset_from_dict
     from fe_impact.gears.pairanalysis import hertz_impact_estimate
     from fe_impact.meshing.toothpair import build_pair
-    from fe_impact.output.results import DynamicWriter
     from fe_impact.runtime import keep_freed_memory
-    from fe_impact.solvers.dynamic import DynamicSolver
 
     keep_freed_memory()
 
@@ -114,7 +117,7 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     folder = Path(out) / "cases" / case.id
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
     key = case_hash(case, settings, gearset_text)
-    mesh_dir = Path(cache) / "meshes" / key
+    mesh_dir = Path(cache) / "meshes" / mesh_key(case, settings, gearset_text)
     timings = {}
     # One worker per core: keep the sparse solver on one thread.
     contact, roll = case_contact(case, settings, gearset)
@@ -128,30 +131,30 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
                           case.impact_speed, mesh_dir, reuse=True, contact=contact)
         timings["mesh"] = time.perf_counter() - t
         t = time.perf_counter()
-        fe_case = calibration_case(pair, settings)
-        solver = DynamicSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit))
-        timings["fe_setup"] = time.perf_counter() - t
-        writer = DynamicWriter(folder / "fe", fe_case, solver.mesh, solver.model.material)
-        output = [0.0]
-
-        def frame(f) -> None:
-            t1 = time.perf_counter()
-            writer.frame(f)
-            output[0] += time.perf_counter() - t1
-
-        result = solver.run(frame_hook=frame, frame_stride=VTU_FRAME_STRIDE)
-        t1 = time.perf_counter()
-        writer.finish(result)
-        output[0] += time.perf_counter() - t1
+        friction = case.friction
+        tail = "_frictionless" if case.companion else ""
+        try:
+            solver, result, output = _impact(calibration_case(
+                pair, settings, friction=friction, tail=tail), folder, timings, t)
+        except ContactError as exc:
+            if friction == (0.0, 0.0):
+                raise
+            # the frictional solve's own limits: the impact is solved frictionless, and
+            # its record says so
+            logger.warning("case %s: %s; solved frictionless", case.id, exc)
+            friction = (0.0, 0.0)
+            solver, result, output = _impact(calibration_case(pair, settings, tail=tail),
+                                             folder, timings, time.perf_counter())
         timings["fe"] = time.perf_counter() - t
-        timings["fe_output"] = output[0]
-        timings["fe_steps"] = timings["fe"] - timings["fe_setup"] - output[0]
+        timings["fe_output"] = output
+        timings["fe_steps"] = timings["fe"] - timings["fe_setup"] - output
     t = time.perf_counter()
     record = measure_and_fit(case, result, solver.effective_mass, settings, pair,
                              gearset.material)
     timings["fit"] = time.perf_counter() - t
     record = replace(record, id=case.id, hash=key, initial_gap=pair.analysis.gap,
-                     model=ModelInfo.from_info(result.info))
+                     model=ModelInfo.from_info(result.info), friction=friction,
+                     companion=case.companion)
     # the solver's factorisation and fields go before the picture reads a frame
     # (the largest default impact, 157.6k DOFs, alone: peak 3.07 -> 2.83 GB)
     del solver, result
@@ -164,6 +167,31 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
     record = replace(record, timings_s=timings)
     write_record(folder / "result.json", record)
     return record
+
+
+def _impact(fe_case, folder: Path, timings: dict, started: float):
+    """Solve an impact case, its fields written to ``folder/fe`` every
+    :data:`VTU_FRAME_STRIDE`-th output time: the solver, its result and the seconds
+    spent writing; ``timings["fe_setup"]`` is set (from ``started``)."""
+    from fe_impact.fe.mesh import load_mesh
+    from fe_impact.output.results import DynamicWriter
+    from fe_impact.solvers.dynamic import DynamicSolver
+
+    solver = DynamicSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit))
+    timings["fe_setup"] = time.perf_counter() - started
+    writer = DynamicWriter(folder / "fe", fe_case, solver.mesh, solver.model.material)
+    output = [0.0]
+
+    def frame(f) -> None:
+        t1 = time.perf_counter()
+        writer.frame(f)
+        output[0] += time.perf_counter() - t1
+
+    result = solver.run(frame_hook=frame, frame_stride=VTU_FRAME_STRIDE)
+    t1 = time.perf_counter()
+    writer.finish(result)
+    output[0] += time.perf_counter() - t1
+    return solver, result, output[0]
 
 
 def _run_position(case: PositionCase, settings: Settings, gearset_text: str, out: str,
@@ -179,8 +207,14 @@ def _run_position(case: PositionCase, settings: Settings, gearset_text: str, out
 
 
 def calibration_case(pair, settings: Settings,
-                     steps_per_contact: float = STEPS_PER_CONTACT) -> Case:
+                     steps_per_contact: float = STEPS_PER_CONTACT,
+                     friction: tuple[float, float] = (0.0, 0.0), tail: str = "") -> Case:
     """The tooth pair's impact case with this run's integrator and calibration controls.
+
+    ``friction``: the flanks' Coulomb coefficients ``(mu_static, mu_dynamic)``
+    (:func:`~fe_impact.calibration.meshcycle.with_friction`; the case's own
+    ``[[contacts]]`` are frictionless); ``tail`` ends the written case file's name
+    (a frictionless companion's beside its case's, on the same mesh).
 
     Sets the contact search distance (where the case leaves it automatic),
     HISTORY_PER_CONTACT output times per contact time (history rows; the run
@@ -210,8 +244,9 @@ def calibration_case(pair, settings: Settings,
         # tooth pair the law and the restitution are converged to 0.25% but the peak
         # force (the teeth's vibration on top) only to 2-3% (validation/time_step.py).
         a = replace(a, time_step=t_c / steps_per_contact)
-    path = pair.case_path.with_name(f"case_{settings.integrator}_calibration.toml")
-    prepared = replace(case, path=path, contacts=contacts, analysis=a)
+    path = pair.case_path.with_name(f"case_{settings.integrator}_calibration{tail}.toml")
+    prepared = meshcycle.with_friction(replace(case, path=path, contacts=contacts, analysis=a),
+                                       friction)
     write_case(prepared, path, header=f"{pair.case_path.name} with the {settings.integrator} "
                "calibration's controls (fe_impact.calibration.measurement)")
     return prepared
@@ -245,7 +280,9 @@ def measure_and_fit(case: ImpactCase, result, mass: float, settings: Settings, p
         residual_indentation=m.residual_indentation, stiffness_k=power.K,
         stiffness_exponent=power.exponent, stiffness_fit_r2=power.r2,
         nominal_load=settings.nominal_load, mesh_stiffness=tangent[0],
-        mesh_stiffness_power_law=tangent[1])
+        mesh_stiffness_power_law=tangent[1],
+        friction_dissipation=(float(h["friction_dissipation"][-1])
+                              if "friction_dissipation" in h else 0.0))
     fit = fitting.fit_impact_law(h["time"], h["contact_force"], h["approach"], mass, speed, e)
     if not fit.success:    # kept (the report lists it), but said now
         logger.warning("case %s: the impact-law fit did not converge: %s", case.id, fit.message)

@@ -60,7 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fe_impact.errors import CalibrationError
+from fe_impact.errors import CalibrationError, ContactError
 from fe_impact.version import __version__
 
 logger = logging.getLogger(__name__)
@@ -112,10 +112,20 @@ class PositionCase:
     #: "flank", or a tip edge's first touch ("corner-approach", "corner-recess":
     #: :attr:`~fe_impact.gears.pairanalysis.PairSpec.contact`) beyond the path
     contact: str = "flank"
+    #: Flank friction ``(mu_static, mu_dynamic)`` of the FE contact (a static solve takes
+    #: ``mu_static``); :func:`plan_positions` gives the gear set's
+    friction: tuple[float, float] = (0.0, 0.0)
+    #: True: a frictionless companion of a position for the report's friction section;
+    #: it stays out of the mesh cycle
+    companion: bool = False
 
     def __post_init__(self) -> None:
         from fe_impact.gears.pairanalysis import CONTACTS
 
+        object.__setattr__(self, "friction", tuple(float(m) for m in self.friction))
+        if len(self.friction) != 2 or not all(0.0 <= m < 1.0 for m in self.friction):
+            raise CalibrationError(f"mesh-cycle friction {list(self.friction)}: need "
+                                   "(mu_static, mu_dynamic), each in [0, 1)")
         if self.contact not in CONTACTS:
             raise CalibrationError(f"mesh-cycle contact = {self.contact!r}; pick one of "
                                    f"{list(CONTACTS)}")
@@ -130,7 +140,9 @@ class PositionCase:
     @property
     def id(self) -> str:
         where = "" if self.contact == "flank" else f"_{self.contact}"
-        return f"stage{self.stage}{where}_roll{self.roll_angle_deg:+.3f}deg".replace(".", "p")
+        tail = "_frictionless" if self.companion else ""
+        return f"stage{self.stage}{where}_roll{self.roll_angle_deg:+.3f}deg{tail}".replace(
+            ".", "p")
 
     @property
     def impact_speed(self) -> float:   # the sweep orders cases by size, then speed
@@ -184,6 +196,13 @@ class PositionRecord:
     #: past each edge of the working flanks (negative: inside;
     #: :func:`~fe_impact.gears.report.ellipse_edges`); empty for a corner.
     ellipse_overhang: dict = field(default_factory=dict)
+    #: Flank friction ``[mu_static, mu_dynamic]`` the position was solved with.
+    friction: list[float] = field(default_factory=lambda: [0.0, 0.0])
+    #: Whether the position is a frictionless companion (:attr:`PositionCase.companion`).
+    companion: bool = False
+    #: "" or why the position was solved without the friction its case asked for
+    #: (the frictional static solve's limits: :func:`run_position`).
+    friction_note: str = ""
 
     @property
     def nominal_modelled(self) -> bool:
@@ -199,7 +218,8 @@ class PositionRecord:
         names = {f.name for f in fields(cls)}
         missing = names - set(data) - {"hash", "timings_s", "contact", "fe_approaches",
                                        "resolved", "linear_compliance", "step_edges",
-                                       "fit_forces", "ellipse_overhang"}
+                                       "fit_forces", "ellipse_overhang", "friction",
+                                       "companion", "friction_note"}
         if data.get("schema") != SCHEMA or missing:
             raise CalibrationError(f"not a {SCHEMA} record (missing {sorted(missing)})")
         return cls(**{k: v for k, v in data.items() if k in names})
@@ -260,7 +280,8 @@ def plan_positions(gearset, stages: list[int] | None = None, positions: int | li
                    = DEFAULT_POSITIONS, forces: tuple[float, ...] | None = None,
                    top_force: float | None = None, level: str | None = None
                    ) -> list[PositionCase]:
-    """The mesh-cycle cases: every stage at every position.
+    """The mesh-cycle cases: every stage at every position, with the gear set's flank
+    friction (:func:`gearset_friction`).
 
     ``positions``: a count (evenly along the path, the ends :func:`end_inset`
     of the path inside it for mesh ``level``) or roll
@@ -306,7 +327,8 @@ def plan_positions(gearset, stages: list[int] | None = None, positions: int | li
         f = forces if forces is not None else stage_forces(gearset, s, top_force)
         ends = {0: "first", len(rolls) - 1: "last"} if isinstance(positions, int) else {}
         teeth = gearset.stages[s - 1].teeth
-        cases += [PositionCase(s, teeth, r, tuple(f), ends.get(i, ""))
+        cases += [PositionCase(s, teeth, r, tuple(f), ends.get(i, ""),
+                               friction=gearset_friction(gearset))
                   for i, r in enumerate(rolls)]
     return cases
 
@@ -333,27 +355,62 @@ def plan_corner_positions(gearset, stages: list[int] | None = None,
         for s in stages:
             f = forces if forces is not None else stage_forces(gearset, s, top_force)
             cases.append(PositionCase(s, gearset.stages[s - 1].teeth, roll, tuple(f),
-                                      contact=f"corner-{side}"))
+                                      contact=f"corner-{side}",
+                                      friction=gearset_friction(gearset)))
     return cases
+
+
+def gearset_friction(gearset) -> tuple[float, float]:
+    """The gear set's flank friction ``(mu_static, mu_dynamic)``
+    (:class:`~fe_impact.gears.gearset.FlankFriction`)."""
+    return (float(gearset.friction.mu_static), float(gearset.friction.mu_dynamic))
+
+
+def key_fields(case) -> dict:
+    """A case's fields for its resume key: ``friction`` and ``companion`` only where they
+    are set (a frictionless case keys as it did before cases had friction)."""
+    fields_ = asdict(case)
+    if not fields_.get("companion"):
+        fields_.pop("companion", None)
+    if tuple(fields_.get("friction", ())) == (0.0, 0.0):
+        fields_.pop("friction")
+    return fields_
 
 
 def case_hash(case: PositionCase, level: str, order: int, gearset_text: str,
               refinement: float = 1.0) -> str:
-    """Resume key of a position: the case, its mesh level, refinement and order, the
-    gear set, the record schema, the fe-impact version and the mesh format (a
-    result on meshes made otherwise is computed again)."""
+    """Resume key of a position: the case (its friction included), its mesh level,
+    refinement and order, the gear set, the record schema, the fe-impact version and
+    the mesh format (a result on meshes made otherwise is computed again)."""
     from fe_impact.meshing.toothpair import MESH_FORMAT
 
-    blob = json.dumps([asdict(case), level, refinement, order, gearset_text, SCHEMA,
+    blob = json.dumps([key_fields(case), level, refinement, order, gearset_text, SCHEMA,
                        __version__, MESH_FORMAT], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def mesh_hash(case: PositionCase, level: str, order: int, gearset_text: str,
+              refinement: float = 1.0) -> str:
+    """The key of a position's mesh folder (``meshes/static_<key>``): :func:`case_hash`
+    of the case without friction and not a companion, so that a position and its
+    frictionless companion share one mesh (the mesh does not depend on friction).
+    For a frictionless case it is :func:`case_hash`."""
+    from dataclasses import replace
+
+    return case_hash(replace(case, friction=(0.0, 0.0), companion=False), level, order,
+                     gearset_text, refinement)
 
 
 # -- one position (FE) --------------------------------------------------------------------
 def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
                  cache: str | Path, refinement: float = 1.0) -> PositionRecord:
     """Mesh the pair at ``case``'s roll angle and measure its load-approach curve
-    (``refinement``: :attr:`~fe_impact.gears.pairanalysis.PairSpec.refinement`)."""
+    (``refinement``: :attr:`~fe_impact.gears.pairanalysis.PairSpec.refinement`).
+
+    With the case's flank friction; where the frictional static solve refuses the
+    position (a contact zone too large to condense the friction on:
+    :class:`~fe_impact.errors.ContactError`), it is solved frictionless with a
+    warning, and the record's ``friction`` and ``friction_note`` say so."""
     import tomllib
 
     from fe_impact.fe.linalg import limit_threads
@@ -363,15 +420,27 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
     t0 = time.perf_counter()
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
     key = case_hash(case, level, order, gearset_text, refinement)
+    folder = f"static_{mesh_hash(case, level, order, gearset_text, refinement)}"
     timings = {}
     with limit_threads(1):
         pair_mesh = build_pair(gearset, case.stage, case.roll_angle_deg, level, order, PAIR_GAP,
-                               0.1, Path(cache) / "meshes" / f"static_{key}", reuse=True,
+                               0.1, Path(cache) / "meshes" / folder, reuse=True,
                                design_force=max(case.forces), contact=case.contact,
                                refinement=refinement)
     timings["mesh"] = time.perf_counter() - t0
     t = time.perf_counter()
-    solver, result = solve_static_pair(gearset, pair_mesh, case.forces)
+    friction, note = case.friction, ""
+    try:
+        solver, result = solve_static_pair(gearset, pair_mesh, case.forces, friction)
+    except ContactError as exc:
+        if friction == (0.0, 0.0):
+            raise
+        # the frictional solve's own limits (a contact zone too large to condense the
+        # friction on): the position is solved frictionless, and says so
+        friction, note = (0.0, 0.0), f"solved frictionless: {exc}"
+        logger.warning("stage %d, roll %+.3f deg%s: %s", case.stage, case.roll_angle_deg,
+                       f" ({case.contact})" if case.contact != "flank" else "", note)
+        solver, result = solve_static_pair(gearset, pair_mesh, case.forces)
     timings["fe"] = time.perf_counter() - t
     timings.update({f"fe_{k}": v for k, v in result.timings.items()})
     record = _measure(case, solver, result, pair_mesh.analysis, key,
@@ -380,23 +449,41 @@ def run_position(case: PositionCase, level: str, order: int, gearset_text: str,
     if record.edge:
         logger.warning("stage %d, roll %+.3f deg%s: %s", case.stage, case.roll_angle_deg,
                        f" ({case.end} end)" if case.end else "", record.edge)
-    return PositionRecord(**{**asdict(record), "timings_s": timings})
+    return PositionRecord(**{**asdict(record), "timings_s": timings,
+                             "friction": list(friction), "companion": case.companion,
+                             "friction_note": note})
 
 
-def solve_static_pair(gearset, pair_mesh, forces: tuple[float, ...]):
+def solve_static_pair(gearset, pair_mesh, forces: tuple[float, ...],
+                      friction: tuple[float, float] = (0.0, 0.0)):
     """The quasi-static case of a meshed pair, solved on one thread without stresses:
     the solver and its result (:func:`~fe_impact.meshing.paircase.static_pair_case`:
-    the pinion pressed by the torque of each normal force in ``forces``)."""
+    the pinion pressed by the torque of each normal force in ``forces``), the flanks'
+    contact with the Coulomb ``friction`` ``(mu_static, mu_dynamic)`` (a static solve
+    takes ``mu_static``; :mod:`fe_impact.contact.friction`)."""
     from fe_impact.fe.linalg import limit_threads
     from fe_impact.fe.mesh import load_mesh
     from fe_impact.meshing.paircase import static_pair_case
     from fe_impact.solvers.static import StaticSolver
 
     with limit_threads(1):
-        fe_case = static_pair_case(gearset, pair_mesh, tuple(forces))
+        fe_case = with_friction(static_pair_case(gearset, pair_mesh, tuple(forces)), friction)
         solver = StaticSolver(fe_case, load_mesh(fe_case.mesh_file, fe_case.unit),
                               stress=False)
         return solver, solver.run()
+
+
+def with_friction(fe_case, friction: tuple[float, float]):
+    """``fe_case`` with the Coulomb ``friction`` ``(mu_static, mu_dynamic)`` on every
+    contact pair (the FE's default transition speed between them); unchanged when both
+    are 0."""
+    from dataclasses import replace
+
+    mu_s, mu_d = friction
+    if mu_s == 0.0 and mu_d == 0.0:
+        return fe_case
+    return replace(fe_case, contacts=tuple(replace(c, mu_static=mu_s, mu_dynamic=mu_d)
+                                           for c in fe_case.contacts))
 
 
 def hub_approaches(result, analysis) -> np.ndarray:

@@ -23,7 +23,7 @@ import json
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 from fe_impact.calibration import meshcycle
 from fe_impact.calibration.meshcycle import PositionCase
@@ -54,13 +54,26 @@ class ImpactCase:
     basis: str = ""            # of a switch's speed: "" eq. 5, "kinematic" rigid kinematics
     #: pinion roll angle [deg] of the contact; None: the run's (Settings.roll_angle_deg)
     roll_angle_deg: float | None = None
+    #: Flank friction ``(mu_static, mu_dynamic)`` of the FE contact; :func:`plan_cases`
+    #: gives the gear set's (:func:`~fe_impact.calibration.meshcycle.gearset_friction`)
+    friction: tuple[float, float] = (0.0, 0.0)
+    #: True: a frictionless companion of the case for the report's friction section
+    #: (:func:`friction_companions`); it stays out of the calibration's laws
+    companion: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "friction", tuple(float(m) for m in self.friction))
+        if len(self.friction) != 2 or not all(0.0 <= m < 1.0 for m in self.friction):
+            raise CalibrationError(f"impact friction {list(self.friction)}: need "
+                                   "(mu_static, mu_dynamic), each in [0, 1)")
 
     @property
     def id(self) -> str:
         rpm = f"{self.speed_rpm:g}rpm" if self.speed_rpm is not None else \
             f"{self.impact_speed * 1e3:.4g}mms"
         kind = f"{self.kind}_{self.basis}" if self.basis else self.kind
-        return f"stage{self.stage}_{kind}_{rpm}".replace(".", "p")
+        tail = "_frictionless" if self.companion else ""
+        return f"stage{self.stage}_{kind}_{rpm}{tail}".replace(".", "p")
 
 
 @dataclass(frozen=True)
@@ -123,7 +136,7 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
     """The sweep: every stage at every speed (r/min via eq. 4, or impact speeds in m/s);
     with ``switch``, also the switches into stages 2.. at each speed's eq. 5
     (``"eq5"``), kinematic (``"kinematic"``) or both (``"both"`` or True) switching
-    speeds (module docstring)."""
+    speeds (module docstring). Every case has the gear set's flank friction."""
     if switch is True:
         switch = "both"
     if switch not in (False, None, "eq5", "kinematic", "both"):
@@ -175,6 +188,8 @@ def plan_cases(gearset, stages: list[int] | None = None, speeds_rpm=None,
                     vk = switching_speed(w, pin.teeth, gearset.stages[s - 2].teeth, teeth,
                                          base_radius)
                     cases.append(ImpactCase(s, teeth, "switch", vk, float(rpm), "kinematic"))
+    mu = meshcycle.gearset_friction(gearset)
+    cases = [replace(c, friction=mu) for c in cases]
     _check_impact_speeds(cases, impact_speeds is not None)
     ids = [c.id for c in cases]
     if len(set(ids)) != len(ids):
@@ -203,16 +218,55 @@ def _check_impact_speeds(cases: list[ImpactCase], given: bool) -> None:
 
 
 def case_hash(case: ImpactCase | PositionCase, settings: Settings, gearset_text: str) -> str:
-    """Resume key: the case, the run's settings, the gear set, the schema, the
-    fe-impact version and the mesh format (a result from another version or on
-    meshes made otherwise is computed again)."""
+    """Resume key: the case (its flank friction included), the run's settings, the gear
+    set, the schema, the fe-impact version and the mesh format (a result from another
+    version, with other friction or on meshes made otherwise is computed again)."""
     if isinstance(case, PositionCase):
         return meshcycle.case_hash(case, settings.position_level, settings.order, gearset_text)
     from fe_impact.meshing.toothpair import MESH_FORMAT
 
-    blob = json.dumps([asdict(case), settings.impact_key(), gearset_text, SCHEMA, __version__,
-                       MESH_FORMAT], sort_keys=True)
+    blob = json.dumps([meshcycle.key_fields(case), settings.impact_key(), gearset_text, SCHEMA,
+                       __version__, MESH_FORMAT], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def mesh_key(case: ImpactCase, settings: Settings, gearset_text: str) -> str:
+    """The key of an impact's mesh folder (``meshes/<key>``): :func:`case_hash` of the
+    case without friction and not a companion, so that an impact and its
+    frictionless companion share one mesh (the mesh does not depend on friction)."""
+    return case_hash(replace(case, friction=(0.0, 0.0), companion=False), settings,
+                     gearset_text)
+
+
+def friction_companions(gearset: GearSet, impacts: Sequence[ImpactCase],
+                        positions: Sequence[PositionCase]) -> list:
+    """The frictionless companions of one representative impact and one mesh-cycle
+    position, for the report's friction section (none when the gear set's flanks are
+    frictionless).
+
+    The impact: the lowest stage's in-mesh impact at the median of its planned
+    speeds (the main job's 300 r/min of 100, 300 and 1000). The position: that
+    stage's flank position nearest the middle of its path of contact (the
+    single-pair zone, where one pair carries the torque and its approach is the
+    loaded transmission error).
+    """
+    if not gearset.friction.active:
+        return []
+    out: list = []
+    mesh = [c for c in impacts if c.kind == "mesh" and not c.companion]
+    if mesh:
+        stage = min(c.stage for c in mesh)
+        row = sorted((c for c in mesh if c.stage == stage), key=lambda c: c.impact_speed)
+        out.append(replace(row[(len(row) - 1) // 2], friction=(0.0, 0.0), companion=True))
+    flank = [p for p in positions if p.contact == "flank" and not p.companion]
+    if flank:
+        stage = min(p.stage for p in flank)
+        first, last = meshcycle.path_of_contact(gearset, stage)
+        middle = 0.5 * (first + last)
+        near = min((p for p in flank if p.stage == stage),
+                   key=lambda p: abs(p.roll_angle_deg - middle))
+        out.append(replace(near, friction=(0.0, 0.0), companion=True))
+    return out
 
 
 def case_contact(case: ImpactCase, settings: Settings, gearset) -> tuple[str, float]:
@@ -263,7 +317,8 @@ def cover(demand, planned: Sequence, gearset: GearSet) -> tuple[list, list[str]]
         mesh = [c for c in cases if c.stage == stage and c.kind == "mesh"]
         if need is None or not mesh or need <= max(c.impact_speed for c in mesh):
             continue
-        case = ImpactCase(stage, gearset.stages[stage - 1].teeth, "mesh", top_speed(need))
+        case = ImpactCase(stage, gearset.stages[stage - 1].teeth, "mesh", top_speed(need),
+                          friction=meshcycle.gearset_friction(gearset))
         fastest = max(mesh, key=lambda c: c.impact_speed)
         what = f"stage {stage}: flank impacts up to {need * 1e3:.4g} mm/s: an FE impact at " \
                f"{case.impact_speed * 1e3:.4g} mm/s"
@@ -304,7 +359,8 @@ def corner_impacts(demand, gearset: GearSet, stages: Sequence[int]
                              "impact")
                 continue
             speeds = sorted({_two_digits(row.speed_median), _two_digits(row.speed_max)})
-            cases += [ImpactCase(stage, teeth, kind, v) for v in speeds]
+            cases += [ImpactCase(stage, teeth, kind, v,
+                                 friction=meshcycle.gearset_friction(gearset)) for v in speeds]
             lines.append(f"stage {stage}, {kind}: {row.count} impacts in the presets, "
                          f"median {row.speed_median * 1e3:.3g} and largest "
                          f"{row.speed_max * 1e3:.3g} mm/s: FE impacts at "
@@ -323,8 +379,6 @@ def place_switches(demand, planned: Sequence, gearset: GearSet
     (`fe_impact.calibration.meshcycle.path_positions`' ends at the inset that every
     mesh level can make), and said so. Returns
     the cases and one line per stage moved."""
-    from dataclasses import replace
-
     from fe_impact.gears.kinematics import mesh_geometry
 
     line = mesh_geometry(gearset)

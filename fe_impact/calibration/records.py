@@ -238,6 +238,8 @@ class FEMeasurements(_Record):
     and ``stiffness_fit_r2``: the power law ``F = K delta^xi`` on the loading
     branch. ``mesh_stiffness`` (and from the power law) is ``dF/d delta`` at
     ``nominal_load``: None when the impact's peak force stays below it.
+    ``friction_dissipation`` [J]: the energy the flank friction dissipated over the
+    impact (0 frictionless; absent in files written before friction).
     """
 
     peak_force: float = _number()
@@ -255,6 +257,7 @@ class FEMeasurements(_Record):
     nominal_load: float = _number()
     mesh_stiffness: float | None = _number(optional=True)
     mesh_stiffness_power_law: float | None = _number(optional=True)
+    friction_dissipation: float | None = _number(optional=True, low=0)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -377,6 +380,12 @@ class CalibrationRecord(_Record):
         Seconds per phase (``mesh``, ``fe_setup``, ``fe_steps``, ``fe_output``,
         ``fe``, ``fit``, ``total``).
     model : ModelInfo
+    friction : tuple of float
+        Flank friction ``(mu_static, mu_dynamic)`` the FE impact was solved with
+        (absent in files written before friction: frictionless).
+    companion : bool
+        True for a frictionless companion of a case (the report's friction
+        section); not in ``calibration.json``'s cases.
     """
 
     stage: int = _field("integer", low=1)
@@ -399,6 +408,8 @@ class CalibrationRecord(_Record):
     timings_s: Mapping[str, float] | None = _field("table", optional=True)
     initial_gap: float | None = _number(optional=True, low=0)
     model: ModelInfo | None = _field("section", True, type=ModelInfo)
+    friction: tuple[float, ...] | None = _field("numbers", True, size=2)
+    companion: bool | None = _field("flag", True)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -411,7 +422,8 @@ class Calibration(_Record):
     """
 
     TOP_KEYS: ClassVar[tuple[str, ...]] = ("schema", "fe_impact_version", "units", "settings",
-                                           "wall_time_s", "notes", "cases", "mesh_cycle")
+                                           "wall_time_s", "notes", "cases", "mesh_cycle",
+                                           "friction")
 
     cases: tuple[CalibrationRecord, ...]
     settings: Mapping[str, Any] | None = None
@@ -423,6 +435,10 @@ class Calibration(_Record):
     #: (:func:`fe_impact.calibration.meshcycle_report.position_law`); None in a
     #: file without the mesh cycle.
     mesh_cycle: Mapping[str, Any] | None = None
+    #: The flank friction of the run and what it changes (:func:`fe_impact.calibration.
+    #: report.friction_effect`): ``mu_static``, ``mu_dynamic``, ``impact`` and
+    #: ``position`` (each with and without friction); None in a file without it.
+    friction: Mapping[str, Any] | None = None
     schema: str = SCHEMA
 
     def __post_init__(self) -> None:
@@ -433,7 +449,7 @@ class Calibration(_Record):
                 "units": dict(UNITS), "settings": _plain(self.settings),
                 "wall_time_s": _plain(self.wall_time_s), "notes": self.notes,
                 "cases": [c.to_dict() for c in self.cases],
-                "mesh_cycle": _plain(self.mesh_cycle)}
+                "mesh_cycle": _plain(self.mesh_cycle), "friction": _plain(self.friction)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], reader: Reader | None = None,
@@ -453,6 +469,8 @@ class Calibration(_Record):
                       for i, c in enumerate(r.array(data, where, "cases", required=True)))
         return cls(cases=cases, settings=settings, schema=data["schema"],
                    mesh_cycle=_mesh_cycle(r, data, where),
+                   friction=(None if data.get("friction") is None
+                             else dict(r.table(data, where, "friction"))),
                    wall_time_s=r.number(data, where, "wall_time_s", low=0, null=True),
                    fe_impact_version=(None if data.get("fe_impact_version") is None
                                       else r.string(data, where, "fe_impact_version")),

@@ -133,18 +133,205 @@ def terminal_summary(doc: dict) -> list[str]:
     return lines
 
 
+# -- what the flank friction changes --------------------------------------------------------
+#: The impact measurements the friction section compares (FEMeasurements fields).
+_FRICTION_IMPACT = ("peak_force", "restitution_measured", "contact_time", "max_approach",
+                    "friction_dissipation")
+
+
+def friction_effect(gearset_text: str, records, positions, companions) -> dict | None:
+    """What the gear set's flank friction changes, for ``calibration.json`` and the report.
+
+    Each frictionless companion (:func:`~fe_impact.calibration.planning.friction_companions`)
+    is set beside its frictional case: for the impact, the FE measurements
+    (:data:`_FRICTION_IMPACT`: peak force [N], measured restitution, contact time [s],
+    largest approach [m], friction's dissipation [J]) with and without friction and
+    their relative change; for the mesh-cycle position, the loaded transmission error
+    (the pinion hub's approach along the line of action, m: this single pair carrying
+    the torque) and the normal contact force [N] at two of its torques [N m], the
+    smallest load step of the fit (from
+    :data:`~fe_impact.calibration.meshcycle.FIT_MIN_FORCE`) and the largest. Both runs
+    of a position are loaded by the same torques (the static case presses the pinion
+    by a torque), so they compare step by step.
+
+    Returns
+    -------
+    dict or None
+        ``mu_static``, ``mu_dynamic``, ``impact`` and ``position`` (None where the run
+        has no companion of that kind), ``solved_frictionless`` (the cases that fell
+        back to frictionless flanks at the frictional solve's limits); None for
+        frictionless flanks.
+    """
+    import tomllib
+
+    from fe_impact.gears import gearset_from_dict
+
+    friction = gearset_from_dict(tomllib.loads(gearset_text)).friction
+    if not friction.active:
+        return None
+    out: dict = {"mu_static": friction.mu_static, "mu_dynamic": friction.mu_dynamic,
+                 "impact": None, "position": None,
+                 "solved_frictionless": [r.id for r in (*records, *positions)
+                                         if not any(r.friction or ())]}
+    for comp in companions:
+        if isinstance(comp, CalibrationRecord):
+            base = next((r for r in records if (r.stage, r.kind, r.impact_speed)
+                         == (comp.stage, comp.kind, comp.impact_speed)), None)
+            if base is not None and any(base.friction or ()):
+                out["impact"] = _impact_effect(base, comp)
+        else:
+            base = next((p for p in positions if (p.stage, p.contact, p.roll_angle_deg)
+                         == (comp.stage, comp.contact, comp.roll_angle_deg)), None)
+            if base is not None and any(base.friction):
+                out["position"] = _position_effect(base, comp)
+    return out
+
+
+def _impact_effect(rough: CalibrationRecord, smooth: CalibrationRecord) -> dict:
+    """An impact's FE measurements with (``rough``) and without friction (``smooth``)."""
+    def values(r: CalibrationRecord) -> dict:
+        return {k: getattr(r.fe, k) for k in _FRICTION_IMPACT}
+
+    with_, without = values(rough), values(smooth)
+    return {"id": rough.id, "stage": rough.stage, "impact_speed": rough.impact_speed,
+            "with": with_, "without": without,
+            "relative_change": {k: with_[k] / without[k] - 1.0 for k in _FRICTION_IMPACT
+                                if with_[k] is not None and without[k]}}
+
+
+def _position_effect(rough, smooth) -> dict:
+    """A mesh-cycle position's loaded TE and contact force with (``rough``) and without
+    friction (``smooth``) at its smallest fitted and its largest load step."""
+    from fe_impact.calibration.meshcycle import FIT_MIN_FORCE
+
+    forces = np.asarray(smooth.forces)
+    fitted = np.flatnonzero(forces >= FIT_MIN_FORCE * (1.0 - 1e-3))
+    steps = [int(fitted[np.argmin(forces[fitted])]), int(np.argmax(forces))]
+    te_with = [rough.fe_approaches[i] for i in steps]
+    te_without = [smooth.fe_approaches[i] for i in steps]
+    return {"id": rough.id, "stage": rough.stage, "roll_angle_deg": rough.roll_angle_deg,
+            "torques": [abs(smooth.torques[i]) for i in steps],
+            "te_with": te_with, "te_without": te_without,
+            "te_relative_change": [a / b - 1.0 for a, b in zip(te_with, te_without,
+                                                               strict=True)],
+            "force_with": [rough.forces[i] for i in steps],
+            "force_without": [smooth.forces[i] for i in steps]}
+
+
+def friction_lines(effect: dict | None) -> list[str]:
+    """The report's section on the flank friction (:func:`friction_effect`)."""
+    if effect is None:
+        return ["", "## Flank friction", "", "Frictionless flanks (the gear set's "
+                "[friction] gives mu_static = mu_dynamic = 0)."]
+    lines = ["", "## Flank friction", "",
+             f"The FE contact of every impact and mesh-cycle position has Coulomb friction, "
+             f"mu_static {effect['mu_static']:g} and mu_dynamic {effect['mu_dynamic']:g} "
+             "(the gear set's [friction]; a static position takes mu_static). One impact "
+             "and one position were solved again frictionless; what friction changes there:"]
+    fell = effect.get("solved_frictionless") or []
+    if fell:
+        lines += ["", f"Solved frictionless, the frictional solve refusing them (a contact "
+                  f"zone too large to condense the friction on; the log says why): "
+                  f"{', '.join(fell)}."]
+    imp = effect.get("impact")
+    if imp:
+        w, o, d = imp["with"], imp["without"], imp["relative_change"]
+        lines += ["", f"Impact {imp['id']} ({imp['impact_speed'] * 1e3:.4g} mm/s):", "",
+                  "| | F_max (N) | e | t_c (us) | delta_max (um) | friction dissipation (uJ) |",
+                  "|---|---|---|---|---|---|"]
+        for name, v in (("with friction", w), ("frictionless", o)):
+            lines.append(f"| {name} | {_fmt(v['peak_force'])} | "
+                         f"{_fmt(v['restitution_measured'], '.5f')} | "
+                         f"{_fmt(v['contact_time'], '.4g', 1e6)} | "
+                         f"{_fmt(v['max_approach'], '.4g', 1e6)} | "
+                         f"{_fmt(v['friction_dissipation'], '.3g', 1e6)} |")
+        lines.append(f"| change | {_fmt(d.get('peak_force'), '+.3%')} | "
+                     f"{_fmt(d.get('restitution_measured'), '+.3%')} | "
+                     f"{_fmt(d.get('contact_time'), '+.3%')} | "
+                     f"{_fmt(d.get('max_approach'), '+.3%')} | |")
+    pos = effect.get("position")
+    if pos:
+        lines += ["", f"Mesh-cycle position {pos['id']} (stage {pos['stage']}, roll "
+                  f"{pos['roll_angle_deg']:+.3f} deg): the loaded transmission error (the "
+                  "pinion's approach along the line of action, this pair carrying the torque "
+                  "alone) at two pinion torques. The quasi-static positions hold no rolling: "
+                  "their friction acts on the slips of the flanks' deformation, not on the "
+                  "mesh's sliding, which reverses at the pitch point.", "",
+                  "| pinion torque (N m) | TE with friction (um) | frictionless (um) | change "
+                  "| normal force with / without (N) |",
+                  "|---|---|---|---|---|"]
+        for k, torque in enumerate(pos["torques"]):
+            lines.append(f"| {torque:.4g} | {pos['te_with'][k] * 1e6:.4f} | "
+                         f"{pos['te_without'][k] * 1e6:.4f} | "
+                         f"{pos['te_relative_change'][k]:+.3%} | "
+                         f"{pos['force_with'][k]:.4g} / {pos['force_without'][k]:.4g} |")
+    return lines
+
+
+# -- tooth-root bending stress ----------------------------------------------------------------
+#: Folder of the run's tooth-root stresses, one ``stage<n>.json`` a stage.
+ROOT_STRESS = "root_stress"
+
+
+def root_stress_jobs(out: Path, gearset_text: str, positions, level: str,
+                     cache: Path) -> list:
+    """Drawing jobs (:data:`~fe_impact.output.drawing.Job`) computing each stage's
+    tooth-root stresses (:func:`fe_impact.calibration.root_stress.fe_root_stress`,
+    about 20 s of CPU a stage at the coarse level) under the largest force of its mesh-cycle
+    flank positions, at the positions' mesh ``level``; none without positions."""
+    force: dict[int, float] = {}
+    for p in positions:
+        if p.contact == "flank":
+            force[p.stage] = max(force.get(p.stage, 0.0), max(p.forces))
+    return [(f"{ROOT_STRESS}/stage{s}.json", write_root_stress,
+             (gearset_text, s, f, level, str(cache), out / ROOT_STRESS / f"stage{s}.json"))
+            for s, f in sorted(force.items())]
+
+
+def write_root_stress(gearset_text: str, stage: int, force: float, level: str, cache: str,
+                      path: Path) -> Path:
+    """One stage's tooth-root stresses under the normal ``force`` [N], to ``path`` (JSON)."""
+    import tomllib
+
+    from fe_impact.calibration.root_stress import fe_root_stress
+    from fe_impact.gears import gearset_from_dict
+    from fe_impact.output.files import write_json
+
+    result = fe_root_stress(gearset_from_dict(tomllib.loads(gearset_text)), stage, force,
+                            level=level, cache=cache)
+    return write_json(path, result.to_dict())
+
+
+def _root_stress_lines(out: Path, written: list[str]) -> list[str]:
+    """The report's tooth-root section from the stages' files that were written."""
+    from fe_impact.calibration.root_stress import StageRootStress, report_lines
+
+    names = sorted(n for n in written if n.startswith(f"{ROOT_STRESS}/"))
+    if not names:
+        return []
+    try:
+        results = [StageRootStress.from_dict(read_document(
+            out / n, "root stress", CalibrationError, "json")) for n in names]
+    except (AttributeError, KeyError, TypeError, ValueError, CalibrationError) as exc:
+        # an optional section: its files stay in root_stress/, the report keeps the rest
+        logger.warning("tooth-root stress section skipped: %s", exc)
+        return []
+    return [""] + report_lines(results)
+
+
 def write_calibration_report(out: Path, calibration: Calibration,
-                             draw: Draw = draw_here) -> Path:
+                             draw: Draw = draw_here, jobs=()) -> Path:
     """Write ``report.md`` and its plots for a calibration (records with every section).
 
-    The plots are drawn by ``draw`` while the tables are written.
+    The plots, and the further ``jobs`` (the tooth-root stresses,
+    :func:`root_stress_jobs`), are drawn by ``draw`` while the tables are written.
     """
     cases = calibration.cases
     settings = calibration.settings or {}
-    wait = draw([(name, fn, (out, cases, out / name))
-                 for name, fn in (("force_time.png", _plot_histories),
-                                  ("parameters.png", _plot_parameters),
-                                  ("stress.png", _plot_stress))])
+    wait = draw([*((name, fn, (out, cases, out / name))
+                   for name, fn in (("force_time.png", _plot_histories),
+                                    ("parameters.png", _plot_parameters),
+                                    ("stress.png", _plot_stress))), *jobs])
     cycle_level = settings.get("cycle_level") or settings.get("level")
     cycle = f", mesh cycle at level `{cycle_level}`" if calibration.mesh_cycle else ""
     lines = ["# fe-impact calibration", "",
@@ -229,11 +416,14 @@ def write_calibration_report(out: Path, calibration: Calibration,
         lines += ["", f"Sum over cases {total:.0f} s; wall time of this run "
                   f"{_fmt(calibration.wall_time_s, '.0f')} s (resumed cases cost nothing "
                   "the second time)."]
-    lines += [""] + [f"![{p}]({p})" for p in wait()] + [""]
+    written = wait()
+    lines += [""] + [f"![{p}]({p})" for p in written if p.endswith(".png")] + [""]
     if calibration.mesh_cycle:
         from fe_impact.calibration.meshcycle_report import report_lines
 
         lines += report_lines(calibration.mesh_cycle)
+    lines += friction_lines(calibration.friction)
+    lines += _root_stress_lines(out, written)
     path = out / "report.md"
     with atomic_path(path) as tmp:
         tmp.write_text("\n".join(lines))

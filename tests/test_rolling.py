@@ -29,7 +29,9 @@ def gearset():
 
 
 def _roller(gearset, settings, stiffen=1.0, n=31):
-    geo = ContactGeometry.build(gearset, 1, stiffen=stiffen, n=n)
+    # planar tip-corner gaps: quicker to tabulate than the solid ones, and none of
+    # these checks depends on which (the command uses the solid ones)
+    geo = ContactGeometry.build(gearset, 1, stiffen=stiffen, n=n, corners="planar")
     pair = geo.pair
     p = rigid_body("pinion", gearset.pinion.inertia, *pair.pinion_axis)
     f = rigid_body("face_gear", gearset.stages[0].inertia, *pair.face_axis)
@@ -111,3 +113,33 @@ def test_energy_balance_loaded(gearset):
 def test_cycles_beyond_sector(gearset):
     with pytest.raises(CaseError, match="cycles = 9"):
         _roller(gearset, RollSettings(speed=100.0, cycles=9.0))
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["--stage", "4", "--speed", "1000"], "--stage 4"),
+    (["--speed", "0"], "--speed 0"),
+    (["--speed", "1000", "--torque", "5000"], "--torque 5000"),
+    (["--speed", "1000", "--cycles", "5", "--rigid"], "--cycles 5"),
+    (["--speed", "1000", "--steps-per-cycle", "50"], "--speed 1000"),
+    (["--speed", "1000", "--level", "nope"], "--level nope"),
+])
+def test_cli_bad_input_one_line(tmp_path, capsys, argv, option):
+    from fe_impact.cli.main import main
+
+    out = tmp_path / "out"
+    assert main(["roll", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and option in err[0]
+    assert not out.exists()
+
+
+def test_cli_rigid_writes_outputs(tmp_path):
+    from fe_impact.cli.main import main
+
+    out = tmp_path / "out"
+    assert main(["roll", "--speed", "1000", "--torque", "50", "--cycles", "0.5", "--rigid",
+                 "--out", str(out)]) == 0
+    for name in ("roll.json", "te.csv", "pairs.csv", "events.csv", "te.png", "forces.png"):
+        assert (out / name).exists(), name
+    te = np.loadtxt(out / "te.csv", delimiter=",", skiprows=1)
+    assert te.shape[0] == round(0.5 * 240) + 1

@@ -193,7 +193,7 @@ def _parser() -> argparse.ArgumentParser:
 
 #: Modules that add their own subcommands with ``register(subparsers)``.
 _COMMAND_MODULES = ("fe_impact.cli.mesh", "fe_impact.cli.switching", "fe_impact.cli.geometry",
-                    "fe_impact.cli.export")
+                    "fe_impact.cli.export", "fe_impact.cli.roll")
 
 
 def _configure_logging(verbose: int) -> None:

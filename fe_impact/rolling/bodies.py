@@ -63,6 +63,12 @@ def _body(name: str, mesh, K, M, volume: str, hub: str, flanks: list[str], inert
     body = Body(name, Mb.tocsr(), Kb.tocsr(), axis_point, axis, points=points,
                 triangles=tris, tri_dofs=corner_dofs, n_dofs_mesh=n_mesh, free_dofs=free)
     body.tree = cKDTree(points[tris].mean(axis=1))
+    # centrifugal load per unit omega^2 in the turning frame: the consistent mass times
+    # the points' distance vector from the axis (the rotor's entry is psi^T M r = 0)
+    radial = np.zeros(n_mesh)
+    rel = x - axis_point
+    radial[dofs_all] = (rel - np.outer(rel @ axis, axis)).ravel()
+    body.centrifugal = np.append((M @ radial)[free], 0.0)
     body.own_inertia = own
     body.mass = _mass(M, dofs_all)
     logger.info("%s: %d elastic DOFs, sector inertia %.4g of %.4g kg m^2", name, n_free, own,
@@ -102,4 +108,6 @@ def sector_bodies(mesh_path, gearset, stage: int, stiffen: float = 1.0) -> tuple
     face = _body("face_gear", mesh, K, M, "face_gear", "face_hub",
                  [f"face_{s}_{k}" for s in ("drive", "coast") for k in teeth],
                  gearset.stages[stage - 1].inertia, cf, af)
+    for body in (pinion, face):
+        body.model = model       # for the stress of the PVD frames
     return pinion, face

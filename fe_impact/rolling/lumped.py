@@ -12,7 +12,7 @@ constant pinion speed against a load torque on the face gear. The lumped model
   mesh at rest on its drive flank under the load of t = 0 (static equilibrium);
 - the face-gear rotor's inertia ``J_g`` split between the ring (``1 - f``) and
   the output that carries the load (``f``, `OUTPUT_SHARE`), joined by the
-  model's ring web. The web's mode (about 20 kHz and more for the seed's rings)
+  model's ring web. The web's mode (about 40 kHz on the seed's stage 1)
   lies far above the mesh harmonics compared, so at those frequencies the two
   turn as one rotor of inertia ``J_g``; an impact sees the ring's ``(1 - f) J_g``;
 - the condition's backlash, kinematic transmission error, drag and friction;

@@ -12,8 +12,10 @@ energy gives the constant mass matrix ``[[M, M psi], [psi^T M, J]]``
 inertia of the gear; the sector's own share ``psi^T M psi`` is part of it)
 and the stiffness ``[[K, 0], [0, 0]]``; both are constant for the whole
 path, so one factorisation of the Newmark matrix ``M + beta dt^2 K`` serves
-every step. The centrifugal and Coriolis terms (``omega^2`` and
-``2 omega u_dot``) are left out; :func:`inertial_terms` states their size.
+every step. The centrifugal load ``omega^2 M r`` (``r`` the points' distance
+vector from the axis; constant at constant speed) is applied to each sector;
+the Coriolis force ``2 omega M (e x u_dot)`` and the spin softening
+``-omega^2 M`` on ``u`` are left out (:func:`inertial_terms` states their size).
 
 Contact. Pair ``k`` is pinion tooth ``k`` with face-gear tooth ``k`` on the
 drive flanks, and pinion tooth ``k`` with the face-gear tooth it faces on
@@ -179,6 +181,8 @@ class Body:
     tri_dofs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), int))
     solver: object = None
     tree: object = None
+    #: centrifugal load per unit squared speed in the turning frame [N s^2] (n,)
+    centrifugal: np.ndarray | None = None
     n_dofs_mesh: int = 0
     free_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
 
@@ -215,24 +219,24 @@ class Body:
         reference point ``x`` (linear shape functions of its corners), and the
         point's distance from that triangle [m]."""
         _, near = self.tree.query(x, k=min(12, len(self.triangles)))
-        best = None
-        for t in np.atleast_1d(near):
-            a, b, c = self.points[self.triangles[t]]
-            e1, e2 = b - a, c - a
-            nrm = np.cross(e1, e2)
-            nrm /= np.linalg.norm(nrm)
-            d = x - a
-            h = d @ nrm
-            p = d - h * nrm
-            m = np.array([[e1 @ e1, e1 @ e2], [e1 @ e2, e2 @ e2]])
-            l1, l2 = np.linalg.solve(m, [p @ e1, p @ e2])
-            w = np.array([1.0 - l1 - l2, l1, l2])
-            outside = -min(w.min(), 0.0)
-            score = abs(h) + outside * math.sqrt(nrm @ nrm) * np.linalg.norm(e1)
-            if best is None or score < best[0]:
-                best = (score, t, np.clip(w, 0.0, None) / np.clip(w, 0.0, None).sum(), abs(h))
-        _, t, w, h = best
-        return self.tri_dofs[t], w, h
+        near = np.atleast_1d(near)
+        a, b, c = (self.points[self.triangles[near, i]] for i in range(3))
+        e1, e2, d = b - a, c - a, x - a
+        nrm = np.cross(e1, e2)
+        nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+        h = np.einsum("ij,ij->i", d, nrm)
+        p = d - h[:, None] * nrm
+        m11, m12 = np.einsum("ij,ij->i", e1, e1), np.einsum("ij,ij->i", e1, e2)
+        m22 = np.einsum("ij,ij->i", e2, e2)
+        r1, r2 = np.einsum("ij,ij->i", p, e1), np.einsum("ij,ij->i", p, e2)
+        det = m11 * m22 - m12 * m12
+        l1, l2 = (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det
+        w = np.stack([1.0 - l1 - l2, l1, l2], axis=1)
+        outside = -np.minimum(w.min(axis=1), 0.0)
+        score = np.abs(h) + outside * np.sqrt(m11)
+        best = int(np.argmin(score))
+        wb = np.clip(w[best], 0.0, None)
+        return self.tri_dofs[near[best]], wb / wb.sum(), float(abs(h[best]))
 
 
 def rigid_body(name: str, inertia: float, axis_point, axis) -> Body:
@@ -485,35 +489,70 @@ class Roller:
 
 
 def solve_contact(gfree: np.ndarray, D: np.ndarray, kh: np.ndarray, tol: float = 1e-13,
-                  sweeps: int = 500) -> np.ndarray:
+                  sweeps: int = 50) -> np.ndarray:
     """Forces ``lam >= 0`` with ``h = gfree + D lam + (lam / kh)^(2/3) >= 0``, ``lam h = 0``.
 
-    Projected Gauss-Seidel; each scalar problem ``a + D_ii t^3 + t^2 / kh^(2/3) = 0``
-    in ``t = lam^(1/3)`` is convex and increasing for ``t > 0``, so Newton from
-    above converges monotonically. ``D`` symmetric positive semi-definite with a
-    positive diagonal: the problem is strictly monotone, its solution unique.
+    ``lam`` minimises the strictly convex ``g.lam + lam.D.lam / 2 + (3/5) sum
+    kh^(-2/3) lam^(5/3)`` over ``lam >= 0`` (``D`` symmetric positive
+    semi-definite): the solution is unique. Active-set Newton in ``t = lam^(1/3)``
+    (where ``h`` is smooth), started from a few projected Gauss-Seidel sweeps; a
+    pair leaves the set when its ``t`` falls to zero, joins it when its gap is
+    negative.
     """
     n = len(gfree)
-    lam = np.zeros(n)
     c = kh ** (-2.0 / 3.0)
+    lam = _gauss_seidel(gfree, D, c, np.zeros(n), 3)
     for _ in range(sweeps):
-        change = 0.0
-        for i in range(n):
-            a = gfree[i] + D[i] @ lam - D[i, i] * lam[i]
-            if a >= 0.0:
-                new = 0.0
-            else:
-                t = max((-a / D[i, i]) ** (1 / 3), math.sqrt(-a / c[i]))
-                for _ in range(60):
-                    f = a + D[i, i] * t**3 + c[i] * t * t
-                    df = 3 * D[i, i] * t * t + 2 * c[i] * t
-                    step = f / df
-                    t -= step
-                    if abs(step) <= 1e-15 * t:
-                        break
-                new = t**3
-            change = max(change, abs(new - lam[i]))
-            lam[i] = new
-        if change <= tol * max(lam.max(initial=0.0), 1e-30):
+        active = np.flatnonzero(lam > 0.0)
+        if len(active):
+            lam[active] = _newton(gfree, D, c, lam, active)
+        h = gfree + D @ lam + c * np.cbrt(lam) ** 2
+        bad = (lam <= 0.0) & (h < -tol * max(np.abs(gfree).max(), 1e-30))
+        if not bad.any():
+            return lam
+        lam = _gauss_seidel(gfree, D, c, lam, 2)
+    return _gauss_seidel(gfree, D, c, lam, 2000)
+
+
+def _newton(g, D, c, lam, active) -> np.ndarray:
+    """Newton on the active pairs: ``g + D lam + c lam^(2/3) = 0`` in ``t = lam^(1/3)``;
+    a pair whose ``t`` would go negative is set to zero (it leaves)."""
+    t = np.cbrt(lam[active])
+    Da = D[np.ix_(active, active)]
+    rest = g[active] + D[np.ix_(active, np.setdiff1d(np.arange(len(g)), active))] @ lam[
+        np.setdiff1d(np.arange(len(g)), active)]
+    ca = c[active]
+    for _ in range(100):
+        f = rest + Da @ t**3 + ca * t * t
+        J = Da * (3.0 * t * t)[None, :] + np.diag(2.0 * ca * t)
+        step = np.linalg.solve(J, f)
+        new = t - step
+        if np.any(new <= 0.0):
+            scale = np.min(np.where(new <= 0.0, 0.5 * t / np.maximum(step, 1e-300), 1.0))
+            new = t - scale * step
+        done = np.abs(new - t).max() <= 1e-13 * t.max()
+        t = np.maximum(new, 0.0)
+        if done:
             break
+    return t**3
+
+
+def _gauss_seidel(g, D, c, lam, sweeps: int) -> np.ndarray:
+    """Projected Gauss-Seidel sweeps; each scalar problem ``a + D_ii t^3 + c_i t^2 = 0``
+    (``t = lam^(1/3)``) is convex and increasing for ``t > 0``: Newton from above."""
+    lam = lam.copy()
+    for _ in range(sweeps):
+        for i in range(len(g)):
+            a = g[i] + D[i] @ lam - D[i, i] * lam[i]
+            if a >= 0.0:
+                lam[i] = 0.0
+                continue
+            t = max((-a / D[i, i]) ** (1 / 3), math.sqrt(-a / c[i]))
+            for _ in range(60):
+                f = a + D[i, i] * t**3 + c[i] * t * t
+                step = f / (3 * D[i, i] * t * t + 2 * c[i] * t)
+                t -= step
+                if abs(step) <= 1e-15 * t:
+                    break
+            lam[i] = t**3
     return lam

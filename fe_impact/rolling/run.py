@@ -66,7 +66,8 @@ class RollResult:
     contact_point_m : ndarray (n, n_teeth, 2, 3)
         The pinion's contact point in the mesh frame (NaN: no force).
     energy : dict of ndarray (n,)
-        ``kinetic``, ``strain``, ``hertz``, ``drive_work``, ``load_work``, ``error``.
+        ``kinetic``, ``strain``, ``hertz``, ``drive_work``, ``load_work``,
+        ``centrifugal_work`` (of the centrifugal load on the sectors), ``error``.
     events : list of ContactEvent
     info : dict
         Inputs, sizes and costs.
@@ -88,10 +89,11 @@ class RollResult:
         """Largest ``|E - E_0 - W_drive - W_load|`` over the run, divided by the largest of
         the drive's work, the load's work and the kinetic energy's change [-]."""
         e = self.energy
+        kinetic = e["kinetic"][~np.isnan(e["kinetic"])]
         scale = max(np.abs(e["drive_work"]).max(initial=0.0),
                     np.abs(e["load_work"]).max(initial=0.0),
-                    np.ptp(e["kinetic"]) if len(e["kinetic"]) else 0.0, 1e-300)
-        return float(np.abs(e["error"]).max(initial=0.0) / scale)
+                    np.ptp(kinetic) if len(kinetic) else 0.0, 1e-300)
+        return float(np.nanmax(np.abs(e["error"]), initial=0.0) / scale)
 
     def to_dict(self) -> dict:
         return {"time_s": self.time_s.tolist(), "te_m": self.te_m.tolist(),
@@ -99,7 +101,8 @@ class RollResult:
                 "face_speed_rad_s": self.face_speed_rad_s.tolist(), "teeth": list(self.teeth),
                 "pair_force_n": np.nan_to_num(self.pair_force_n).tolist(),
                 "pair_s_m": np.where(np.isnan(self.pair_s_m), None, self.pair_s_m).tolist(),
-                "energy": {k: v.tolist() for k, v in self.energy.items()},
+                "energy": {k: np.where(np.isnan(v), None, v).tolist()
+                           for k, v in self.energy.items()},
                 "events": [asdict(e) for e in self.events], "info": self.info}
 
 
@@ -109,12 +112,19 @@ class _State:
 
 
 def _body_solve(body, rhs: np.ndarray) -> np.ndarray:
-    return body.solver(rhs) if body.solver is not None else np.zeros(0)
+    """``S^-1 rhs`` of ``body``'s Newmark matrix, ``rhs`` (n, k)."""
+    out = body.solver(rhs)
+    return out.reshape(rhs.shape)
 
 
-def integrate(roller: Roller, progress=None, stop=None) -> RollResult:
+def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
+              frame=None) -> RollResult:
     """Integrate ``roller`` over its steps.
 
+    The energies are evaluated every ``energy_every`` steps (and at the last;
+    NaN between: two sparse products each), the works at every step.
+
+    ``frame(step, t, q_pinion, q_face)`` is called each step (the output's frames);
     ``progress(step, n_steps)`` is called each step; ``stop()`` returning True ends
     the run early (what is done is returned, ``info["complete"]`` False).
     """
@@ -125,6 +135,7 @@ def integrate(roller: Roller, progress=None, stop=None) -> RollResult:
     col = {k: i for i, k in enumerate(teeth)}
     Mp, Kp, Mf, Kf = p.M.tocsr(), p.K.tocsr(), f.M.tocsr(), f.K.tocsr()
     npu = p.n - 1
+    mp_col = Mp[:-1, -1].toarray().ravel()
     sp_, sf = _State(p.n), _State(f.n)
     th, w, al = r.pinion_motion(0.0)
     sp_.q[-1], sp_.v[-1], sp_.a[-1] = th, w, al
@@ -136,7 +147,7 @@ def integrate(roller: Roller, progress=None, stop=None) -> RollResult:
     place = np.full((n_steps + 1, len(teeth), 2), np.nan)
     point = np.full((n_steps + 1, len(teeth), 2, 3), np.nan)
     en = {k: np.zeros(n_steps + 1) for k in ("kinetic", "strain", "hertz", "drive_work",
-                                              "load_work", "error")}
+                                              "load_work", "centrifugal_work", "error")}
 
     def x_of(qp, qf):
         return r.r_bp * qp[-1] - r.r_b2 * qf[-1] + 0.5 * c
@@ -151,8 +162,14 @@ def integrate(roller: Roller, progress=None, stop=None) -> RollResult:
     en["kinetic"][0] = kinetic()
     e0 = en["kinetic"][0]
     torque_drive, torque_load = 0.0, -r.load(0.0)
-    w_drive = w_load = 0.0
+    w_drive = w_load = w_centrifugal = 0.0
     th0, thf0 = th, sf.q[-1]
+    cf_p = p.centrifugal if p.centrifugal is not None else np.zeros(p.n)
+    cf_f = f.centrifugal if f.centrifugal is not None else np.zeros(f.n)
+    cf_p, cf_f = cf_p.copy(), cf_f.copy()
+    cf_p[-1] = cf_f[-1] = 0.0
+    fc_p0, fc_f0 = w * w * cf_p, sf.v[-1] ** 2 * cf_f
+    qp0, qf0 = sp_.q.copy(), sf.q.copy()
     open_events: dict = {}
     events: list[ContactEvent] = []
     prev_gap: dict = {}
@@ -166,58 +183,47 @@ def integrate(roller: Roller, progress=None, stop=None) -> RollResult:
         vt_p = sp_.v + (1 - GAMMA) * dt * sp_.a
         qt_f = sf.q + dt * sf.v + (0.5 - BETA) * dt * dt * sf.a
         vt_f = sf.v + (1 - GAMMA) * dt * sf.a
+        rows = r._rows(th1, qt_f[-1])
+        m = len(rows)
+        # one solve per gear for the free motion and every pair's unit force
+        A_p, A_f = np.zeros((m, p.n)), np.zeros((m, f.n))
+        for i, row in enumerate(rows):
+            if row["p"] is not None:
+                np.add.at(A_p[i], row["p"][0], row["p"][1])
+            if row["f"] is not None:
+                np.add.at(A_f[i], row["f"][0], row["f"][1])
+            A_f[i, -1] += row["dtheta_f"]
         a_p = np.zeros(p.n)
         a_p[-1] = al1
+        yp = np.zeros((m, p.n))
+        fc_p1 = w1 * w1 * cf_p
+        fc_f1 = sf.v[-1] ** 2 * cf_f       # the face gear's speed of the step before
         if npu:
-            rhs = -(Kp @ np.append(qt_p[:-1], 0.0))[:-1] - Mp[:-1, -1].toarray().ravel() * al1
-            a_p[:-1] = _body_solve(p, rhs)
-        rhs_f = -(Kf @ qt_f)
+            rhs = -(Kp @ np.append(qt_p[:-1], 0.0))[:-1] - mp_col * al1 + fc_p1[:-1]
+            sol = _body_solve(p, np.column_stack([rhs, A_p[:, :-1].T]))
+            a_p[:-1] = sol[:, 0]
+            yp[:, :-1] = sol[:, 1:].T
+        rhs_f = -(Kf @ qt_f) + fc_f1
         rhs_f[-1] += load1
-        a_f = f.solver(rhs_f) if f.solver is not None else rhs_f / Mf[0, 0]
+        sol = _body_solve(f, np.column_stack([rhs_f, A_f.T]))
+        a_f, yf = sol[:, 0], sol[:, 1:].T
         q_p = qt_p + BETA * dt * dt * a_p
         q_p[-1] = th1
         q_f = qt_f + BETA * dt * dt * a_f
-        rows = r._rows(th1, q_f[-1])
         x1 = x_of(q_p, q_f)
-        cand, gfree = [], []
-        for row in rows:
-            g = row["g"] - row["sign"] * x1
-            if row["p"] is not None:
-                g += row["p"][1] @ q_p[row["p"][0]]
-            if row["f"] is not None:
-                g += row["f"][1] @ q_f[row["f"][0]]
+        gfree = np.array([row["g"] - row["sign"] * x1 for row in rows]) + A_p[:, :-1] @ q_p[
+            :-1] + A_f[:, :-1] @ q_f[:-1]
+        for row, g in zip(rows, gfree, strict=True):
             row["gfree"] = g
-            if g < CANDIDATE_GAP:
-                cand.append(row)
-                gfree.append(g)
+        on = np.flatnonzero(gfree < CANDIDATE_GAP)
+        cand = [rows[i] for i in on]
         lam = np.zeros(0)
         if cand:
-            m = len(cand)
-            yp = np.zeros((m, p.n))
-            yf = np.zeros((m, f.n))
-            for i, row in enumerate(cand):
-                bp = np.zeros(p.n)
-                if row["p"] is not None:
-                    np.add.at(bp, row["p"][0], row["p"][1])
-                if npu:
-                    yp[i, :-1] = _body_solve(p, bp[:-1])
-                bf = np.zeros(f.n)
-                if row["f"] is not None:
-                    np.add.at(bf, row["f"][0], row["f"][1])
-                bf[-1] += row["dtheta_f"]
-                yf[i] = f.solver(bf) if f.solver is not None else bf / Mf[0, 0]
-            A_p = np.zeros((m, p.n))
-            A_f = np.zeros((m, f.n))
-            for i, row in enumerate(cand):
-                if row["p"] is not None:
-                    np.add.at(A_p[i], row["p"][0], row["p"][1])
-                if row["f"] is not None:
-                    np.add.at(A_f[i], row["f"][0], row["f"][1])
-                A_f[i, -1] += row["dtheta_f"]
-            D = BETA * dt * dt * (A_p @ yp.T + A_f @ yf.T)
+            yp, yf = yp[on], yf[on]
+            D = BETA * dt * dt * (A_p[on] @ yp.T + A_f[on] @ yf.T)
             D = 0.5 * (D + D.T)
             kh = np.array([row["kh"] for row in cand])
-            lam = solve_contact(np.array(gfree), D, kh)
+            lam = solve_contact(gfree[on], D, kh)
             a_p = a_p + lam @ yp
             a_f = a_f + lam @ yf
             a_p[-1] = al1
@@ -234,6 +240,8 @@ def integrate(roller: Roller, progress=None, stop=None) -> RollResult:
         t_drive1 = float((Mp[-1] @ a_p)[0]) - contact_torque
         w_drive += 0.5 * (torque_drive + t_drive1) * (th1 - th0)
         w_load += 0.5 * (torque_load + load1) * (sf.q[-1] - thf0)
+        w_centrifugal += 0.5 * ((fc_p0 + fc_p1) @ (sp_.q - qp0) + (fc_f0 + fc_f1) @ (sf.q - qf0))
+        fc_p0, fc_f0, qp0, qf0 = fc_p1, fc_f1, sp_.q.copy(), sf.q.copy()
         torque_drive, torque_load, th0, thf0 = t_drive1, load1, th1, sf.q[-1]
         # record
         hertz_pe = 0.0
@@ -250,12 +258,18 @@ def integrate(roller: Roller, progress=None, stop=None) -> RollResult:
         _events(r, n * dt, rows, lam, cand, active, open_events, events, prev_gap, dt)
         te[n] = x_of(sp_.q, sf.q) - 0.5 * c
         wp_[n], wf_[n] = w1, sf.v[-1]
-        en["kinetic"][n] = kinetic()
-        en["strain"][n] = strain()
         en["hertz"][n] = hertz_pe
         en["drive_work"][n], en["load_work"][n] = w_drive, w_load
-        en["error"][n] = (en["kinetic"][n] + en["strain"][n] + hertz_pe - e0 - w_drive
-                          - w_load)
+        en["centrifugal_work"][n] = w_centrifugal
+        if n % energy_every == 0 or n == n_steps or (stop is not None and stop()):
+            en["kinetic"][n] = kinetic()
+            en["strain"][n] = strain()
+            en["error"][n] = (en["kinetic"][n] + en["strain"][n] + hertz_pe - e0 - w_drive
+                              - w_load - w_centrifugal)
+        else:
+            en["kinetic"][n] = en["strain"][n] = en["error"][n] = np.nan
+        if frame is not None:
+            frame(n, t1, sp_.q, sf.q)
         if progress is not None:
             progress(n, n_steps)
         if stop is not None and stop():

@@ -310,3 +310,15 @@ def test_the_corner_table_marks_its_modelled_approaches():
     row = next(line for line in text.splitlines() if line.startswith("| 1 | approach |"))
     cells = row.split(" | ")[-1]
     assert cells.count("1.25*") == 1 and cells.count("1.25 (") == 5
+
+
+def test_positions_take_the_gear_sets_friction_and_refuse_a_bad_one():
+    # the planned positions carry the set's coefficients (the seed's 0.05 / 0.02); a
+    # companion has its own id; a coefficient outside [0, 1) is refused before any work
+    gs = default_gearset()
+    case = meshcycle.plan_positions(gs, [2], [-10.0, 0.0, 10.0])[1]
+    assert case.friction == (0.05, 0.02) and not case.companion
+    twin = dataclasses.replace(case, friction=(0.0, 0.0), companion=True)
+    assert twin.id == case.id + "_frictionless"
+    with pytest.raises(CalibrationError, match=r"friction \[-0.1, 0.0\].*\[0, 1\)"):
+        dataclasses.replace(case, friction=(-0.1, 0.0))

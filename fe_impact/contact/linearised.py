@@ -108,8 +108,7 @@ class ContactModel:
         self.Bt_full = sp.vstack([mask @ sp.vstack(B1), mask @ sp.vstack(B2)]).tocsr()
         self.Bt = (self.Bt_full @ self.kin.T).tocsr()
         self.row_law = np.concatenate(law)
-        self._slip_cols, Bt_held = _held_columns(self.Bt)
-        self._Bt_held = SparseProduct(Bt_held)
+        self._Bt_held: tuple[np.ndarray, SparseProduct] | None = None   # see slide()
 
     def row_keys(self) -> np.ndarray:
         """A key per row naming its pair and slave node (stable over projections)."""
@@ -184,8 +183,11 @@ class ContactModel:
     def slide(self, z: np.ndarray) -> float:
         """The largest slide (m) of a row's slave point along its master face from the
         projection to ``z``: the norm of the row's slip ``B_t (z - z_ref)`` (friction)."""
-        c = self._slip_cols
-        s = (self._Bt_held @ (z[c] - self.z_ref[c])).reshape(2, -1)
+        if self._Bt_held is None:    # formed at the first call of a projection (the
+            cols, Bt_held = _held_columns(self.Bt)       # static solver makes none)
+            self._Bt_held = cols, SparseProduct(Bt_held)
+        c, Bt_held = self._Bt_held
+        s = (Bt_held @ (z[c] - self.z_ref[c])).reshape(2, -1)
         return float(np.sqrt(s[0] * s[0] + s[1] * s[1]).max(initial=0.0))
 
     def gaps(self, z: np.ndarray) -> np.ndarray:

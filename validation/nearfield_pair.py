@@ -47,6 +47,8 @@ import sys
 import tempfile
 import time
 import tracemalloc
+from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -264,21 +266,45 @@ def refined_fe(gearset, text: str, cache: Path, refinement: float = 1.0) -> dict
             "timings": {k: float(v) for k, v in rec.timings_s.items()}}
 
 
+@contextmanager
+def level_sizes(level: str, sizes: tuple[float, float, float, float] | None):
+    """Mesh the far field with ``level``'s sizes replaced by ``sizes`` (minor and
+    major fractions, far-field modules, gradation: :class:`~fe_impact.meshing.sizing.MeshLevel`)
+    for the duration; a diagnostic of which part of the far-field mesh the
+    near field depends on, not a meshing option of the project."""
+    from fe_impact.meshing import sizing
+
+    if sizes is None:
+        yield
+        return
+    kept = sizing.LEVELS[level]
+    sizing.LEVELS[level] = replace(kept, minor_fraction=sizes[0], major_fraction=sizes[1],
+                                   far_modules=sizes[2], gradation=sizes[3])
+    try:
+        yield
+    finally:
+        sizing.LEVELS[level] = kept
+
+
 def run(out: str | Path = "out/nearfield_pair", baseline: bool = True,
         depth: float = DEPTH, refinement: float = COARSE["refinement"],
         level: str = COARSE["level"], design_force: float = COARSE["design_force"],
         same_load: bool = SAME_LOAD, hat_spacing: float | None = None,
         cache: Path | None = None, true_gap: bool = TRUE_GAP,
         flank_end: bool = True, family: bool = False,
-        lattice: int | None = FAR_LATTICE) -> dict:
+        lattice: int | None = FAR_LATTICE,
+        sizes: tuple[float, float, float, float] | None = None) -> dict:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     gs, text = _gearset()
     with tempfile.TemporaryDirectory() as tmp:
         cache = Path(tmp) if cache is None else Path(cache)
         tag = f"coarse_{level}_{refinement:g}_{design_force:g}"
+        if sizes is not None:
+            tag += "_" + "_".join(f"{v:.4g}" for v in sizes)
         t0 = time.perf_counter()
-        pm = coarse_pair(gs, cache / tag, refinement, level, design_force)
+        with level_sizes(level, sizes):
+            pm = coarse_pair(gs, cache / tag, refinement, level, design_force)
         t_mesh = time.perf_counter() - t0
         tracemalloc.start()
         t = time.perf_counter()
@@ -305,7 +331,7 @@ def run(out: str | Path = "out/nearfield_pair", baseline: bool = True,
                   "python_peak_MiB_near_field": peak, "depth_m": depth, "grid_cells": CELLS ** 2,
                   "refinement": refinement, "level": level, "design_force": design_force,
                   "same_load": same_load, "true_gap": true_gap, "flank_end": flank_end,
-                  "far_lattice": lattice,
+                  "far_lattice": lattice, "sizes": sizes,
                   "hats": [far.hats.nx, far.hats.ny], "rows": rows}
         if baseline:
             result["refined"] = refined_fe(gs, text, cache / "refined")
@@ -399,6 +425,19 @@ def report(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _sizes(text: str | None) -> tuple[float, float, float, float] | None:
+    if text is None:
+        return None
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 4 or not all(v > 0 for v in values):
+        raise SystemExit(f"nearfield_pair: --sizes {text!r}; give four positive numbers "
+                         "'minor,major,far_modules,gradation', e.g. 0.5,0.3333,0.8,0.5")
+    return values
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("out/nearfield_pair"))
@@ -416,6 +455,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quadratic-gap", action="store_true",
                    help="the relative curvature's quadratic separation instead of the "
                         "flanks' own (far-field loads and probes on the contact plane)")
+    p.add_argument("--sizes", default=None,
+                   help="diagnostic: the far-field level's sizes replaced by 'minor,major,"
+                        "far_modules,gradation' (e.g. 0.5,0.3333,0.8,0.5)")
     p.add_argument("--exact-far-field", action="store_true",
                    help="probe the FE under every cell of every grid (no lattice)")
     p.add_argument("--family", action="store_true",
@@ -435,7 +477,8 @@ def main(argv: list[str] | None = None) -> int:
                  true_gap=not args.quadratic_gap,
                  flank_end=not (args.quadratic_gap and args.no_flank_end),
                  family=args.family,
-                 lattice=None if args.exact_far_field else FAR_LATTICE)
+                 lattice=None if args.exact_far_field else FAR_LATTICE,
+                 sizes=_sizes(args.sizes))
     checks = check(result)
     text = report(result) + "\n## Checks\n\n" + ck.markdown(checks)
     (args.out / "nearfield_pair.md").write_text(text)

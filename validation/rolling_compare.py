@@ -151,7 +151,9 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
                        "start in both models")
         condition = replace(condition, mesh_phase=0.0)
     wall = time.perf_counter()
-    result = roll(gearset, RollInputs(**kwargs), out=fe / condition.name / "roll")
+    # the record is what the comparison needs: the run's own files (frames, plots) are
+    # not written; the sector mesh is made once for every condition
+    result = roll(gearset, RollInputs(**kwargs), mesh_dir=fe / "mesh")
     logger.info("%s: rolling FE %.0f s", condition.name, time.perf_counter() - wall)
     backlash = result.info.get("backlash_m")
     if backlash:

@@ -70,7 +70,7 @@ def test_kinematics_accelerating_unloaded_te_zero(gearset):
                      speed_ramp_cycles=1.5)
     r = _roller(gearset, s, stiffen=1e6)
     res = integrate(r)
-    pushed = res.pair_force_n.sum(axis=(1, 2)) > 1.0
+    pushed = res.pair_force_n[:, :, 0].sum(axis=1) > 1.0     # the drive flanks push
     assert res.pair_force_n.max() > 1000.0
     assert pushed.sum() >= 250                       # 1.25 cycles of 200 steps
     assert (res.pair_force_n[pushed, :, 0] > 0).sum(axis=1).max() == 2   # a two-pair zone

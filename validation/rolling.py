@@ -39,12 +39,12 @@ QUASI_STATIC = 0.03         # of the mean TE
 ENERGY = 1e-3               # of the work done
 
 
-def _roll(gearset, out: Path, mesh_dir: Path, **kw):
+def _roll(gearset, out: Path, mesh_dir: Path, check_step: bool = True, **kw):
     from fe_impact.rolling.api import RollInputs, roll
 
     inputs = RollInputs(stage=1, level="coarse", **kw)
     t0 = time.perf_counter()
-    result = roll(gearset, inputs, out, mesh_dir=mesh_dir)
+    result = roll(gearset, inputs, out, mesh_dir=mesh_dir, check_step=check_step)
     result.info["total_wall_s"] = time.perf_counter() - t0
     return result
 
@@ -53,9 +53,11 @@ def kinematics(gearset, out: Path, mesh_dir: Path, quick: bool) -> dict:
     res = _roll(gearset, out / "kinematics", mesh_dir, speed_rpm=1000.0, torque_nm=0.0,
                 cycles=2.0, speed_ramp_cycles=1.5, ramp_cycles=0.0, stiffen=1e6,
                 steps_per_cycle=240, frames_per_cycle=4)
-    pushed = res.pair_force_n.sum(axis=(1, 2)) > 1.0
+    # while the drive flanks push (after the push the face gear flies free across the
+    # backlash, and hits the coast flanks: not a kinematic state)
+    pushed = res.pair_force_n[:, :, 0].sum(axis=1) > 1.0
     two = (res.pair_force_n[pushed, :, 0] > 0).sum(axis=1).max(initial=0)
-    te = float(np.abs(res.te_m[pushed]).max(initial=math.inf))
+    te = float(np.abs(res.te_m[pushed]).max()) if pushed.any() else math.inf
     return {"largest_te_m": te, "steps_pushed": int(pushed.sum()), "most_pairs": int(two),
             "peak_force_n": float(res.pair_force_n.max()),
             "passed": bool(te < TE_KINEMATIC and two == 2), "cost": _cost(res)}
@@ -69,7 +71,8 @@ def quasi_static(gearset, out: Path, mesh_dir: Path, reference: Path | None,
     cos_a = math.cos(pair.pinion.pressure_angle)
     r_bp, r_b2 = pair.pinion.pitch_radius * cos_a, pair.face.pitch_radius * cos_a
     pinion_torque = 1000.0 * r_bp
-    res = _roll(gearset, out / "quasi_static", mesh_dir, speed_rpm=50.0,
+    # quasi-static: the mesh-in closes at ~1 cm/s, no impact for the step to resolve
+    res = _roll(gearset, out / "quasi_static", mesh_dir, check_step=False, speed_rpm=50.0,
                 torque_nm=pinion_torque * r_b2 / r_bp, cycles=2.4, ramp_cycles=1.0,
                 steps_per_cycle=120 if quick else 240, frames_per_cycle=4)
     n_cycle = res.info["inputs"]["steps_per_cycle"]

@@ -54,6 +54,8 @@ logger = logging.getLogger(__name__)
 __all__ = ["Body", "ContactGeometry", "RollSettings", "Roller", "inertial_terms"]
 
 BETA, GAMMA = 0.25, 0.5
+#: Points along the Hertz ellipse's major axis a pair's force is spread over.
+SPREAD_POINTS = 9
 
 
 def _rz(a: float) -> np.ndarray:
@@ -85,6 +87,10 @@ class ContactGeometry:
         The face gear's outward flank normal at the point, in the same frames.
     hertz_k : ndarray (n,)
         ``K_H`` of ``P = K_H delta^1.5`` [N/m^1.5] of the flanks' curvatures.
+    pinion_majors, face_majors : ndarray (n, 3)
+        The Hertz ellipse's major axis in the two frames.
+    major_unit : ndarray (n,)
+        Its semi-major axis at 1 N [m] (``a ~ P^(1/3)``).
     """
 
     pair: object = field(repr=False)
@@ -96,6 +102,9 @@ class ContactGeometry:
     pinion_normals: np.ndarray
     face_normals: np.ndarray
     hertz_k: np.ndarray
+    pinion_majors: np.ndarray = None
+    face_majors: np.ndarray = None
+    major_unit: np.ndarray = None
 
     @property
     def base_radii(self) -> tuple[float, float]:
@@ -110,7 +119,7 @@ class ContactGeometry:
         """TCA over the path of contact of ``stage`` (``n`` roll angles); ``stiffen``
         multiplies Young's modulus (the kinematic check's stiffened material)."""
         from fe_impact.gears.kinematics import default_backlash, mesh_geometry
-        from fe_impact.gears.tca import GearPair, equivalent_radius
+        from fe_impact.gears.tca import GearPair, contact_ellipse, equivalent_radius
         from fe_impact.physics import hertz
 
         pair = GearPair.from_gearset(gearset, stage)
@@ -124,7 +133,7 @@ class ContactGeometry:
         path = pair.path(rolls)
         mat = gearset.material
         e_star = hertz.effective_modulus(mat.youngs_modulus * stiffen, mat.poisson_ratio)
-        pp, fp, pn, fn, kh = [], [], [], [], []
+        pp, fp, pn, fn, kh, pm, fm, au = [], [], [], [], [], [], [], []
         t_p = np.array([0.0, pair.pinion.pitch_radius, pair.z0])
         for c in path.points:
             rp, rf = pair.pinion_rotation(c.roll_angle), pair.face_rotation(c.face_angle)
@@ -134,8 +143,12 @@ class ContactGeometry:
             fn.append(rf.T @ c.normal)
             radius = equivalent_radius(c.relative, e_star)
             kh.append(4.0 / 3.0 * e_star * math.sqrt(radius))
+            ell = contact_ellipse(c.relative, 1.0, e_star)
+            pm.append(rp.T @ ell.major)
+            fm.append(rf.T @ ell.major)
+            au.append(ell.a)
         return cls(pair, geo, float(backlash), s, np.array(pp), np.array(fp), np.array(pn),
-                   np.array(fn), np.array(kh))
+                   np.array(fn), np.array(kh), np.array(pm), np.array(fm), np.array(au))
 
     def at(self, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
         """Points, normals (pinion, face frames of tooth 0) and ``K_H`` at ``s``
@@ -149,6 +162,16 @@ class ContactGeometry:
 
         return (lerp(self.pinion_points), lerp(self.face_points), lerp(self.pinion_normals),
                 lerp(self.face_normals), float(lerp(self.hertz_k)))
+
+    def ellipse_at(self, s: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """Major axes (pinion, face frames of tooth 0) and the semi-major axis at 1 N."""
+        s = float(np.clip(s, self.s[0], self.s[-1]))
+        i = int(np.clip(np.searchsorted(self.s, s) - 1, 0, len(self.s) - 2))
+        w = (s - self.s[i]) / (self.s[i + 1] - self.s[i])
+        pm = (1 - w) * self.pinion_majors[i] + w * self.pinion_majors[i + 1]
+        fm = (1 - w) * self.face_majors[i] + w * self.face_majors[i + 1]
+        return (pm / np.linalg.norm(pm), fm / np.linalg.norm(fm),
+                float((1 - w) * self.major_unit[i] + w * self.major_unit[i + 1]))
 
     def gap(self, s: float) -> tuple[float, float]:
         """Rigid gap of a pair at ``s`` [m] and its slope ``dg/ds``."""
@@ -269,6 +292,11 @@ class RollSettings:
         model's ``e = A sin(2 pi u / p_b)``, ``u`` the pinion's roll on the line of
         action since the start): it closes the drive gaps and opens the coast gaps
         by ``e``. 0: exact flanks.
+    spread_force : float or None
+        A pair's force enters the sectors spread along the major axis of the Hertz
+        ellipse of this force [N] (the line load of the Hertz pressure, ``~ 1 -
+        xi^2``, at :data:`SPREAD_POINTS` points); None: the load torque's mesh force,
+        at least 100 N. 0: at the contact point alone.
     """
 
     speed: float
@@ -279,6 +307,7 @@ class RollSettings:
     speed_ramp_cycles: float = 0.0
     start_cycles: float | None = None
     te_amplitude: float = 0.0
+    spread_force: float | None = None
 
 
 def inertial_terms(sector_mass: float, radius: float, speed: float, mesh_force: float,
@@ -325,6 +354,14 @@ class Roller:
         self.n_steps = int(round(settings.cycles * settings.steps_per_cycle))
         self.t_p = np.array([0.0, pair.pinion.pitch_radius, pair.z0])
         self._coast_tooth: dict[int, int] = {}
+        self.spread_force = (settings.spread_force if settings.spread_force is not None
+                             else max(settings.torque / self.r_b2, 100.0))
+        if self.spread_force > 0.0:
+            self._xi = (np.arange(SPREAD_POINTS) + 0.5) / SPREAD_POINTS * 2.0 - 1.0
+            q = 1.0 - self._xi**2
+            self._q = q / q.sum()
+        else:
+            self._xi, self._q = np.zeros(1), np.ones(1)
         lo, hi = self.held_window()
         margin = 0.01 * self.pitch_p
         #: mesh cycles the sectors hold
@@ -415,13 +452,15 @@ class Roller:
         face-gear tooth whose mirrored angle is the conjugate one there.
         """
         xp, xf, np_, nf, kh = self.geo.at(s)
+        mp, mf, a1 = self.geo.ellipse_at(s)
         n = k
         if fl == 1:
-            xp, xf, np_, nf = (_MIRROR @ v for v in (xp, xf, np_, nf))
+            xp, xf, np_, nf, mp, mf = (_MIRROR @ v for v in (xp, xf, np_, nf, mp, mf))
             n = self._coast_face_tooth(k, theta_p)
         pair = self.geo.pair
         rp = pair.pinion_rotation(self.roll_placed - k * self.pitch_p)
         rf = pair.face_rotation(self.face_placed - n * self.pitch_f)
+        self._majors = (rp @ mp, rf @ mf, a1)
         return rp @ xp + self.t_p, rf @ xf, rp @ np_, rf @ nf, kh
 
     def _coast_face_tooth(self, k: int, theta_p: float) -> int:
@@ -473,17 +512,23 @@ class Roller:
                    "kh": kh, "dtheta_p": -sign * self.r_bp * (1.0 - dg) - sign * de,
                    "dtheta_f": sign * self.r_b2,
                    "sign": sign, "xp": xp, "xf": xf}
-            for body, x, nrm, sg, key in ((self.p, xp, np_, 1.0, "p"),
-                                          (self.f, xf, nf, -1.0, "f")):
+            mp, mf, a1 = self._majors
+            half = a1 * self.spread_force ** (1.0 / 3.0)
+            for body, x, nrm, major, sg, key in ((self.p, xp, np_, mp, 1.0, "p"),
+                                                 (self.f, xf, nf, mf, -1.0, "f")):
                 if not body.elastic:
                     row[key] = None
                     continue
-                dofs, w, dist = body.locate(x)
-                if dist > 0.5 * self.p_b:
-                    raise CaseError(f"pair {k} ({'drive' if fl == 0 else 'coast'}): the "
-                                    f"contact point lies {dist * 1e3:.3g} mm off the "
-                                    f"{body.name} sector's flanks")
-                row[key] = (dofs.ravel(), (sg * w[:, None] * nrm[None, :]).ravel())
+                dofs_all, coef_all = [], []
+                for xi, q in zip(self._xi, self._q, strict=True):
+                    dofs, w, dist = body.locate(x + xi * half * major)
+                    if dist > 0.5 * self.p_b:
+                        raise CaseError(f"pair {k} ({'drive' if fl == 0 else 'coast'}): the "
+                                        f"contact point lies {dist * 1e3:.3g} mm off the "
+                                        f"{body.name} sector's flanks")
+                    dofs_all.append(dofs.ravel())
+                    coef_all.append((q * sg * w[:, None] * nrm[None, :]).ravel())
+                row[key] = (np.concatenate(dofs_all), np.concatenate(coef_all))
             out.append(row)
         return out
 

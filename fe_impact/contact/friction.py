@@ -492,7 +492,7 @@ class ExplicitFriction:
         if self._t is None and not np.any(lam > 0.0):
             return None
         t_old = self._t if self._t is not None else np.zeros((r, 2))
-        ds = (contact.Bt @ (z - z_old)).reshape(2, r).T
+        ds = contact.slips(z, z_old)
         speed = np.linalg.norm(ds, axis=1) / dt
         eps_t = contact.eps_w
         t, dissipated, _ = return_mapping(t_old, ds, lam, eps_t, contact.row_coefficients(speed))

@@ -108,7 +108,10 @@ class ContactModel:
         self.Bt_full = sp.vstack([mask @ sp.vstack(B1), mask @ sp.vstack(B2)]).tocsr()
         self.Bt = (self.Bt_full @ self.kin.T).tocsr()
         self.row_law = np.concatenate(law)
-        self._Bt_held: tuple[np.ndarray, SparseProduct] | None = None   # see slide()
+        # B_t and B_t^T on what they reach (_slip_product, add_tangential), formed at
+        # their first use in a projection (the static solver makes none)
+        self._Bt_held: tuple[np.ndarray, SparseProduct] | None = None
+        self._BtT_held: tuple[np.ndarray, SparseProduct] | None = None
 
     def row_keys(self) -> np.ndarray:
         """A key per row naming its pair and slave node (stable over projections)."""
@@ -116,9 +119,22 @@ class ContactModel:
         return np.concatenate([st.nodes + k * n for k, st in enumerate(self.states)])
 
     def add_tangential(self, t: np.ndarray, out: np.ndarray, sign: float = 1.0) -> np.ndarray:
-        """``out += sign B_t^T t`` in place, ``t`` the rows' tangential forces (r, 2)."""
-        out += sign * (self.Bt.T @ np.concatenate([t[:, 0], t[:, 1]]))
+        """``out += sign B_t^T t`` in place, ``t`` the rows' tangential forces (r, 2),
+        touching only the coordinates ``B_t`` reaches (as :meth:`add_forces`; the
+        explicit step with friction makes it every step)."""
+        if self._BtT_held is None:
+            BtT = self.Bt.T.tocsr()
+            rows = np.flatnonzero(np.diff(BtT.indptr))
+            self._BtT_held = rows, SparseProduct(BtT[rows])
+        rows, BtT_held = self._BtT_held
+        out[rows] += sign * (BtT_held @ np.concatenate([t[:, 0], t[:, 1]]))
         return out
+
+    def slips(self, z: np.ndarray, z_old: np.ndarray) -> np.ndarray:
+        """The rows' slip increments ``B_t (z - z_old)`` from ``z_old`` to ``z`` (r, 2), m,
+        on the coordinates ``B_t`` reaches only."""
+        c, Bt_held = self._slip_product()
+        return (Bt_held @ (z[c] - z_old[c])).reshape(2, -1).T
 
     def row_coefficients(self, speed: np.ndarray | None = None) -> np.ndarray:
         """Each row's Coulomb coefficient at the slip speed ``speed`` (m/s; None: at
@@ -183,12 +199,16 @@ class ContactModel:
     def slide(self, z: np.ndarray) -> float:
         """The largest slide (m) of a row's slave point along its master face from the
         projection to ``z``: the norm of the row's slip ``B_t (z - z_ref)`` (friction)."""
-        if self._Bt_held is None:    # formed at the first call of a projection (the
-            cols, Bt_held = _held_columns(self.Bt)       # static solver makes none)
-            self._Bt_held = cols, SparseProduct(Bt_held)
-        c, Bt_held = self._Bt_held
+        c, Bt_held = self._slip_product()
         s = (Bt_held @ (z[c] - self.z_ref[c])).reshape(2, -1)
         return float(np.sqrt(s[0] * s[0] + s[1] * s[1]).max(initial=0.0))
+
+    def _slip_product(self) -> tuple[np.ndarray, SparseProduct]:
+        """The columns ``B_t`` reaches and ``B_t`` on them."""
+        if self._Bt_held is None:
+            cols, Bt_held = _held_columns(self.Bt)
+            self._Bt_held = cols, SparseProduct(Bt_held)
+        return self._Bt_held
 
     def gaps(self, z: np.ndarray) -> np.ndarray:
         c = self._gap_cols      # B (z - z_ref) on the coordinates B reaches

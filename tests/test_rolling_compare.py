@@ -223,3 +223,23 @@ def test_record_of_a_rolling_fe_run_sums_its_pairs_and_names_its_events():
                              "events": [SimpleNamespace(**{**event.__dict__, "where": "tip"})]})
     with pytest.raises(CaseError, match="where = 'tip'"):
         record_from_roll(bad, _condition(), GEARSET.pinion.teeth)
+
+
+def test_phase_offset_of_the_mesh_in_impacts_wraps_around_the_period():
+    from fe_impact.rolling.compare import phase_offset
+
+    condition = _condition(speed=1000.0, duration=0.01)
+    f = condition.mesh_frequency(GEARSET.pinion.teeth)
+    t = np.linspace(0.0, 0.01, 200)
+
+    def at(phases):
+        n = len(phases)
+        ev = ContactEvents(np.asarray(phases) / f, ["mesh-in"] * n, [1] * n, [0.04] * n,
+                           [700.0] * n, ["corner-approach"] * n, [math.nan] * n)
+        return _record(t, np.zeros_like(t), ev, condition=condition)
+
+    # lumped entries at 0.93 and 1.93 periods, the FE's at 0.14 and 1.14: moving the
+    # lumped pairs on by 0.79 of a base pitch makes them enter 0.79 period earlier
+    assert phase_offset(at([0.14, 1.14]), at([0.93, 1.93])) == pytest.approx(0.79, abs=1e-9)
+    assert phase_offset(at([0.95, 1.96]), at([0.05, 1.06])) == pytest.approx(0.10, abs=1e-9)
+    assert math.isnan(phase_offset(at([]), at([0.5])))

@@ -69,6 +69,7 @@ __all__ = [
     "mesh_harmonics",
     "mesh_metrics",
     "mesh_window",
+    "phase_offset",
     "plot_condition",
     "read_record",
     "record_from_roll",
@@ -561,6 +562,24 @@ def mesh_metrics(record: RollingRecord) -> MeshMetrics:
         mesh_in_speed_max=_stat(mesh_in.closing_speed, np.max),
         rattle_count=len(rattle), rattle_force_max=_stat(rattle.peak_force, np.max),
         rattle_speed_max=_stat(rattle.closing_speed, np.max))
+
+
+def mesh_in_phase(record: RollingRecord) -> float:
+    """Where in the mesh period the record's mesh-in impacts fall, from ``settle`` on:
+    the circular mean of ``t f mod 1`` [-, 0..1); NaN without a mesh-in."""
+    f = record.mesh_frequency
+    ev = record.events.select("mesh-in", record.time[0] + record.condition.settle)
+    if not len(ev):
+        return math.nan
+    z = np.mean(np.exp(2j * np.pi * ev.time * f))
+    return float(np.angle(z) / (2 * np.pi) % 1.0)
+
+
+def phase_offset(reference: RollingRecord, other: RollingRecord) -> float:
+    """How much earlier in the mesh period ``other``'s mesh-in impacts fall than
+    ``reference``'s [periods, 0..1): add it to ``other``'s ``mesh_phase`` to place its
+    tooth pairs as ``reference``'s (NaN when either has no mesh-in)."""
+    return float((mesh_in_phase(other) - mesh_in_phase(reference)) % 1.0)
 
 
 def relative_difference(value: float, reference: float) -> float:

@@ -55,6 +55,11 @@ def calibrate(gearset: PathLike | None = None, *, out: PathLike = "out/calibrati
     with the same inputs resumes. It is what ``fe-impact calibrate`` does; each
     keyword is the option of the same name.
 
+    The FE contact takes the gear set's flank friction (``[friction]``, default
+    the seed's); with friction, one impact and one mesh-cycle position are solved
+    again frictionless for the report's friction section
+    (:func:`fe_impact.calibration.planning.friction_companions`).
+
     Parameters
     ----------
     gearset : str or path-like, optional

@@ -573,12 +573,57 @@ SWITCHING = [
 ]
 
 
+NASA = MESHES.parent / "geometry" / "nasa-25deg.toml"
+
+
+def roll(*options: str, gears: Path | None = None):
+    """``roll`` with a rigid quick look (no mesh): the refusals come before any step."""
+    return lambda d: ["roll", *([str(gears)] if gears else []), "--rigid", "--out", "OUT",
+                      *options]
+
+
+def geometry(*options: str):
+    return lambda d: ["geometry", *options]
+
+
+ROLL = [
+    ("--cycles 0", roll("--speed", "1000", "--cycles", "0"), ["--cycles 0", "> 0"]),
+    ("--speed NaN", roll("--speed", "nan"), ["--speed nan", "must be a number > 0"]),
+    ("--torque against the drive", roll("--speed", "1000", "--torque", "-50"),
+     ["--torque -50", ">= 0", "N m on the face gear"]),
+    ("--stage the shipped one-stage drive lacks", roll("--speed", "1000", "--stage", "2",
+                                                        gears=NASA),
+     ["--stage 2", "'nasa-25deg-28x107' has stages 1..1"]),
+    ("gear-set file missing", lambda d: ["roll", str(d / "no.toml"), "--rigid", "--speed",
+                                         "1000", "--out", "OUT"],
+     ["no.toml", "not found"]),
+]
+
+GEOMETRY = [
+    ("--schedule is a folder", lambda d: ["geometry", "--schedule", str(d)],
+     ["--schedule", "is a folder", "schedule TOML file"]),
+    # A gear-set file given where the schedule goes.
+    ("--schedule is a gear-set file", geometry("--schedule", str(NASA)),
+     ["nasa-25deg.toml", "unknown key(s)", "allowed: ['blend_s'"]),
+    # 200 N mm typed as 200000 N m: p0 = 8938 MPa on stage 1; p0 ~ T^(1/3), so the
+    # 2400 MPa strength is reached at 200000 (2400/8938)^3 = 3872 N m (by hand).
+    ("schedule load in N mm",
+     lambda d: ["geometry", "--schedule", write(d, "duty.toml", SEGMENT.format(
+         stage=1, duration=1.0, speed=300, load=200000))],
+     ["[segments[0]] load_Nm = 200000", "static contact strength", "at most 3872 N m"]),
+    ("--torque NaN", geometry("--torque", "nan"), ["--torque nan N m", "> 0"]),
+    ("--json in a folder that cannot be made", geometry("--json", "/proc/none/g.json"),
+     ["--json /proc/none/g.json", "cannot make a folder"]),
+]
+
+
 def _params(command: str, table: list) -> list:
     return [pytest.param(build, words, id=f"{command}: {name}") for name, build, words in table]
 
 
 @pytest.mark.parametrize("build,words", _params("solve", SOLVE) + _params("mesh", MESH)
-                         + _params("calibrate", CALIBRATE) + _params("switching", SWITCHING))
+                         + _params("calibrate", CALIBRATE) + _params("switching", SWITCHING)
+                         + _params("roll", ROLL) + _params("geometry", GEOMETRY))
 def test_bad_input_gets_one_clear_line(tmp_path, capsys, build, words):
     before = sorted(tmp_path.rglob("*"))
     argv = [str(tmp_path / "out") if a == "OUT" else a for a in build(tmp_path)]

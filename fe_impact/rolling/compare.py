@@ -64,6 +64,7 @@ __all__ = [
     "RollingRecord",
     "check_goal",
     "compare_metrics",
+    "counted_events",
     "comparison_rows",
     "markdown_table",
     "mesh_harmonics",
@@ -533,6 +534,15 @@ def _stat(values: np.ndarray, how) -> float:
     return float(how(values)) if values.size else math.nan
 
 
+def counted_events(record: RollingRecord) -> tuple[ContactEvents, ContactEvents]:
+    """The mesh-in and the rattle impacts the metrics count: from ``settle`` on, the
+    mesh-in ones up to `MESH_IN_HOLD` mesh periods before the record's end."""
+    start, end = record.time[0] + record.condition.settle, record.time[-1]
+    hold = MESH_IN_HOLD / record.mesh_frequency
+    return (record.events.select("mesh-in", start, end - hold),
+            record.events.select("rattle", start, end))
+
+
 def mesh_metrics(record: RollingRecord) -> MeshMetrics:
     """Reduce a record to its `MeshMetrics`.
 
@@ -546,9 +556,7 @@ def mesh_metrics(record: RollingRecord) -> MeshMetrics:
     te = record.te[inside]
     te = te - te.mean()
     harmonics = mesh_harmonics(record.time, record.te, f, periods, t0)
-    start, end = record.time[0] + record.condition.settle, record.time[-1]
-    mesh_in = record.events.select("mesh-in", start, end - MESH_IN_HOLD / f)
-    rattle = record.events.select("rattle", start, end)
+    mesh_in, rattle = counted_events(record)
     return MeshMetrics(
         source=record.source, condition=record.condition.name, mesh_frequency=f,
         periods=periods, window=(t0, t1), te_peak_to_peak=float(np.ptp(te)),
@@ -748,8 +756,8 @@ def goal_lines(goal: dict) -> str:
 
 def plot_condition(records, path: str | Path, periods_shown: int = 6) -> Path:
     """One PNG for one condition: TE over the last ``periods_shown`` mesh periods, its
-    mesh-order amplitudes, and the impacts (closing speed against peak force), each
-    model in its own colour."""
+    mesh-order amplitudes, and the impacts the metrics count (`counted_events`: closing
+    speed against peak force), each model in its own colour."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -759,7 +767,7 @@ def plot_condition(records, path: str | Path, periods_shown: int = 6) -> Path:
 
     fig, (ax_te, ax_sp, ax_ev) = plt.subplots(1, 3, figsize=(15, 4.2))
     width = 0.8 / max(len(records), 1)
-    markers = {"mesh-in": "o", "rattle": "x", "switch": "s", "mesh-out": "v"}
+    markers = {"mesh-in": "o", "rattle": "x"}
     for j, record in enumerate(records):
         colour = f"C{j}"
         m = mesh_metrics(record)
@@ -773,11 +781,9 @@ def plot_condition(records, path: str | Path, periods_shown: int = 6) -> Path:
         orders = np.arange(1, len(m.te_harmonics) + 1)
         ax_sp.bar(orders + (j - 0.5 * (len(records) - 1)) * width,
                   1e6 * np.asarray(m.te_harmonics), width, color=colour, label=record.source)
-        ev = record.events.select(None, *m.window)
-        for kind, marker in markers.items():
-            sel = ev.kind == kind
-            if np.any(sel) and np.any(np.isfinite(ev.peak_force[sel])):
-                ax_ev.scatter(1e3 * ev.closing_speed[sel], ev.peak_force[sel], marker=marker,
+        for kind, ev in zip(("mesh-in", "rattle"), counted_events(record), strict=True):
+            if len(ev) and np.any(np.isfinite(ev.peak_force)):
+                ax_ev.scatter(1e3 * ev.closing_speed, ev.peak_force, marker=markers[kind],
                               color=colour, label=f"{record.source}: {kind}")
     name = records[0].condition.name if records else ""
     ax_te.set(xlabel="time [mesh periods]", ylabel="TE - mean [um]",

@@ -533,53 +533,62 @@ class Roller:
         return out
 
 
-def solve_contact(gfree: np.ndarray, D: np.ndarray, kh: np.ndarray, tol: float = 1e-13,
+def solve_contact(gfree: np.ndarray, D: np.ndarray, kh: np.ndarray, tol: float = 1e-10,
                   sweeps: int = 50) -> np.ndarray:
     """Forces ``lam >= 0`` with ``h = gfree + D lam + (lam / kh)^(2/3) >= 0``, ``lam h = 0``.
 
     ``lam`` minimises the strictly convex ``g.lam + lam.D.lam / 2 + (3/5) sum
     kh^(-2/3) lam^(5/3)`` over ``lam >= 0`` (``D`` symmetric positive
-    semi-definite): the solution is unique. Active-set Newton in ``t = lam^(1/3)``
-    (where ``h`` is smooth), started from a few projected Gauss-Seidel sweeps; a
-    pair leaves the set when its ``t`` falls to zero, joins it when its gap is
-    negative.
+    semi-definite): the solution is unique. Active-set Newton (damped to keep the
+    active forces positive), started from a few projected Gauss-Seidel sweeps; a
+    pair leaves the set when its force falls to zero, joins it when its gap is
+    negative. Accepted when every gap is within ``tol`` of the largest free gap
+    (zero on the active pairs, above it elsewhere); else Gauss-Seidel finishes.
     """
     n = len(gfree)
     c = kh ** (-2.0 / 3.0)
+    scale = max(float(np.abs(gfree).max(initial=0.0)), 1e-30)
     lam = _gauss_seidel(gfree, D, c, np.zeros(n), 3)
+
+    def residual(lam):
+        return gfree + D @ lam + c * np.cbrt(lam) ** 2
+
     for _ in range(sweeps):
         active = np.flatnonzero(lam > 0.0)
         if len(active):
-            lam[active] = _newton(gfree, D, c, lam, active)
-        h = gfree + D @ lam + c * np.cbrt(lam) ** 2
-        bad = (lam <= 0.0) & (h < -tol * max(np.abs(gfree).max(), 1e-30))
-        if not bad.any():
+            lam[active] = _newton(gfree, D, c, lam, active, tol * scale)
+        h = residual(lam)
+        on = lam > 0.0
+        if (np.all(np.abs(h[on]) <= tol * scale)
+                and np.all(h[~on] >= -tol * scale)):
             return lam
         lam = _gauss_seidel(gfree, D, c, lam, 2)
-    return _gauss_seidel(gfree, D, c, lam, 2000)
+    lam = _gauss_seidel(gfree, D, c, lam, 5000)
+    return lam
 
 
-def _newton(g, D, c, lam, active) -> np.ndarray:
-    """Newton on the active pairs: ``g + D lam + c lam^(2/3) = 0`` in ``t = lam^(1/3)``;
-    a pair whose ``t`` would go negative is set to zero (it leaves)."""
-    t = np.cbrt(lam[active])
-    Da = D[np.ix_(active, active)]
-    rest = g[active] + D[np.ix_(active, np.setdiff1d(np.arange(len(g)), active))] @ lam[
-        np.setdiff1d(np.arange(len(g)), active)]
-    ca = c[active]
+def _newton(g, D, c, lam, active, tol: float) -> np.ndarray:
+    """Damped Newton on the active pairs' ``g + D lam + c lam^(2/3) = 0`` (in ``lam``;
+    its Jacobian ``D + (2/3) c lam^(-1/3)`` is positive definite); a force the
+    full step would make negative is halved instead; one that falls below 1e-300
+    is set to zero (the pair leaves)."""
+    others = np.setdiff1d(np.arange(len(g)), active)
+    rest = g[active] + D[np.ix_(active, others)] @ lam[others]
+    Da, ca = D[np.ix_(active, active)], c[active]
+    x = lam[active].copy()
     for _ in range(100):
-        f = rest + Da @ t**3 + ca * t * t
-        J = Da * (3.0 * t * t)[None, :] + np.diag(2.0 * ca * t)
-        step = np.linalg.solve(J, f)
-        new = t - step
-        if np.any(new <= 0.0):
-            scale = np.min(np.where(new <= 0.0, 0.5 * t / np.maximum(step, 1e-300), 1.0))
-            new = t - scale * step
-        done = np.abs(new - t).max() <= 1e-13 * t.max()
-        t = np.maximum(new, 0.0)
-        if done:
+        f = rest + Da @ x + ca * np.cbrt(x) ** 2
+        if np.abs(f).max() <= tol:
             break
-    return t**3
+        J = Da + np.diag((2.0 / 3.0) * ca / np.maximum(np.cbrt(x), 1e-100))
+        step = np.linalg.solve(J, f)
+        new = x - step
+        neg = new <= 0.0
+        new[neg] = 0.5 * x[neg]
+        x = np.where(new < 1e-300, 0.0, new)
+        if not np.all(x > 0.0):
+            break
+    return x
 
 
 def _gauss_seidel(g, D, c, lam, sweeps: int) -> np.ndarray:

@@ -143,3 +143,17 @@ def test_cli_rigid_writes_outputs(tmp_path):
         assert (out / name).exists(), name
     te = np.loadtxt(out / "te.csv", delimiter=",", skiprows=1)
     assert te.shape[0] == round(0.5 * 240) + 1
+
+
+def test_solve_contact_pair_joining_with_vanishing_force():
+    # a pair whose free overlap is a hair (1e-15 m) beside a loaded one pushed
+    # through the shared rotor: the forces must still meet complementarity to
+    # round-off of the metres (1e-15 m; the gaps are micrometres)
+    D = np.array([[3e-9, 2.9e-9], [2.9e-9, 3e-9]])
+    g = np.array([-5e-6, -1e-15])
+    kh = np.array([2e10, 2e10])
+    lam = solve_contact(g, D, kh)
+    h = g + D @ lam + (lam / kh) ** (2 / 3)
+    assert np.all(lam >= 0.0)
+    assert np.all(h >= -1e-16)
+    assert np.all(np.abs(h[lam > 0]) <= 1e-15)

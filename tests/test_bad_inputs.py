@@ -614,6 +614,15 @@ GEOMETRY = [
     ("--torque NaN", geometry("--torque", "nan"), ["--torque nan N m", "> 0"]),
     ("--json in a folder that cannot be made", geometry("--json", "/proc/none/g.json"),
      ["--json /proc/none/g.json", "cannot make a folder"]),
+    ("schedule without a load",
+     lambda d: ["geometry", "--schedule", write(d, "duty.toml", SEGMENT.format(
+         stage=1, duration=1.0, speed=300, load=0))],
+     ["--schedule", "duty.toml", "every segment's load_Nm is 0", "or --torque"]),
+    # A coefficient quoted as text in the gear set's [friction].
+    ("gear-set friction coefficient as text",
+     lambda d: ["geometry", write(d, "gears.toml", changed(SEED, "mu_static = 0.05",
+                                                          'mu_static = "0.05"'))],
+     ["[friction] mu_static = '0.05'", "must be a number"]),
 ]
 
 

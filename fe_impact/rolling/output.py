@@ -2,7 +2,9 @@
 
 :func:`write_outputs` writes, in ``out``:
 
-- ``roll.json``: inputs, sizes, costs, energy balance summary, events,
+- ``roll.json``: inputs, sizes, costs, energy balance (``energy_balance``: the
+  largest error in J, against the kinetic energy and against the work done;
+  ``energy_error``: the latter, null at no load), events,
   centrifugal and Coriolis terms;
 - ``te.csv``: time, transmission error on the line of action, rotor speeds,
   energies and works;
@@ -26,7 +28,22 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["FrameWriter", "write_outputs"]
+__all__ = ["FrameWriter", "clear_frames", "write_outputs"]
+
+
+def clear_frames(out: Path) -> None:
+    """Remove an earlier run's PVD series from ``out/frames`` (its own file names only),
+    so that a rerun into the same folder does not show the old run's frames."""
+    folder = Path(out) / "frames"
+    if not folder.is_dir():
+        return
+    for path in [*folder.glob("frame_*.vtu"), folder / "rolling.pvd",
+                 folder / ".rolling.pvd.tmp"]:
+        path.unlink(missing_ok=True)
+    try:
+        folder.rmdir()
+    except OSError:     # something else is there: left as it is
+        pass
 
 
 class FrameWriter:
@@ -35,8 +52,7 @@ class FrameWriter:
     def __init__(self, out: Path, roller, mesh_path, every: int) -> None:
         from fe_impact.fe.mesh import load_mesh
 
-        self.folder = Path(out) / "frames"
-        self.folder.mkdir(parents=True, exist_ok=True)
+        self.folder = Path(out) / "frames"      # made at the first frame, not before
         self.roller, self.every = roller, every
         self.mesh = load_mesh(mesh_path, unit="mm")
         self.entries: list[tuple[float, str]] = []
@@ -68,6 +84,7 @@ class FrameWriter:
             out[nodes] = (x[nodes] - origin) @ rot.T + r.world(origin, q[-1], name)
         cell_type = "tetra10" if mesh.order == 2 else "tetra"
         name = f"frame_{step:06d}.vtu"
+        self.folder.mkdir(parents=True, exist_ok=True)
         meshio.write(self.folder / name, meshio.Mesh(
             out, [(cell_type, mesh.cells)], cell_data={"von_mises_pa": [stress]}))
         self.entries.append((t, name))
@@ -105,7 +122,9 @@ def write_outputs(out: Path, result, roller) -> None:
         "s_m", "flank_loaded", "end_time_s", "end_s_m"]
     write_csv(out / "events.csv", fields,
               [[asdict(ev)[k] for k in fields] for ev in result.events])
-    summary = {"info": result.info, "energy_error": result.energy_error(),
+    balance = result.energy_balance()
+    summary = {"info": result.info, "energy_balance": balance,
+               "energy_error": balance["relative_to_work"],
                "te_m": {"min": float(result.te_m.min()), "max": float(result.te_m.max()),
                         "mean": float(result.te_m.mean())},
                "peak_pair_force_n": float(result.pair_force_n.max(initial=0.0)),

@@ -339,32 +339,3 @@ def test_the_cycle_curves_leave_out_non_positive_approaches_without_a_warning():
         warnings.simplefilter("error")
         force, _ = pair_force(record, 1.6e-6)
     assert force == pytest.approx(100.0, rel=1e-12)
-
-
-def test_coarse_positions_are_every_other_default_position():
-    """``--level coarse`` plans COARSE_POSITIONS a stage: the default positions' path ends
-    and every other one between, so the coarse mesh cycle is a subset of the default's
-    (what the omitted ones cost is measured on that basis, docs/guide/calibrate.md)."""
-    from fe_impact.api.calibrating import COARSE_POSITIONS
-    from fe_impact.calibration.meshcycle import DEFAULT_POSITIONS, path_positions
-    from fe_impact.gears import default_gearset
-
-    gearset = default_gearset()
-    coarse = path_positions(gearset, 1, COARSE_POSITIONS, level="coarse")
-    full = path_positions(gearset, 1, DEFAULT_POSITIONS, level="coarse")
-    assert coarse == pytest.approx(full[::2], abs=1e-12)
-
-
-@pytest.mark.parametrize("level, cycle_level, expected", [
-    ("coarse", None, 5), ("default", None, 9), ("default", "coarse", 9)])
-def test_only_a_coarse_calibration_plans_fewer_positions(level, cycle_level, expected):
-    """The user's --level coarse plans 5 positions a stage; the default run, whose
-    positions are coarse too, keeps 9."""
-    from fe_impact.api.calibrating import _Plan
-    from fe_impact.calibration.planning import Settings
-    from fe_impact.gears import default_gearset
-
-    plan = _Plan(default_gearset(), [1], Settings(level=level, cycle_level=cycle_level),
-                 None, True, False)
-    cases = plan.positions(plan.impacts([300.0], None, None))
-    assert len(cases) == expected

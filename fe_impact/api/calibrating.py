@@ -24,13 +24,6 @@ __all__ = ["calibrate", "calibration_summary", "seed_studies"]
 
 logger = logging.getLogger(__name__)
 
-#: Mesh-cycle positions a stage of a ``--level coarse`` calibration (the quick look)
-#: plans when ``--positions`` is not given: every other one of the default
-#: ``DEFAULT_POSITIONS = 9`` (the same roll angles: the path's ends and three
-#: between). The positions are most of a coarse run's CPU; what the four left out
-#: change in the mesh-cycle quantities is measured in docs/guide/calibrate.md.
-COARSE_POSITIONS = 5
-
 
 def calibrate(gearset: PathLike | None = None, *, out: PathLike = "out/calibration",
               stages: Sequence[int] | None = None, speeds: Sequence[float] | None = None,
@@ -76,8 +69,7 @@ def calibrate(gearset: PathLike | None = None, *, out: PathLike = "out/calibrati
         Also ratio-switch impacts into stages 2.. at each speed's switching
         speed (seed eq. 5, rigid kinematics, or both; True: both).
     positions : int or sequence of float, optional
-        Mesh-cycle positions: a count along the path of contact (default 9; 5 with
-        ``level="coarse"``, :data:`COARSE_POSITIONS`) or
+        Mesh-cycle positions: a count along the path of contact (default 9) or
         pinion roll angles [deg].
     mesh_cycle : bool
         False: impacts only, no single-pair curves along the path.
@@ -264,10 +256,9 @@ class _Plan:
         if top_force is not None:
             top = top_force if top is None else max(top, top_force)
         given = self.given_positions
-        if given is None:
-            given = COARSE_POSITIONS if s.level == "coarse" else DEFAULT_POSITIONS
         flank = plan_positions(self.gearset, self.stages,
-                               given if isinstance(given, int) else list(given),
+                               DEFAULT_POSITIONS if given is None
+                               else given if isinstance(given, int) else list(given),
                                top_force=top, level=s.position_level)
         if not self.corners:
             return flank

@@ -137,9 +137,8 @@ def _parser() -> argparse.ArgumentParser:
                         "or their default), not with --impact-speeds, and a stage from 2 on")
     c.add_argument("--positions", type=_positions, default=None, metavar="N|DEG,...",
                    help="mesh cycle: quasi-static single-pair load-approach curves at N "
-                        "positions along the path of contact (default 9, 5 with --level "
-                        "coarse; the ends 0.5%% of the path inside it on coarse meshes, 5%% "
-                        "on finer ones) or at the given "
+                        "positions along the path of contact (default 9, the ends 0.5%% of the "
+                        "path inside it on coarse meshes, 5%% on finer ones) or at the given "
                         "pinion roll angles (deg, comma-separated)")
     c.add_argument("--no-mesh-cycle", action="store_true",
                    help="impacts only: no single-pair curves along the path of contact")

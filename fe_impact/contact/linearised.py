@@ -262,11 +262,16 @@ class ZoneFrames:
 
 
 def zone_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel,
-                all_components: bool = False) -> ZoneFrames:
+                all_components: bool = False,
+                tangential: np.ndarray | None = None) -> ZoneFrames:
     """Frames whose normal is the direction the gaps see each zone node move.
 
     ``all_components``: condense the tangent slots too (friction: the
     tangential forces act on them), and the projector keeps every component.
+    ``tangential``: the nodes (``mesh.point_dof`` numbers) whose tangent slots
+    are condensed too and whose every component the projector keeps (friction
+    on the rows in contact only: :func:`tangential_nodes`); the other zone nodes
+    keep their normal slot alone, as without friction.
 
     A node's normal is the principal direction of ``sum_r b_r b_r^T`` over its
     3-vector entries ``b_r`` in the full gap Jacobian ``contact.B_full``: the
@@ -314,6 +319,10 @@ def zone_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel,
     one = np.ones(len(ident))
     R = sp.csr_matrix((np.concatenate([F.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
     nn = n[:, :, None] * n[:, None, :]               # (nr, 3, 3)
+    full = np.zeros(len(jf), dtype=bool)
+    if tangential is not None and not all_components:
+        full = np.isin(mesh.point_dof[pts[free]], tangential)
+        nn[full] = np.eye(3)
     P = sp.csr_matrix((np.concatenate([nn.ravel(), one]), (rr, cc)), shape=(kin.n, kin.n))
     # Unrotated nodes keep every coordinate they move with: their free
     # components and, if tied, their rigid body's.
@@ -321,8 +330,17 @@ def zone_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel,
     if all_components:
         condensed = np.unique(np.concatenate([jf.ravel(), other.indices]))
         return ZoneFrames(R, None, condensed)
-    condensed = np.unique(np.concatenate([jf[:, 0], other.indices]))
+    condensed = np.unique(np.concatenate([jf[:, 0], jf[full, 1:].ravel(), other.indices]))
     return ZoneFrames(R, P, condensed)
+
+
+def tangential_nodes(mesh: FEMesh, contact: ContactModel, rows: np.ndarray) -> np.ndarray:
+    """The nodes (``mesh.point_dof`` numbers) the slip rows ``rows`` of ``contact``
+    reach: the slave node's face neighbours and the master points' face nodes."""
+    Bt = contact.Bt_full
+    r = len(contact.active_rows)
+    cols = np.unique(sp.vstack([Bt[rows], Bt[r + np.asarray(rows)]]).tocsr().indices)
+    return np.unique(cols // 3)
 
 
 def _held_columns(A: sp.csr_matrix) -> tuple[np.ndarray, sp.csr_matrix]:

@@ -53,10 +53,15 @@ import scipy.sparse as sp
 from scipy.linalg import cho_solve, solve_triangular
 from scipy.sparse.linalg import LinearOperator
 
-from fe_impact.contact.condensed import ROW_SPACE_COORDINATES, ZoneSolver, row_compliance
+from fe_impact.contact.condensed import (
+    ROW_SPACE_COORDINATES,
+    ZoneSolver,
+    frictional_frames,
+    row_compliance,
+)
 from fe_impact.contact.friction import pair_laws, slip_dissipation, solve_frictional
 from fe_impact.contact.lcp import solve_penalty_lcp
-from fe_impact.contact.linearised import ContactModel, zone_frames
+from fe_impact.contact.linearised import ContactModel, tangential_nodes, zone_frames
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
 from fe_impact.contact.zone import ContactZone, contact_pairs, face_size
 from fe_impact.errors import CaseError, ContactError
@@ -237,6 +242,10 @@ class StaticSolver:
         self._u_prev = np.zeros(self.model.n_dofs)
         self._dissipation = 0.0
         self.rows: _RowSpace | None = None    # set when the zone is solved in row space
+        # friction: the nodes (mesh.point_dof numbers) whose tangent coordinates are
+        # condensed, grown as the contact patch grows (_grow_tangential)
+        self.tangential = np.zeros(0, dtype=np.int64)
+        self.tangential_growths = 0
         self._condense()
         # The load-controlled body (at most one) and its unit response.
         self.w = None if self.load_body is None else self.solver.solve(
@@ -261,7 +270,8 @@ class StaticSolver:
         (or, for a large zone, of the gap rows: :data:`ROW_SPACE_COORDINATES`)."""
         t = time.perf_counter()
         factor = self.solver.factor_seconds
-        frames = zone_frames(self.mesh, self.kin, self.contact, all_components=self.friction)
+        frames = frictional_frames(self.mesh, self.kin, self.contact, self.tangential) \
+            if self.friction else zone_frames(self.mesh, self.kin, self.contact)
         self.contact.set_projector(frames.projector)
         self.n_condensed = len(frames.condensed)
         if self.friction and self.n_condensed > ROW_SPACE_COORDINATES:
@@ -290,6 +300,10 @@ class StaticSolver:
             else:
                 self.G = inverse_from_cholesky(schur_cholesky(S))
             self.R_c = frames.R[:, frames.condensed].tocsc()
+            held = np.zeros(frames.R.shape[1], dtype=bool)
+            held[frames.condensed] = True
+            # None: all three coordinates of every node condensed, nothing to grow
+            self.R_open = None if frames.projector is None else frames.R[:, ~held].tocsc()
             logger.info("contact zone: %d coordinates condensed", self.n_condensed)
         factorised = self.solver.factor_seconds - factor
         self.timings["factorisation"] = self.timings.get("factorisation", 0.0) + factorised
@@ -500,8 +514,10 @@ class StaticSolver:
                 q, sol = self._frictional_load_root(reaction, h, hw, s0, hwt, block, mu, t_old,
                                                     load, q, sol_prev)
                 base = u0 + q * self.w
-            sol_prev = sol
             total += sol.iterations
+            if self._grow_tangential(sol, h if load is None else h + q * hw):
+                continue          # the projection again, on the grown condensation
+            sol_prev = sol
             p = np.concatenate([sol.lam, sol.t[:, 0], sol.t[:, 1]])
             z_new = base + self._frictional_response(B_all, p) if p.any() else base.copy()
             zone = c.T_zone
@@ -533,6 +549,38 @@ class StaticSolver:
             f"{change / max(scale, 1e-30):.2g} of the contact displacement {scale:.3g} m): "
             "apply the load in smaller steps (more [[displacements]] values), or raise "
             "[analysis] max_iterations")
+
+    def _grow_tangential(self, sol, h: np.ndarray) -> bool:
+        """Condense the tangent coordinates of the nodes the rows in contact reach, if a
+        row with a force reaches one that is not condensed (a new factorisation); True
+        if they grew.
+
+        The rows with a force, and as a margin those whose contact-free gap ``h`` is
+        below twice the deepest penetration or a tenth of the spread of the
+        projection's gaps, join. A row with no force carries no tangential force, so
+        its tangent coordinates need not be condensed."""
+        if self.R_open is None:
+            return False
+        c = self.contact
+        r = len(c.active_rows)
+        forced = (sol.lam > 0) | np.any(sol.t != 0.0, axis=1)
+        reach = np.diff((c.Bt @ self.R_open).tocsr().indptr)
+        if not np.any(forced & ((reach[:r] > 0) | (reach[r:] > 0))):
+            return False
+        ok = c.active_rows
+        g = c.g_ref[ok]
+        spread = float(g.max() - g.min()) if len(g) else 0.0
+        margin = max(-2.0 * float(np.min(h)), 0.1 * spread)
+        rows = np.flatnonzero(forced | (ok & (h < margin)))
+        new = np.setdiff1d(tangential_nodes(self.mesh, c, rows), self.tangential)
+        if len(new) == 0:
+            return False
+        self.tangential = np.union1d(self.tangential, new)
+        self.tangential_growths += 1
+        logger.info("friction: the tangent coordinates of %d more nodes condensed (%d in all)",
+                    len(new), len(self.tangential))
+        self._condense()
+        return True
 
     def _frictional_load_root(self, reaction, h, hw, s0, hwt, block, mu, t_old, load, q0,
                               warm):

@@ -157,3 +157,126 @@ def test_solve_contact_pair_joining_with_vanishing_force():
     assert np.all(lam >= 0.0)
     assert np.all(h >= -1e-16)
     assert np.all(np.abs(h[lam > 0]) <= 1e-15)
+
+
+# -- the local law read at depth and the probe inside a sector ------------------------------------
+@pytest.fixture(scope="module")
+def layer_setup(gearset):
+    from fe_impact.rolling.model import LayerLaw
+
+    geo = ContactGeometry.build(gearset, 1, n=5, corners="planar")
+    i = 2                                       # the path's middle
+    a1, b1, p01 = geo.major_unit[i], geo.minor_unit[i], geo.pressure_unit[i]
+    tables = LayerLaw.tabulate((b1 / a1, b1 / a1), geo.poisson_ratio)   # one shape: ~3 s
+
+    def law(depth):
+        return LayerLaw([2.0 * p01 * b1 / geo.youngs_modulus], [depth / a1], [b1 / a1], tables)
+
+    return geo, i, law
+
+
+def test_layer_law_deep_is_hertz(layer_setup):
+    # read infinitely deep, the layer is the whole half-space: the two bodies'
+    # compression is the Hertz approach delta of the ellipse (its closed form in
+    # elliptic integrals, P = K_H delta^1.5, an independent route from the
+    # Boussinesq quadrature tabulated). At 10 m the displacement left below,
+    # P (1 + nu)(3 - 2 nu) / (2 pi E z) per body, is < 1e-4 of delta at 1 kN;
+    # the table's interpolation ~1e-4: tolerance 1e-3.
+    from fe_impact.rolling.model import HertzLaw
+
+    geo, i, law = layer_setup
+    lam = np.array([1.0, 100.0, 1000.0])
+    deep = law(10.0)
+    hertz = HertzLaw(np.full(3, geo.hertz_k[i]))
+    np.testing.assert_allclose(deep.take([0, 0, 0]).approach(lam), hertz.approach(lam),
+                               rtol=1e-3)
+
+
+def test_layer_law_matches_quadrature_and_is_monotone(layer_setup, gearset):
+    # the tabulated law against the closed-form quadrature of the layer 0..d
+    # (Johnson 1985 s. 3.2, hertz.ellipse_layer_compression) at the depths the
+    # model uses (1.8 and 3.6 mm) and 100 N / 1 kN: the table's monotone cubic
+    # in ln(d/a) over 36 points, tolerance 1e-3. It must rise with the force,
+    # and its energy int lam d(delta) must match a trapezoid sum of it (1e-4).
+    from fe_impact.physics import hertz
+
+    geo, i, law = layer_setup
+    mat = gearset.material
+    for depth in (1.8e-3, 3.6e-3):
+        lw = law(depth)
+        for force in (100.0, 1000.0):
+            t = force ** (1 / 3)
+            exact = 2.0 * hertz.ellipse_layer_compression(
+                depth, geo.major_unit[i] * t, geo.minor_unit[i] * t,
+                geo.pressure_unit[i] * t, mat.youngs_modulus, mat.poisson_ratio)
+            assert lw.approach(np.array([force]))[0] == pytest.approx(exact, rel=1e-3)
+        forces = np.geomspace(1e-3, 1e4, 4000)
+        many = lw.take(np.zeros(len(forces), int))
+        delta = many.approach(forces)
+        assert np.all(np.diff(delta) > 0.0)
+        assert np.all(many.slope(forces) > 0.0)
+        work = np.concatenate([[0.0], np.cumsum(0.5 * (forces[1:] + forces[:-1])
+                                                * np.diff(delta))])
+        work += forces[0] * delta[0] * 0.4          # below 1e-3 N: Hertz-like, 0.4 P delta
+        assert lw.energy(forces[-1:])[0] == pytest.approx(work[-1], rel=1e-4)
+
+
+def test_solve_contact_layer_law_complementarity(layer_setup):
+    # two coupled pairs with the layer law and a slightly unsymmetric D (read at
+    # depth, loaded on the surface): gaps >= 0, zero where a pair carries
+    geo, i, law = layer_setup
+    lw = law(3.6e-3).take([0, 0, 0])
+    D = np.array([[2e-9, -1.4e-9, 0.1e-9], [-1.5e-9, 2e-9, 0.0], [0.1e-9, 0.0, 1e-9]])
+    g = np.array([-4e-6, 1e-6, -2e-6])
+    lam = solve_contact(g, D, lw)
+    h = g + D @ lam + lw.approach(lam)
+    assert lam[0] > 0.0 and lam[2] > 0.0 and lam[1] == 0.0
+    assert np.all(h >= -1e-15)
+    assert np.all(np.abs(h[lam > 0]) <= 1e-15)
+
+
+def _p2_cube():
+    """A unit cube in six P2 tetrahedra (edge-midpoint nodes in TET10_EDGES order)."""
+    from fe_impact.contact.nearfield_fe import TET10_EDGES
+
+    corners = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
+    tets = [(0, 1, 3, 7), (0, 3, 2, 7), (0, 2, 6, 7), (0, 6, 4, 7), (0, 4, 5, 7), (0, 5, 1, 7)]
+    points, index, cells = list(corners), {}, []
+    for tet in tets:
+        row = list(tet)
+        for a, b in TET10_EDGES:
+            key = tuple(sorted((tet[a], tet[b])))
+            if key not in index:
+                index[key] = len(points)
+                points.append(0.5 * (corners[key[0]] + corners[key[1]]))
+            row.append(index[key])
+        cells.append(row)
+    return np.array(points), np.array(cells)
+
+
+def test_body_probe_reads_interpolated_field():
+    # the probe's P2 shape functions reproduce any quadratic field exactly (the
+    # interpolant of a quadratic is itself): a field vanishing on the hub face
+    # x = 0 (whose nodes carry no DOF) is read at interior points to round-off;
+    # a point outside the sector says so (smallest barycentric coordinate < 0)
+    from fe_impact.rolling.model import Body
+
+    points, cells = _p2_cube()
+    hub = points[:, 0] == 0.0
+    node_dofs = -np.ones((len(points), 3), int)
+    node_dofs[~hub] = np.arange(3 * (~hub).sum()).reshape(-1, 3)
+    body = Body("cube", None, None, np.zeros(3), np.array([0.0, 0.0, 1.0]), points=points,
+                cells=cells, node_dofs=node_dofs)
+
+    def field(x):
+        return x[..., 0:1] * np.stack([1 + x[..., 1], 2 * x[..., 2] - x[..., 0],
+                                       0.5 + x[..., 0] * 0 + x[..., 1]], axis=-1)
+
+    q = np.zeros(3 * (~hub).sum())
+    q[node_dofs[~hub]] = field(points[~hub])
+    rng = np.random.default_rng(7)
+    for x in rng.uniform(0.02, 0.98, (20, 3)):
+        dofs, w, inside = body.probe(x)
+        assert inside >= -1e-12
+        np.testing.assert_allclose(w @ q[dofs], field(x), atol=1e-13)
+    assert body.probe(np.array([1.5, 0.5, 0.5]))[2] < -0.1

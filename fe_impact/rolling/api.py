@@ -45,7 +45,9 @@ class RollInputs:
     modulus factor; ``start_cycles``: where pair 0 starts, in base pitches after
     the path's start (None: the sectors' longest window,
     :class:`~fe_impact.rolling.model.RollSettings`); ``elastic``: False for rigid
-    rotors (Hertz only).
+    rotors (Hertz only); ``probe_depth``
+    [m]: where the sectors' displacement is read below the contact point (None: the
+    default, two flank element sizes; 0: on the surface, with the Hertz approach added).
     """
 
     stage: int
@@ -61,6 +63,7 @@ class RollInputs:
     elastic: bool = True
     frames_per_cycle: int = 20
     start_cycles: float | None = None
+    probe_depth: float | None = None
 
 
 def _speed_rad(rpm: float) -> float:
@@ -267,7 +270,8 @@ def roll(gearset, inputs: RollInputs, out: str | Path | None = None, *, progress
                             ramp_cycles=inputs.ramp_cycles,
                             speed_ramp_cycles=inputs.speed_ramp_cycles,
                             te_amplitude=inputs.te_amplitude,
-                            start_cycles=inputs.start_cycles)
+                            start_cycles=inputs.start_cycles,
+                            probe_depth=inputs.probe_depth)
     geo = ContactGeometry.build(gearset, inputs.stage, stiffen=inputs.stiffen)
     pair = geo.pair
     rigid = (rigid_body("pinion", gearset.pinion.inertia, *pair.pinion_axis),
@@ -303,7 +307,9 @@ def roll(gearset, inputs: RollInputs, out: str | Path | None = None, *, progress
         result = integrate(roller, progress=progress, stop=stop,
                            frame=frames.write if frames else None)
     result.info.update(inputs=inputs.__dict__, gearset=gearset.name,
-                       backlash_m=geo.backlash, mesh=mesh,
+                       backlash_m=geo.backlash, mesh=mesh, probe_depth_m=roller.depth,
+                       probe_depth_range_m=getattr(roller, "depth_range", None),
+                       flank_element_m=max(pinion.flank_size, face.flank_size),
                        inertial_terms=_inertial(roller, result))
     result.info["passed_through"] = passed_through(result, geo.backlash)
     if result.info["passed_through"]:

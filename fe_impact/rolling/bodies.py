@@ -63,6 +63,13 @@ def _body(name: str, mesh, K, M, volume: str, hub: str, flanks: list[str], inert
     body = Body(name, Mb.tocsr(), Kb.tocsr(), axis_point, axis, points=points,
                 triangles=tris, tri_dofs=corner_dofs, n_dofs_mesh=n_mesh, free_dofs=free)
     body.tree = cKDTree(points[tris].mean(axis=1))
+    body.cells = cells
+    node_dofs = -np.ones((len(points), 3), dtype=np.int64)
+    node_dofs[nodes] = index[3 * mesh.point_dof[nodes][:, None] + np.arange(3)]
+    body.node_dofs = node_dofs
+    corners = points[tris]
+    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2)
+    body.flank_size = float(np.median(edges))
     # centrifugal load per unit omega^2 in the turning frame: the consistent mass times
     # the points' distance vector from the axis (the rotor's entry is psi^T M r = 0)
     radial = np.zeros(n_mesh)

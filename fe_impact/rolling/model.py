@@ -26,12 +26,22 @@ at each roll angle, and the line-of-action geometry
 (:func:`~fe_impact.gears.kinematics.mesh_geometry`: path ends and the gaps of
 the rounded tip edges beyond them) the rigid gap, in the torsional model's
 coordinate ``x = r_bp theta_p - r_b2 theta_f + b/2``: drive gap
-``g(s) + b/2 - x``, coast gap ``g(s_c) + b/2 + x``. The elastic sectors add
-their normal displacements at the contact point (interpolated on the flank
-triangle that holds it), and the Hertz approach of the two flanks' local
-curvatures is added to the gap (``P = K_H delta^1.5``,
-:func:`~fe_impact.gears.tca.equivalent_radius`); the force follows from the
-complementarity of gap and force at each step.
+``g(s) + b/2 - x``, coast gap ``g(s_c) + b/2 + x``. A pair's force enters each sector spread
+along the major axis of the Hertz ellipse (the Hertz line load at
+:data:`SPREAD_POINTS` points). The mesh does not resolve the contact, so the
+sectors' displacement is not read at the contact point, where it holds the
+mesh's own indentation under that load, but at depth ``d`` below it along
+each flank's inward normal (interpolated in the tetrahedron that holds the
+point, :meth:`Body.probe`), projected on the contact normal; the layer above
+is the half-spaces' compression ``0..d`` under the Hertz pressure of the
+pair's force (:class:`LayerLaw`, the far-field matching of
+:mod:`fe_impact.contact.nearfield_fe` and ``validation/hertz_static.py``).
+The pair's local approach is thus the sum over both bodies of the layer's
+compression and the FE displacement at ``d``; ``d`` is two flank element
+sizes, at most half the thinner tooth's thickness along the normal
+(:data:`CHORD_FRACTION`). Rigid rotors take the Hertz approach ``P = K_H
+delta^1.5`` (:class:`HertzLaw`). The force follows from the complementarity
+of gap and force at each step (:func:`solve_contact`).
 
 Integration: Newmark's average acceleration (``beta = 1/4``, ``gamma =
 1/2``): no numerical damping, and for the linear part an exact discrete
@@ -40,12 +50,14 @@ energy balance, so the energy check measures the contact's share.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from fe_impact.errors import CaseError
 
@@ -89,8 +101,10 @@ class ContactGeometry:
         ``K_H`` of ``P = K_H delta^1.5`` [N/m^1.5] of the flanks' curvatures.
     pinion_majors, face_majors : ndarray (n, 3)
         The Hertz ellipse's major axis in the two frames.
-    major_unit : ndarray (n,)
-        Its semi-major axis at 1 N [m] (``a ~ P^(1/3)``).
+    major_unit, minor_unit, pressure_unit : ndarray (n,)
+        Its semi-axes [m] and peak pressure [Pa] at 1 N (each ``~ P^(1/3)``).
+    youngs_modulus, poisson_ratio : float
+        The flanks' material (Young's modulus times ``stiffen``) [Pa], [-].
     """
 
     pair: object = field(repr=False)
@@ -105,6 +119,10 @@ class ContactGeometry:
     pinion_majors: np.ndarray = None
     face_majors: np.ndarray = None
     major_unit: np.ndarray = None
+    minor_unit: np.ndarray = None
+    pressure_unit: np.ndarray = None
+    youngs_modulus: float = 0.0
+    poisson_ratio: float = 0.0
 
     @property
     def base_radii(self) -> tuple[float, float]:
@@ -133,7 +151,7 @@ class ContactGeometry:
         path = pair.path(rolls)
         mat = gearset.material
         e_star = hertz.effective_modulus(mat.youngs_modulus * stiffen, mat.poisson_ratio)
-        pp, fp, pn, fn, kh, pm, fm, au = [], [], [], [], [], [], [], []
+        pp, fp, pn, fn, kh, pm, fm, au, bu, pu = [], [], [], [], [], [], [], [], [], []
         t_p = np.array([0.0, pair.pinion.pitch_radius, pair.z0])
         for c in path.points:
             rp, rf = pair.pinion_rotation(c.roll_angle), pair.face_rotation(c.face_angle)
@@ -147,8 +165,12 @@ class ContactGeometry:
             pm.append(rp.T @ ell.major)
             fm.append(rf.T @ ell.major)
             au.append(ell.a)
+            bu.append(ell.b)
+            pu.append(ell.p0)
         return cls(pair, geo, float(backlash), s, np.array(pp), np.array(fp), np.array(pn),
-                   np.array(fn), np.array(kh), np.array(pm), np.array(fm), np.array(au))
+                   np.array(fn), np.array(kh), np.array(pm), np.array(fm), np.array(au),
+                   np.array(bu), np.array(pu), float(mat.youngs_modulus * stiffen),
+                   float(mat.poisson_ratio))
 
     def at(self, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
         """Points, normals (pinion, face frames of tooth 0) and ``K_H`` at ``s``
@@ -172,6 +194,15 @@ class ContactGeometry:
         fm = (1 - w) * self.face_majors[i] + w * self.face_majors[i + 1]
         return (pm / np.linalg.norm(pm), fm / np.linalg.norm(fm),
                 float((1 - w) * self.major_unit[i] + w * self.major_unit[i + 1]))
+
+    def unit_ellipse_at(self, s: float) -> tuple[float, float, float]:
+        """Semi-axes ``a``, ``b`` [m] and peak pressure ``p0`` [Pa] of the Hertz ellipse of
+        1 N at ``s`` (clamped to the path); each scales as ``P^(1/3)``."""
+        s = float(np.clip(s, self.s[0], self.s[-1]))
+        i = int(np.clip(np.searchsorted(self.s, s) - 1, 0, len(self.s) - 2))
+        w = (s - self.s[i]) / (self.s[i + 1] - self.s[i])
+        return tuple(float((1 - w) * v[i] + w * v[i + 1])
+                     for v in (self.major_unit, self.minor_unit, self.pressure_unit))
 
     def gap(self, s: float) -> tuple[float, float]:
         """Rigid gap of a pair at ``s`` [m] and its slope ``dg/ds``."""
@@ -208,6 +239,14 @@ class Body:
     centrifugal: np.ndarray | None = None
     n_dofs_mesh: int = 0
     free_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    #: the sector's tetrahedra (e, 4 or 10 node numbers), for the probes at depth
+    cells: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), int))
+    #: free-DOF index of each mesh point's three components (-1: on the hub or not in
+    #: the sector: no elastic displacement)
+    node_dofs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), int))
+    cell_tree: object = None
+    #: the flank elements' size [m] (median corner-to-corner edge of the flank triangles)
+    flank_size: float = 0.0
 
     @property
     def n(self) -> int:
@@ -262,6 +301,43 @@ class Body:
         return self.tri_dofs[near[best]], wb / wb.sum(), float(abs(h[best]))
 
 
+    def probe(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Free-DOF indices (m, 3) and weights (m,) interpolating the displacement at the
+        reference point ``x`` inside the sector (the shape functions of the tetrahedron
+        holding it: the one with the largest smallest barycentric coordinate among the
+        16 with the nearest centroids, as
+        :func:`~fe_impact.contact.nearfield_fe.probe_matrix` does), and how far
+        outside that tetrahedron the point is, as its smallest barycentric coordinate
+        (0 inside, < 0 outside). Nodes on the hub are left out (they do not move in
+        the turning frame)."""
+        from fe_impact.contact.nearfield_fe import TET10_EDGES
+
+        if self.cell_tree is None:
+            self.cell_tree = cKDTree(self.points[self.cells[:, :4]].mean(axis=1))
+        for n_cand in (16, 96):     # stretched elements: the nearest centroids may miss
+            _, cand = self.cell_tree.query(x, k=min(n_cand, len(self.cells)))
+            cand = np.atleast_1d(cand)
+            vert = self.points[self.cells[cand, :4]]                    # (k, 4, 3)
+            T = np.stack([vert[:, i] - vert[:, 3] for i in range(3)], axis=-1)
+            lam3 = np.linalg.solve(T, (x - vert[:, 3])[..., None])[..., 0]
+            L = np.column_stack([lam3, 1.0 - lam3.sum(axis=1)])
+            best = int(np.argmax(L.min(axis=1)))
+            if L[best].min() >= -1e-9:
+                break
+        inside = float(L[best].min())
+        lb = np.clip(L[best], 0.0, None)
+        lb /= lb.sum()
+        nodes = self.cells[cand[best]]
+        if len(nodes) == 10:
+            shape = np.concatenate([lb * (2 * lb - 1),
+                                    [4 * lb[i] * lb[j] for i, j in TET10_EDGES]])
+        else:
+            shape = lb
+        dofs = self.node_dofs[nodes]
+        keep = dofs[:, 0] >= 0
+        return dofs[keep], shape[keep], inside
+
+
 def rigid_body(name: str, inertia: float, axis_point, axis) -> Body:
     """A gear without elastic DOFs (its rotor only)."""
     return Body(name, sp.csr_matrix(np.array([[inertia]])), sp.csr_matrix((1, 1)),
@@ -297,6 +373,13 @@ class RollSettings:
         ellipse of this force [N] (the line load of the Hertz pressure, ``~ 1 -
         xi^2``, at :data:`SPREAD_POINTS` points); None: the load torque's mesh force,
         at least 100 N. 0: at the contact point alone.
+    probe_depth : float or None
+        Depth ``d`` [m] below the contact point (along each flank's inward normal)
+        where the elastic sectors' displacement is read; the layer above it is the
+        half-spaces' (:class:`LayerLaw`). None: :data:`PROBE_ELEMENTS` flank element
+        sizes. 0: read on the surface and add the Hertz approach (:class:`HertzLaw`;
+        the FE's own indentation under the spread load is then counted on top of
+        Hertz's). Rigid rotors always take the Hertz approach.
     """
 
     speed: float
@@ -308,6 +391,7 @@ class RollSettings:
     start_cycles: float | None = None
     te_amplitude: float = 0.0
     spread_force: float | None = None
+    probe_depth: float | None = None
 
 
 def inertial_terms(sector_mass: float, radius: float, speed: float, mesh_force: float,
@@ -362,6 +446,15 @@ class Roller:
             self._q = q / q.sum()
         else:
             self._xi, self._q = np.zeros(1), np.ones(1)
+        self.depth = 0.0
+        if pinion.elastic and face.elastic:
+            size = max(pinion.flank_size, face.flank_size)
+            self.depth = (settings.probe_depth if settings.probe_depth is not None
+                          else PROBE_ELEMENTS * size)
+        if self.depth > 0.0:
+            kappa = geometry.minor_unit / geometry.major_unit
+            self._tables = LayerLaw.tabulate((float(kappa.min()), float(kappa.max())),
+                                             geometry.poisson_ratio)
         lo, hi = self.held_window()
         margin = 0.01 * self.pitch_p
         #: mesh cycles the sectors hold
@@ -514,11 +607,26 @@ class Roller:
                    "sign": sign, "xp": xp, "xf": xf}
             mp, mf, a1 = self._majors
             half = a1 * self.spread_force ** (1.0 / 3.0)
+            if self.depth > 0.0:
+                depth = self.pair_depth(fl, k, s, theta_p)
+                row["law"] = self._layer_parameters(s, depth)
+                row["depth"] = depth
+            # the face gear's outward normal points into the pinion: each body's inward
+            # normal is sg * nrm
             for body, x, nrm, major, sg, key in ((self.p, xp, np_, mp, 1.0, "p"),
                                                  (self.f, xf, nf, mf, -1.0, "f")):
                 if not body.elastic:
-                    row[key] = None
+                    row[key] = row[key + "_read"] = None
                     continue
+                if self.depth > 0.0:
+                    dofs, w, inside = body.probe(x + sg * depth * nrm)
+                    if inside < -1e-3:
+                        raise CaseError(
+                            f"probe depth {depth * 1e3:.3g} mm: below pair {k}'s contact "
+                            f"point (s = {s * 1e3:.3g} mm) it leaves the {body.name} tooth; "
+                            "ask for a smaller depth")
+                    row[key + "_read"] = (dofs.ravel(),
+                                          (sg * w[:, None] * nrm[None, :]).ravel())
                 dofs_all, coef_all = [], []
                 for xi, q in zip(self._xi, self._q, strict=True):
                     dofs, w, dist = body.locate(x + xi * half * major)
@@ -529,58 +637,256 @@ class Roller:
                     dofs_all.append(dofs.ravel())
                     coef_all.append((q * sg * w[:, None] * nrm[None, :]).ravel())
                 row[key] = (np.concatenate(dofs_all), np.concatenate(coef_all))
+                if self.depth <= 0.0:
+                    row[key + "_read"] = row[key]
             out.append(row)
         return out
 
+    def _layer_parameters(self, s: float, depth: float) -> tuple[float, float, float]:
+        """``(k, zeta_d, kappa)`` of :class:`LayerLaw` at ``s``, read at ``depth``."""
+        a1, b1, p01 = self.geo.unit_ellipse_at(s)
+        return 2.0 * p01 * b1 / self.geo.youngs_modulus, depth / a1, b1 / a1
 
-def solve_contact(gfree: np.ndarray, D: np.ndarray, kh: np.ndarray, tol: float = 1e-10,
+    def pair_depth(self, fl: int, k: int, s: float, theta_p: float) -> float:
+        """Depth [m] of the reading of pair ``(fl, k)`` at ``s``: the run's depth, at most
+        :data:`CHORD_FRACTION` of the thinner tooth's thickness along the normal."""
+        j = math.floor(s / CHORD_STEP)
+        w = s / CHORD_STEP - j
+        chord = ((1.0 - w) * self._chord(fl, k, j, theta_p)
+                 + w * self._chord(fl, k, j + 1, theta_p))
+        depth = min(self.depth, CHORD_FRACTION * chord)
+        lo, hi = getattr(self, "depth_range", (math.inf, 0.0))
+        #: the smallest and largest depth a pair was read at [m]
+        self.depth_range = (min(lo, depth), max(hi, depth))
+        return depth
+
+    def _chord(self, fl: int, k: int, j: int, theta_p: float) -> float:
+        """Thickness [m] of the thinner tooth along the normal at ``s = j CHORD_STEP``
+        (where a ray along the inward normal leaves the sector; capped at twice the
+        run's depth), cached."""
+        if not hasattr(self, "_chords"):
+            self._chords = {}
+        key = (fl, k, j)
+        if key not in self._chords:
+            keep = getattr(self, "_majors", None)
+            xp, xf, np_, nf, _ = self._ref_points(fl, k, j * CHORD_STEP, theta_p)
+            self._majors = keep
+            cap = 2.0 * self.depth
+            out = cap
+            for body, x, n in ((self.p, xp, np_), (self.f, xf, -nf)):
+                if body.probe(x + cap * n)[2] >= -1e-3:
+                    continue
+                lo, hi = 0.0, cap
+                for _ in range(14):
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (mid, hi) if body.probe(x + mid * n)[2] >= -1e-3 else (lo, mid)
+                out = min(out, lo)
+            self._chords[key] = out
+        return self._chords[key]
+
+    def law(self, rows: list[dict]):
+        """The local law of ``rows``' pairs (:class:`LayerLaw` when the sectors are read
+        at depth, else :class:`HertzLaw`)."""
+        if self.depth > 0.0:
+            k, zeta, kappa = (np.array(v) for v in zip(*(row["law"] for row in rows),
+                                                         strict=True))
+            return LayerLaw(k, zeta, kappa, self._tables)
+        return HertzLaw(np.array([row["kh"] for row in rows]))
+
+
+# -- the local law of a pair: its approach as a function of its force -----------------------------
+#: Depth of the FE reading below the contact point, in flank element sizes (the default).
+PROBE_ELEMENTS = 2.0
+#: ... at most this fraction of the tooth's thickness along the normal there (the two
+#: flanks' distance; sampled every :data:`CHORD_STEP` along the path, interpolated).
+CHORD_FRACTION = 0.5
+CHORD_STEP = 0.25e-3
+#: The tabulated layer compression: ``zeta = depth / a`` from ... to (log-spaced) ...
+_ZETA = np.geomspace(1e-2, 1e5, 36)
+#: ... at this many ellipse shapes ``b / a`` spanning the path's (log-spaced).
+_KAPPAS = 4
+_GAUSS_T, _GAUSS_W = np.polynomial.legendre.leggauss(24)
+
+
+class HertzLaw:
+    """``delta = (P / K_H)^(2/3)``: the two flanks' Hertz approach (Johnson 1985, s. 4.2),
+    per pair (vectorised over the pairs of a step).
+
+    Parameters
+    ----------
+    kh : ndarray (n,)
+        ``K_H`` [N/m^1.5].
+    """
+
+    def __init__(self, kh: np.ndarray) -> None:
+        self.kh = np.asarray(kh, float)
+        self.c = self.kh ** (-2.0 / 3.0)
+
+    def take(self, idx) -> HertzLaw:
+        return HertzLaw(self.kh[idx])
+
+    def approach(self, lam: np.ndarray) -> np.ndarray:
+        """Local approach [m] at the forces ``lam`` [N]."""
+        return self.c * np.cbrt(lam) ** 2
+
+    def slope(self, lam: np.ndarray) -> np.ndarray:
+        """``d delta / d lam`` [m/N] (infinite at 0: clamped)."""
+        return (2.0 / 3.0) * self.c / np.maximum(np.cbrt(lam), 1e-100)
+
+    def energy(self, lam: np.ndarray) -> np.ndarray:
+        """Stored energy ``int lam d delta`` [J]."""
+        return 0.4 * lam * self.approach(lam)
+
+
+@functools.lru_cache(maxsize=32)
+def layer_table(kappa: float, poisson: float) -> np.ndarray:
+    """``H(zeta) = C E / (p0 b)`` on :data:`_ZETA`: the compression ``C`` of the layer
+    ``0..z`` of one half-space below the centre of a Hertz ellipse of semi-axes ``a``,
+    ``b = kappa a`` and peak pressure ``p0``, at ``zeta = z / a``
+    (:func:`~fe_impact.physics.hertz.ellipse_layer_compression` at ``a = 1 m``,
+    ``E = 1 Pa``, ``p0 = 1 Pa``: the compression scales as ``p0 a / E``)."""
+    from fe_impact.physics.hertz import ellipse_layer_compression
+
+    return np.array([ellipse_layer_compression(z, 1.0, kappa, 1.0, 1.0, poisson)
+                     for z in _ZETA]) / kappa
+
+
+class LayerLaw:
+    """Local approach of a pair read at depth ``d`` in both bodies: the two half-spaces'
+    compression of the layer ``0..d`` under the Hertz pressure of the pair's force.
+
+    With the Hertz ellipse of 1 N (``a1``, ``b1 = kappa a1``, ``p01``) the ellipse
+    of ``P`` is ``a = a1 t``, ``b = b1 t``, ``p0 = p01 t`` (``t = P^(1/3)``), and
+    the compression of two like bodies is ``2 p0 b H(d / a) / E = k t^2
+    H(zeta_d / t)`` with ``k = 2 p01 b1 / E``, ``zeta_d = d / a1``
+    (:func:`layer_table`). ``H`` is tabulated at :data:`_KAPPAS` shapes spanning
+    the path's and interpolated linearly in ``ln kappa`` between them,
+    monotone-cubically in ``ln zeta``. As ``d -> infinity`` it is the Hertz
+    approach; it rises monotonically with ``P``.
+
+    Parameters
+    ----------
+    k, zeta_d, kappa : ndarray (n,)
+        Per pair.
+    tables : tuple
+        ``(ln kappa nodes, H splines, dH/dln zeta splines)`` of :meth:`tabulate`.
+    """
+
+    def __init__(self, k: np.ndarray, zeta_d: np.ndarray, kappa: np.ndarray, tables) -> None:
+        self.k, self.zeta_d = np.asarray(k, float), np.asarray(zeta_d, float)
+        self.kappa, self.tables = np.asarray(kappa, float), tables
+        nodes = tables[0]
+        lk = np.log(self.kappa)
+        self._j = np.clip(np.searchsorted(nodes, lk) - 1, 0, max(len(nodes) - 2, 0))
+        if len(nodes) > 1:
+            self._w = np.clip((lk - nodes[self._j]) / (nodes[self._j + 1] - nodes[self._j]),
+                              0.0, 1.0)
+        else:
+            self._w = np.zeros_like(lk)
+
+    @classmethod
+    def tabulate(cls, kappa_range: tuple[float, float], poisson: float) -> tuple:
+        """The tables of :class:`LayerLaw` for ``b/a`` in ``kappa_range``."""
+        from scipy.interpolate import PchipInterpolator
+
+        lo, hi = kappa_range
+        kappas = np.geomspace(lo, hi, _KAPPAS) if hi > lo * (1 + 1e-6) else np.array([lo])
+        splines = [PchipInterpolator(np.log(_ZETA), layer_table(round(float(k), 9), poisson))
+                   for k in kappas]
+        return np.log(kappas), splines, [s.derivative() for s in splines]
+
+    def take(self, idx) -> LayerLaw:
+        return LayerLaw(self.k[idx], self.zeta_d[idx], self.kappa[idx], self.tables)
+
+    def _g(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``kappa H`` and its ``d/dln zeta`` at ``zeta = zeta_d / t`` (clamped to the
+        table: beyond it ``H`` is flat to 1e-4)."""
+        lz = np.log(np.clip(self.zeta_d / np.maximum(t, 1e-300), _ZETA[0], _ZETA[-1]))
+        _, hs, ds = self.tables
+        h = np.array([s(lz) for s in hs]).reshape(len(hs), -1)
+        d = np.array([s(lz) for s in ds]).reshape(len(hs), -1)
+        cols = np.arange(h.shape[1])
+        j1 = np.minimum(self._j + 1, len(hs) - 1)
+        w = self._w
+        return ((1 - w) * h[self._j, cols] + w * h[j1, cols],
+                (1 - w) * d[self._j, cols] + w * d[j1, cols])
+
+    def approach(self, lam: np.ndarray) -> np.ndarray:
+        """Local approach [m] at the forces ``lam`` [N]."""
+        t = np.cbrt(np.maximum(lam, 0.0))
+        return self.k * t * t * self._g(t)[0]
+
+    def slope(self, lam: np.ndarray) -> np.ndarray:
+        """``d delta / d lam`` [m/N]."""
+        t = np.maximum(np.cbrt(np.maximum(lam, 0.0)), 1e-100)
+        g, gl = self._g(t)
+        return self.k / t * ((2.0 / 3.0) * g - gl / 3.0)
+
+    def energy(self, lam: np.ndarray) -> np.ndarray:
+        """``lam delta - int_0^lam delta dP`` [J] (24-point Gauss in ``t = P^(1/3)``)."""
+        lam = np.atleast_1d(np.maximum(lam, 0.0))
+        big_t = np.cbrt(lam)
+        out = lam * self.approach(lam)
+        for i, (T, k) in enumerate(zip(big_t, self.k, strict=True)):
+            if T <= 0.0:
+                continue
+            t = 0.5 * T * (_GAUSS_T + 1.0)
+            g = self.take([i] * len(t))._g(t)[0]
+            out[i] -= 0.5 * T * float(_GAUSS_W @ (3.0 * k * t**4 * g))
+        return out
+
+
+def solve_contact(gfree: np.ndarray, D: np.ndarray, law, tol: float = 1e-10,
                   sweeps: int = 50) -> np.ndarray:
-    """Forces ``lam >= 0`` with ``h = gfree + D lam + (lam / kh)^(2/3) >= 0``, ``lam h = 0``.
+    """Forces ``lam >= 0`` with ``h = gfree + D lam + delta(lam) >= 0``, ``lam h = 0``.
 
-    ``lam`` minimises the strictly convex ``g.lam + lam.D.lam / 2 + (3/5) sum
-    kh^(-2/3) lam^(5/3)`` over ``lam >= 0`` (``D`` symmetric positive
-    semi-definite): the solution is unique. Active-set Newton (damped to keep the
-    active forces positive), started from a few projected Gauss-Seidel sweeps; a
-    pair leaves the set when its force falls to zero, joins it when its gap is
+    ``delta`` is the pairs' local approach, increasing from 0 (``law``: a
+    :class:`HertzLaw`, a :class:`LayerLaw`, or an array of ``K_H``, meaning
+    ``delta = (lam / K_H)^(2/3)``). For ``D`` symmetric positive semi-definite
+    ``lam`` minimises the strictly convex ``g.lam + lam.D.lam / 2 + sum int_0^lam
+    delta``: the solution is unique. Active-set Newton (damped to keep the active
+    forces positive), started from a few projected Gauss-Seidel sweeps; a pair
+    leaves the set when its force falls to zero, joins it when its gap is
     negative. Accepted when every gap is within ``tol`` of the largest free gap
     (zero on the active pairs, above it elsewhere); else Gauss-Seidel finishes.
     """
+    if not hasattr(law, "approach"):
+        law = HertzLaw(law)
     n = len(gfree)
-    c = kh ** (-2.0 / 3.0)
     scale = max(float(np.abs(gfree).max(initial=0.0)), 1e-30)
-    lam = _gauss_seidel(gfree, D, c, np.zeros(n), 3)
+    lam = _gauss_seidel(gfree, D, law, np.zeros(n), 3)
 
     def residual(lam):
-        return gfree + D @ lam + c * np.cbrt(lam) ** 2
+        return gfree + D @ lam + law.approach(lam)
 
     for _ in range(sweeps):
         active = np.flatnonzero(lam > 0.0)
         if len(active):
-            lam[active] = _newton(gfree, D, c, lam, active, tol * scale)
+            lam[active] = _newton(gfree, D, law, lam, active, tol * scale)
         h = residual(lam)
         on = lam > 0.0
         if (np.all(np.abs(h[on]) <= tol * scale)
                 and np.all(h[~on] >= -tol * scale)):
             return lam
-        lam = _gauss_seidel(gfree, D, c, lam, 2)
-    lam = _gauss_seidel(gfree, D, c, lam, 5000)
+        lam = _gauss_seidel(gfree, D, law, lam, 2)
+    lam = _gauss_seidel(gfree, D, law, lam, 5000)
     return lam
 
 
-def _newton(g, D, c, lam, active, tol: float) -> np.ndarray:
-    """Damped Newton on the active pairs' ``g + D lam + c lam^(2/3) = 0`` (in ``lam``;
-    its Jacobian ``D + (2/3) c lam^(-1/3)`` is positive definite); a force the
-    full step would make negative is halved instead; one that falls below 1e-300
-    is set to zero (the pair leaves)."""
+def _newton(g, D, law, lam, active, tol: float) -> np.ndarray:
+    """Damped Newton on the active pairs' ``g + D lam + delta(lam) = 0`` (in ``lam``;
+    its Jacobian ``D + diag(delta')`` is positive definite); a force the full step
+    would make negative is halved instead; one that falls below 1e-300 is set to
+    zero (the pair leaves)."""
     others = np.setdiff1d(np.arange(len(g)), active)
     rest = g[active] + D[np.ix_(active, others)] @ lam[others]
-    Da, ca = D[np.ix_(active, active)], c[active]
+    Da, la = D[np.ix_(active, active)], law.take(active)
     x = lam[active].copy()
     for _ in range(100):
-        f = rest + Da @ x + ca * np.cbrt(x) ** 2
+        f = rest + Da @ x + la.approach(x)
         if np.abs(f).max() <= tol:
             break
-        J = Da + np.diag((2.0 / 3.0) * ca / np.maximum(np.cbrt(x), 1e-100))
+        J = Da + np.diag(la.slope(x))
         step = np.linalg.solve(J, f)
         new = x - step
         neg = new <= 0.0
@@ -591,9 +897,10 @@ def _newton(g, D, c, lam, active, tol: float) -> np.ndarray:
     return x
 
 
-def _gauss_seidel(g, D, c, lam, sweeps: int) -> np.ndarray:
-    """Projected Gauss-Seidel sweeps; each scalar problem ``a + D_ii t^3 + c_i t^2 = 0``
-    (``t = lam^(1/3)``) is convex and increasing for ``t > 0``: Newton from above."""
+def _gauss_seidel(g, D, law, lam, sweeps: int) -> np.ndarray:
+    """Projected Gauss-Seidel sweeps; each scalar problem ``a + D_ii t^3 + delta(t^3) = 0``
+    (``t = lam^(1/3)``) is increasing for ``t > 0``: Newton from above, kept in the
+    bracket (a step that leaves it bisects)."""
     lam = lam.copy()
     for _ in range(sweeps):
         for i in range(len(g)):
@@ -601,12 +908,33 @@ def _gauss_seidel(g, D, c, lam, sweeps: int) -> np.ndarray:
             if a >= 0.0:
                 lam[i] = 0.0
                 continue
-            t = max((-a / D[i, i]) ** (1 / 3), math.sqrt(-a / c[i]))
-            for _ in range(60):
-                f = a + D[i, i] * t**3 + c[i] * t * t
-                step = f / (3 * D[i, i] * t * t + 2 * c[i] * t)
-                t -= step
-                if abs(step) <= 1e-15 * t:
-                    break
-            lam[i] = t**3
+            lam[i] = _scalar_root(a, D[i, i], law.take([i]))
     return lam
+
+
+def _scalar_root(a: float, d: float, law) -> float:
+    """``lam > 0`` with ``a + d lam + delta(lam) = 0`` (``a < 0``, ``d >= 0``)."""
+    def f(t):
+        x = np.array([t**3])
+        return (a + d * t**3 + float(law.approach(x)[0]),
+                3.0 * t * t * (d + float(law.slope(x)[0])))
+
+    lo, hi = 0.0, (-a / d) ** (1 / 3) if d > 0.0 else 1.0
+    while f(hi)[0] < 0.0:       # d = 0: the approach alone closes the gap
+        lo, hi = hi, 2.0 * hi
+    t = hi
+    for _ in range(200):
+        v, dv = f(t)
+        if v > 0.0:
+            hi = t
+        else:
+            lo = t
+        step = v / dv if dv > 0.0 else math.inf
+        new = t - step
+        if not (lo < new < hi):
+            new = 0.5 * (lo + hi)
+        if abs(new - t) <= 1e-15 * t or hi - lo <= 1e-15 * hi:
+            t = new
+            break
+        t = new
+    return t**3

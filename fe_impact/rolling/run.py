@@ -77,7 +77,8 @@ class RollResult:
     contact_point_m : ndarray (n, n_teeth, 2, 3)
         The pinion's contact point in the mesh frame (NaN: no force).
     energy : dict of ndarray (n,)
-        ``kinetic``, ``strain``, ``hertz``, ``drive_work``, ``load_work``,
+        ``kinetic``, ``strain``, ``hertz`` (the local law's: the Hertz or the layers'
+        energy), ``drive_work``, ``load_work``,
         ``centrifugal_work`` (of the centrifugal load on the sectors), ``error``.
     events : list of ContactEvent
     info : dict
@@ -225,13 +226,16 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
         rows = r._rows(th1, qt_f[-1])
         m = len(rows)
         # one solve per gear for the free motion and every pair's unit force
+        # A: where a pair's force enters the sectors; R: where its gap reads them
         A_p, A_f = np.zeros((m, p.n)), np.zeros((m, f.n))
+        R_p, R_f = np.zeros((m, p.n)), np.zeros((m, f.n))
         for i, row in enumerate(rows):
-            if row["p"] is not None:
-                np.add.at(A_p[i], row["p"][0], row["p"][1])
-            if row["f"] is not None:
-                np.add.at(A_f[i], row["f"][0], row["f"][1])
+            for key, A, R in (("p", A_p, R_p), ("f", A_f, R_f)):
+                if row[key] is not None:
+                    np.add.at(A[i], row[key][0], row[key][1])
+                    np.add.at(R[i], row[key + "_read"][0], row[key + "_read"][1])
             A_f[i, -1] += row["dtheta_f"]
+            R_f[i, -1] += row["dtheta_f"]
         a_p = np.zeros(p.n)
         a_p[-1] = al1
         yp = np.zeros((m, p.n))
@@ -250,8 +254,8 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
         q_p[-1] = th1
         q_f = qt_f + BETA * dt * dt * a_f
         x1 = x_of(q_p, q_f)
-        gfree = np.array([row["g"] - row["sign"] * x1 for row in rows]) + A_p[:, :-1] @ q_p[
-            :-1] + A_f[:, :-1] @ q_f[:-1]
+        gfree = np.array([row["g"] - row["sign"] * x1 for row in rows]) + R_p[:, :-1] @ q_p[
+            :-1] + R_f[:, :-1] @ q_f[:-1]
         for row, g in zip(rows, gfree, strict=True):
             row["gfree"] = g
         on = np.flatnonzero(gfree < CANDIDATE_GAP)
@@ -259,10 +263,11 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
         lam = np.zeros(0)
         if cand:
             yp, yf = yp[on], yf[on]
-            D = BETA * dt * dt * (A_p[on] @ yp.T + A_f[on] @ yf.T)
-            D = 0.5 * (D + D.T)
-            kh = np.array([row["kh"] for row in cand])
-            lam = solve_contact(gfree[on], D, kh)
+            D = BETA * dt * dt * (R_p[on] @ yp.T + R_f[on] @ yf.T)
+            if r.depth <= 0.0:      # read where loaded: symmetric but for round-off
+                D = 0.5 * (D + D.T)
+            law = r.law(cand)
+            lam = solve_contact(gfree[on], D, law)
             a_p = a_p + lam @ yp
             a_f = a_f + lam @ yf
             a_p[-1] = al1
@@ -283,12 +288,11 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
         fc_p0, fc_f0, qp0, qf0 = fc_p1, fc_f1, sp_.q.copy(), sf.q.copy()
         torque_drive, torque_load, th0, thf0 = t_drive1, load1, th1, sf.q[-1]
         # record
-        hertz_pe = 0.0
+        hertz_pe = float(law.energy(lam).sum()) if cand else 0.0
         for li, row in zip(lam, cand, strict=True):
             j, fl = col[row["tooth"]], row["flank"]
             force[n, j, fl] = li
             if li > 0.0:
-                hertz_pe += 0.4 * li * (li / row["kh"]) ** (2.0 / 3.0)
                 point[n, j, fl] = r.world(row["xp"], th1, "pinion")
         for row in rows:
             place[n, col[row["tooth"]], row["flank"]] = row["s"]

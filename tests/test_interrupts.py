@@ -23,6 +23,7 @@ from fe_impact.calibration.sweep import STOP_GRACE
 from fe_impact.cli.main import main
 from fe_impact.output.files import is_temporary
 from tests.test_bad_inputs import sdof
+from tests.test_calibrate_e2e import frictionless_gearset
 
 ROOT = Path(__file__).resolve().parents[1]
 SIGNALS = [signal.SIGINT, signal.SIGTERM]
@@ -122,8 +123,11 @@ def test_calibrate_stops_cleanly_and_resumes(tmp_path):
     """SIGINT, then SIGTERM, while the FE impact writes its frames; then a rerun that
     finishes on the cached mesh and removes a leftover of a killed run."""
     out, cache = tmp_path / "out", tmp_path / "cache"
-    argv = ["calibrate", "--no-switching", "--out", out, "--cache", cache, "--stages", "1",
-            "--speeds", "300", "--no-mesh-cycle", "--level", "coarse", "--workers", "1"]
+    # frictionless flanks: the subject is the stop and the resume, not friction (whose
+    # calibration adds a frictionless companion case and four times the CPU)
+    argv = ["calibrate", frictionless_gearset(tmp_path), "--no-switching", "--out", out,
+            "--cache", cache, "--stages", "1", "--speeds", "300", "--no-mesh-cycle",
+            "--level", "coarse", "--workers", "1"]
     case_id = "stage1_mesh_300rpm"
     fe = out / "cases" / case_id / "fe"
     out.mkdir()

@@ -45,6 +45,7 @@ from fe_impact.api.readers import (
     read_schedule,
     seed_load_torque,
 )
+from fe_impact.api.rolling import check_roll_inputs, roll
 from fe_impact.api.solving import MAX_FRAMES, MIN_STEPS_PER_CONTACT, solve
 from fe_impact.api.switching import run_switching, simulate_switching, study_preset
 from fe_impact.export import FORMATS as EXPORT_FORMATS
@@ -68,6 +69,9 @@ __all__ = [
     "read_case",
     "read_gearset",
     "read_schedule",
+    "roll",
+    "RollInputs",
+    "check_roll_inputs",
     "run_switching",
     "seed_load_torque",
     "seed_studies",
@@ -79,9 +83,14 @@ __all__ = [
 
 def __getattr__(name: str):
     """``TOP_LAND_MIN``: the narrowest top land the seed file's outer radii leave [m]
-    (imported when asked: it lives with the geometry report's numerical code)."""
+    (imported when asked: it lives with the geometry report's numerical code);
+    ``RollInputs``: the rolling mesh's inputs (:mod:`fe_impact.rolling.api`)."""
     if name == "TOP_LAND_MIN":
         from fe_impact.gears.report import TOP_LAND_MIN
 
         return TOP_LAND_MIN
+    if name == "RollInputs":
+        from fe_impact.rolling.api import RollInputs
+
+        return RollInputs
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -228,7 +228,7 @@ def _schedule_torques(path: Path, gearset) -> tuple[list[float], list[str]]:
     """Each stage's load [N m] from the schedule at ``path``: the largest of its
     segments on that stage, the schedule's largest for a stage it leaves out; and a
     note per stage saying which."""
-    from fe_impact.switching.schedule import read_schedule
+    from fe_impact.api import read_schedule
 
     duty = read_schedule(path)
     duty.check_gearset(gearset)

@@ -66,9 +66,9 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``fe-impact roll``; returns the exit status."""
     from tqdm import tqdm
 
-    from fe_impact.api import read_gearset
+    from fe_impact.api import RollInputs, read_gearset, roll
+    from fe_impact.api import check_roll_inputs as check_inputs
     from fe_impact.output.files import check_output_dir
-    from fe_impact.rolling.api import RollInputs, check_inputs, roll
 
     gearset = read_gearset(args.gearset)
     inputs = RollInputs(stage=args.stage, speed_rpm=args.speed, torque_nm=args.torque,

@@ -24,7 +24,13 @@ import scipy.sparse as sp
 from scipy.linalg import blas, cho_factor, cho_solve, lapack
 
 from fe_impact.contact.lcp import solve_penalty_lcp
-from fe_impact.contact.linearised import ContactModel, ZoneFrames, tangential_nodes, zone_frames
+from fe_impact.contact.linearised import (
+    ContactModel,
+    ZoneFrames,
+    patch_growth,
+    tangential_nodes,
+    zone_frames,
+)
 from fe_impact.fe.kinematics import Kinematics
 from fe_impact.fe.linalg import SPDSolver, inverse_from_cholesky, schur_cholesky
 from fe_impact.fe.mesh import FEMesh
@@ -597,12 +603,7 @@ class CondensedContact:
         forced = (sol.lam > 0) | np.any(sol.t != 0.0, axis=1)
         if not np.any(forced & self._open_rows):
             return None
-        ok = c.active_rows
-        g = c.g_ref[ok]
-        spread = float(g.max() - g.min()) if len(g) else 0.0
-        margin = max(-2.0 * float(np.min(h)), 0.1 * spread)
-        rows = np.flatnonzero(forced | (ok & (h < margin)))
-        new = np.setdiff1d(tangential_nodes(self.mesh, c, rows), self.tangential)
+        rows, new = patch_growth(self.mesh, c, forced, h, self.tangential)
         return rows if len(new) else None
 
     def _grow_tangential(self, rows: np.ndarray) -> None:

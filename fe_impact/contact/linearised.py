@@ -343,6 +343,22 @@ def tangential_nodes(mesh: FEMesh, contact: ContactModel, rows: np.ndarray) -> n
     return np.unique(cols // 3)
 
 
+
+def patch_growth(mesh: FEMesh, contact: ContactModel, forced: np.ndarray, h: np.ndarray,
+                 held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows whose tangent coordinates join the condensed ones, and the nodes that
+    adds beyond ``held`` (empty: nothing to grow).
+
+    The rows with a force (``forced``) and, as a margin, the rows whose contact-free
+    gap ``h`` is below twice the deepest penetration or a tenth of the spread of the
+    projection's gaps, so that the patch grows a few times, not row by row."""
+    ok = contact.active_rows
+    g = contact.g_ref[ok]
+    spread = float(g.max() - g.min()) if len(g) else 0.0
+    margin = max(-2.0 * float(np.min(h)), 0.1 * spread)
+    rows = np.flatnonzero(forced | (ok & (h < margin)))
+    return rows, np.setdiff1d(tangential_nodes(mesh, contact, rows), held)
+
 def _held_columns(A: sp.csr_matrix) -> tuple[np.ndarray, sp.csr_matrix]:
     """The columns of ``A`` that hold anything, and ``A`` on them alone: ``A x`` is then
     ``A_held x[columns]`` with the same sums in the same order, without a pass

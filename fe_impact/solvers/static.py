@@ -61,7 +61,7 @@ from fe_impact.contact.condensed import (
 )
 from fe_impact.contact.friction import pair_laws, slip_dissipation, solve_frictional
 from fe_impact.contact.lcp import solve_penalty_lcp
-from fe_impact.contact.linearised import ContactModel, tangential_nodes, zone_frames
+from fe_impact.contact.linearised import ContactModel, patch_growth, zone_frames
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
 from fe_impact.contact.zone import ContactZone, contact_pairs, face_size
 from fe_impact.errors import CaseError, ContactError
@@ -567,12 +567,7 @@ class StaticSolver:
         reach = np.diff((c.Bt @ self.R_open).tocsr().indptr)
         if not np.any(forced & ((reach[:r] > 0) | (reach[r:] > 0))):
             return False
-        ok = c.active_rows
-        g = c.g_ref[ok]
-        spread = float(g.max() - g.min()) if len(g) else 0.0
-        margin = max(-2.0 * float(np.min(h)), 0.1 * spread)
-        rows = np.flatnonzero(forced | (ok & (h < margin)))
-        new = np.setdiff1d(tangential_nodes(self.mesh, c, rows), self.tangential)
+        _, new = patch_growth(self.mesh, c, forced, h, self.tangential)
         if len(new) == 0:
             return False
         self.tangential = np.union1d(self.tangential, new)

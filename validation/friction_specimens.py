@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fe_impact.meshing.session import gmsh_session, write_msh
-from validation.specimens import refine_around_point
+from validation.specimens import refine_around_point, refine_within
 
 
 @dataclass(frozen=True)
@@ -95,21 +95,9 @@ def build_half_sphere_block(spec: HalfSphereBlock, path: str | Path) -> Path:
 def _refine_layer(model, spec: HalfSphereBlock, z0: float) -> None:
     """Size ``spec.h_contact`` within the anisotropic distance ``spec.r_fine`` of
     the contact point ``(0, 0, z0)``, graded to ``spec.h_far`` over ``spec.r_grade``
-    (a MathEval and a Threshold field; the other size sources off, HXT)."""
-    import gmsh
-
+    (a MathEval field through :func:`validation.specimens.refine_within`)."""
     fields = model.mesh.field
     dist = fields.add("MathEval")
     k2 = spec.depth_ratio ** 2
     fields.setString(dist, "F", f"sqrt(x*x + y*y + {k2!r}*(z - {z0!r})*(z - {z0!r}))")
-    th = fields.add("Threshold")
-    fields.setNumber(th, "InField", dist)
-    fields.setNumber(th, "SizeMin", spec.h_contact)
-    fields.setNumber(th, "SizeMax", spec.h_far)
-    fields.setNumber(th, "DistMin", spec.r_fine)
-    fields.setNumber(th, "DistMax", spec.r_fine + spec.r_grade)
-    fields.setAsBackgroundMesh(th)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-    gmsh.option.setNumber("Mesh.Algorithm3D", 10)
+    refine_within(model, dist, spec)

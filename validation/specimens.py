@@ -118,16 +118,24 @@ def _add_size_field(model, spec: SphereBlockSpec) -> None:
 
 def refine_around_point(model, point: int, spec) -> None:
     """Mesh size ``spec.h_contact`` within ``spec.r_fine`` of the gmsh ``point``,
-    graded to ``spec.h_far`` over ``spec.r_grade`` (a Distance and a Threshold
-    field as the background mesh; sizes from the boundary, points and
-    curvature switched off), meshed in 3-D by HXT."""
-    import gmsh
-
+    graded to ``spec.h_far`` over ``spec.r_grade`` (a Distance field through
+    :func:`refine_within`)."""
     fields = model.mesh.field
     pt = fields.add("Distance")
     fields.setNumbers(pt, "PointsList", [point])
+    refine_within(model, pt, spec)
+
+
+def refine_within(model, distance: int, spec) -> None:
+    """Mesh size ``spec.h_contact`` where the gmsh field ``distance`` is below
+    ``spec.r_fine``, graded to ``spec.h_far`` over ``spec.r_grade`` (a Threshold
+    field as the background mesh; sizes from the boundary, points and curvature
+    switched off), meshed in 3-D by HXT."""
+    import gmsh
+
+    fields = model.mesh.field
     th = fields.add("Threshold")
-    fields.setNumber(th, "InField", pt)
+    fields.setNumber(th, "InField", distance)
     fields.setNumber(th, "SizeMin", spec.h_contact)
     fields.setNumber(th, "SizeMax", spec.h_far)
     fields.setNumber(th, "DistMin", spec.r_fine)

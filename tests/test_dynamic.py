@@ -364,6 +364,28 @@ def test_no_contact_has_no_time_of_peak_force():
     assert m.peak_force == 0.0 and m.time_of_peak_force is None and m.contacts == 0
 
 
+def test_history_cut_to_the_steps_every_quantity_has():
+    # A stop signal can land while a step's row is being appended: the history
+    # then ends at the last complete step, so the measurements index it safely.
+    from fe_impact.solvers.dynamic import HISTORY_KEYS, _RunLog
+    from fe_impact.solvers.measurements import SeparationWatch, impact_measurements
+
+    log = _RunLog(SeparationWatch(None))
+    t = np.linspace(0.0, 1.0, 11)
+    force = np.maximum(np.sin(np.pi * t / 0.6), 0.0) * (t < 0.6)
+    for i, ti in enumerate(t):
+        row = dict.fromkeys(HISTORY_KEYS, 1.0)
+        row.update(time=ti, contact_force=force[i], approach=force[i] - 1e-9,
+                   normal_velocity=-1.0 if ti < 0.3 else 0.5)
+        for k, v in row.items():
+            log.rows[k].append(v)
+    log.rows["time"].append(1.1)                  # the interrupted step's first entries
+    log.rows["contact_force"].append(0.0)
+    h = log.history()
+    assert {len(v) for v in h.values()} == {11}
+    assert impact_measurements(h, 0.0).rebound_velocity == 0.5
+
+
 def _newmark_sphere_impact(tmp_path):
     """The coarse sphere at 1 m/s on a 0.5 kg rigid mass, Newmark at t_c / 20: its
     case and mesh file (the factorisation tests below)."""

@@ -150,7 +150,13 @@ class _RunLog:
     plastic: ti.PlasticStats = field(default_factory=ti.PlasticStats)
 
     def history(self) -> dict[str, np.ndarray]:
-        return {k: np.asarray(v) for k, v in self.rows.items()}
+        """The rows as arrays, cut to the steps every quantity has.
+
+        A stop signal (Ctrl-C, SIGTERM) can arrive while a step's row is being
+        appended, leaving some lists one entry longer; that step is dropped.
+        """
+        n = min(len(v) for v in self.rows.values())
+        return {k: np.asarray(v[:n]) for k, v in self.rows.items()}
 
 
 # -- solver --------------------------------------------------------------------------

@@ -467,12 +467,24 @@ class Roller:
             self.theta0 = roll_placed - (geometry.mesh.s_pitch - s0) / self.r_bp
         end = self.pinion_motion(self.n_steps * self.dt)[0]
         if not (lo <= self.theta0 and end <= hi):
-            raise CaseError(
-                f"cycles = {settings.cycles:g}: the sectors ({len(teeth)} teeth each) hold "
-                f"{self.capacity:.2f} mesh cycles from the start of their window; ask for "
-                "fewer cycles")
+            raise CaseError(self._window_refusal(settings, len(teeth), lo, hi, end))
         pinion.factorise(self.dt, prescribed=True)
         face.factorise(self.dt, prescribed=False)
+
+    def _window_refusal(self, settings, n_teeth: int, lo: float, hi: float, end: float
+                        ) -> str:
+        """Why the run leaves the sectors' window, with the start and length that fit."""
+        msg = (f"cycles = {settings.cycles:g}: the sectors ({n_teeth} teeth each) hold "
+               f"{self.capacity:.2f} mesh cycles from the start of their window")
+        if settings.start_cycles is None:
+            return msg + "; ask for fewer cycles"
+        # start_cycles moves theta0 by the pinion angle of one base pitch per unit
+        per = self.p_b / self.r_bp
+        first = settings.start_cycles + (lo - self.theta0) / per
+        fits = settings.cycles * (hi - self.theta0) / (end - self.theta0)
+        return (msg + f"; from start_cycles {settings.start_cycles:g} about "
+                f"{max(fits, 0.0):.2f} fit; start_cycles {first:.2f} or more uses the "
+                "window from its start: ask for fewer cycles or move the start")
 
     # -- kinematics of the pinion (prescribed) --------------------------------------------------
     def pinion_motion(self, t: float) -> tuple[float, float, float]:

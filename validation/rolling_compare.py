@@ -95,6 +95,10 @@ CYCLES = 2.4
 #: passes its single-contact zone (0.76-1 period after entry, contact ratio 1.76), where
 #: its force peaks, before the run ends.
 MESH_PHASE = 0.85
+#: The rolling FE numbers its pairs from a tooth two pitches earlier: the same mesh
+#: phase is ``MESH_PHASE - 2`` there, which the sectors' window (from -1.22 on the
+#: seed set's coarse sectors) holds for `CYCLES`.
+FE_PAIR_OFFSET = 2
 #: Time steps per mesh period of the rolling FE: 8 or more per Hertz contact time of its
 #: fastest mesh-in (`fe_impact.rolling.api.STEPS_PER_CONTACT`; the FE asks 363 at 300 r/min).
 FE_STEPS = {"loaded-1000": 240, "rattle-300": 400, "noload-1000": 240}
@@ -153,7 +157,7 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
                   ramp_cycles=condition.load_ramp / period,
                   te_amplitude=condition.transmission_error)
     if "start_cycles" in RollInputs.__dataclass_fields__:
-        kwargs["start_cycles"] = condition.mesh_phase
+        kwargs["start_cycles"] = condition.mesh_phase - FE_PAIR_OFFSET
     else:
         logger.warning("the rolling FE takes no start_cycles: pair 0 starts at the path's "
                        "start in both models")

@@ -39,7 +39,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--speed", type=float, required=True, metavar="RPM",
                    help="pinion speed [r/min]")
     p.add_argument("--torque", type=float, default=0.0, metavar="NM",
-                   help="load torque on the face gear [N m] (0)")
+                   help="load torque on the face gear from this one mesh [N m] (0); with "
+                        "several pinions on the ring, the output torque divided by "
+                        "their number")
     p.add_argument("--cycles", type=float, default=2.0, metavar="K",
                    help="mesh cycles to simulate (2; the sectors hold about 2.4)")
     p.add_argument("--level", default="coarse", help="mesh level (coarse)")

@@ -362,3 +362,44 @@ def test_cases_take_the_gear_sets_friction_and_one_impact_and_position_get_compa
     smooth = replace(gs, friction=FlankFriction(0.0, 0.0))
     assert friction_companions(smooth, plan_cases(smooth, [1]), positions) == []
     assert {c.friction for c in plan_cases(smooth, [1])} == {(0.0, 0.0)}
+
+
+def test_a_companion_takes_the_record_of_its_case_that_fell_back_to_frictionless(tmp_path):
+    # A position whose frictional solve is refused (a contact zone too large to condense
+    # the friction on) is solved frictionless: the very solve its companion asks for (same
+    # mesh, loads and solver). The companion then takes that record under its own id and
+    # resume key, which a resume accepts, and computes nothing. A case solved with
+    # friction, or not finished yet, leaves its companion to be computed.
+    from dataclasses import replace
+
+    from fe_impact.calibration.execution import finished_record, frictionless_twin
+    from fe_impact.calibration.meshcycle import PositionCase, PositionRecord
+    from fe_impact.calibration.planning import case_hash
+    from fe_impact.gears.gearset import default_gearset_path
+    from fe_impact.output.files import write_json
+
+    text = default_gearset_path().read_text(encoding="utf-8-sig")
+    s = Settings(level="coarse")
+    base = PositionCase(1, 56, 2.0, (50.0, 100.0), friction=(0.05, 0.02))
+    alone = replace(base, friction=(0.0, 0.0), companion=True)
+    record = PositionRecord(
+        id=base.id, stage=1, roll_angle_deg=2.0, end="", forces=[50.0, 100.0],
+        approaches=[1e-6, 1.6e-6], torques=[1.3, 2.6], rotations=[-1e-5, -2e-5],
+        contact_areas=[1e-7, 2e-7], max_pressures=[1e9, 1.3e9],
+        hertz_approaches=[5e-7, 8e-7], stiffness=2e10, exponent=1.4, fit_error=0.0,
+        nominal_force=50.0, nominal_stiffness=5e7, lever=0.0268, edge="",
+        ellipse_outline=[], footprint=[], flank_edges=[], n_dofs=40000,
+        hash=case_hash(base, s, text), timings_s={"total": 9.0}, friction=[0.0, 0.0],
+        friction_note="solved frictionless: the contact zone holds 9000 coordinates")
+    out = tmp_path / "out"
+    assert frictionless_twin(out, alone, s, text) is None          # not finished yet
+    write_json(out / "cases" / base.id / "result.json", record.to_dict())
+    assert frictionless_twin(out, base, s, text) is None           # not a companion
+    twin = frictionless_twin(out, alone, s, text)
+    assert twin.id == alone.id and twin.companion and twin.friction == [0.0, 0.0]
+    assert twin.approaches == record.approaches and twin.friction_note == ""
+    assert finished_record(out, alone, s, text) == twin
+    rough = tmp_path / "rough"
+    write_json(rough / "cases" / base.id / "result.json",
+               replace(record, friction=[0.05, 0.02], friction_note="").to_dict())
+    assert frictionless_twin(rough, alone, s, text) is None        # solved with friction

@@ -32,7 +32,7 @@ import threading
 import time
 import uuid
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from fe_impact.calibration import meshcycle
@@ -523,6 +523,9 @@ def run_locked_case(case: ImpactCase, settings: Settings, gearset_text: str, out
             if record is not None:
                 logger.info("case %s: finished by another run", case.id)
                 return record
+            twin = frictionless_twin(Path(out), case, settings, gearset_text)
+            if twin is not None:
+                return twin
             for path in remove_temporaries(folder):
                 logger.info("removed the unfinished file %s", path)
             return run_case(case, settings, gearset_text, out, cache,
@@ -530,6 +533,41 @@ def run_locked_case(case: ImpactCase, settings: Settings, gearset_text: str, out
     except (KeyboardInterrupt, CaseStopped):
         # A stopped case ends as an ordinary return, not by unwinding the worker.
         return None
+
+
+def frictionless_twin(out: Path, case, settings: Settings,
+                      gearset_text: str) -> meshcycle.PositionRecord | None:
+    """A frictionless companion position whose frictional case is finished and fell back
+    to frictionless flanks (:func:`~fe_impact.calibration.meshcycle.run_position`: a
+    contact zone too large for the frictional solve): that case's record under the
+    companion's id and resume key, written to its ``result.json``; else None (the
+    companion is computed).
+
+    The fallback is the companion's own solve (the same mesh, loads and frictionless
+    static solve, on one thread), so the record is what computing it gives; the
+    report's friction section leaves such a pair out either way (nothing to compare).
+    A frictional case still running when its companion starts is not waited for.
+    """
+    import tomllib
+
+    from fe_impact.gears import gearset_from_dict
+    from fe_impact.output.files import write_json
+
+    if not (isinstance(case, PositionCase) and case.companion):
+        return None
+    mu = meshcycle.gearset_friction(gearset_from_dict(tomllib.loads(gearset_text)))
+    base = replace(case, friction=mu, companion=False)
+    if base.friction == (0.0, 0.0):
+        return None
+    record = finished_record(out, base, settings, gearset_text)
+    if record is None or any(record.friction):
+        return None
+    twin = replace(record, id=case.id, hash=case_hash(case, settings, gearset_text),
+                   companion=True, friction_note="", timings_s={"total": 0.0})
+    write_json(out / "cases" / case.id / "result.json", twin.to_dict())
+    logger.info("case %s: the same solve as %s (%s), taken from it", case.id, base.id,
+                record.friction_note)
+    return twin
 
 
 def _contact_picture(out: str, record: CalibrationRecord) -> None:

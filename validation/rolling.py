@@ -105,7 +105,133 @@ def quasi_static(gearset, out: Path, mesh_dir: Path, reference: Path | None,
                  max_error=float(te.max() / ref_te.max() - 1.0),
                  min_error=float(te.min() / ref_te.min() - 1.0),
                  passed=bool(abs(err_mean) <= QUASI_STATIC))
+    # the same superposition with the tip-edge pairs beyond the path of contact, which
+    # the rolling FE (as the torsional model) lets touch and the mesh cycle leaves out
+    with_tips = corner_superposition(data, gearset, 1, pinion_torque)
+    if with_tips is None:
+        out_d["with_corners"] = {"note": "the reference holds no corner positions "
+                                         "(fe-impact calibrate --corners): not compared"}
+    else:
+        out_d["with_corners"] = {
+            "reference_te_mean_m": float(with_tips.mean()),
+            "reference_te_min_m": float(with_tips.min()),
+            "reference_te_max_m": float(with_tips.max()),
+            "mean_error": float(te.mean() / with_tips.mean() - 1.0),
+            "max_error": float(te.max() / with_tips.max() - 1.0),
+            "min_error": float(te.min() / with_tips.min() - 1.0),
+            "within_tolerance": bool(abs(te.mean() / with_tips.mean() - 1.0) <= QUASI_STATIC)}
     return out_d
+
+
+def corner_superposition(data: dict, gearset, stage: int, pinion_torque: float,
+                         corners: bool = True, n: int = 200) -> np.ndarray | None:
+    """Loaded TE [m] over one mesh cycle of the mesh cycle's superposition, with the
+    tip-edge pairs beyond the path of contact added (``corners``), or without them.
+
+    The mesh cycle (:func:`~fe_impact.calibration.meshcycle.mesh_cycle`) shares the
+    torque between the pairs on the path of contact (the contact analysis' first to
+    last point) only. Beyond it a pair still touches on a rounded tip edge (the
+    face gear's before the path, the pinion's after it) once the loaded TE exceeds
+    that pair's corner gap ``g(s)`` (:func:`~fe_impact.gears.kinematics.mesh_geometry`,
+    the three-dimensional first touch, as the torsional model and the rolling FE take
+    it). With ``corners`` such a pair carries the force of the calibration's FE of
+    that tip-edge contact (``data["corners"]``: one roll angle per side, run by
+    ``fe-impact calibrate --corners``) at the approach ``TE - g(s)``: its
+    load-approach curve is taken at that one roll angle for the whole side (the
+    gap carries the roll's effect). Every pair closes by the same TE; the moment
+    of the forces (levers ``r_bp``) equals ``pinion_torque`` [N m], bisected in
+    ``log TE``. None when ``corners`` is asked and the data hold no corner records.
+    Roll angles on the cycle: ``n`` from the path's last point, one angular pitch.
+    """
+    from fe_impact.calibration.meshcycle import PositionRecord, pair_force
+    from fe_impact.gears.kinematics import mesh_geometry
+
+    recs = sorted((PositionRecord.from_dict(p) for p in data["positions"]
+                   if p["stage"] == stage and not p.get("companion")),
+                  key=lambda r: r.roll_angle_deg)
+    tips = {c["contact"].removeprefix("corner-"): PositionRecord.from_dict(c)
+            for c in data.get("corners", []) if c["stage"] == stage
+            and not c.get("companion")}
+    if corners and set(tips) != {"approach", "recess"}:
+        return None
+    first, last = data["path_of_contact_deg"][str(stage)]
+    pitch = data["angular_pitch_deg"]
+    geo = mesh_geometry(gearset, stage, "3d")
+    roll = np.array([r.roll_angle_deg for r in recs])
+    reach = (geo.s_start - geo.approach.delta_max, geo.s_end + geo.recess.delta_max)
+
+    def force(r_deg: float, te: float) -> float:
+        if last <= r_deg <= first:          # on the path: the FE curves, log F in roll
+            j = int(np.clip(np.searchsorted(roll, r_deg) - 1, 0, len(roll) - 2))
+            w = float(np.clip((r_deg - roll[j]) / (roll[j + 1] - roll[j]), 0.0, 1.0))
+            return math.exp((1 - w) * math.log(pair_force(recs[j], te)[0])
+                            + w * math.log(pair_force(recs[j + 1], te)[0]))
+        s = geo.s_pitch - geo.base_radius * math.radians(r_deg)
+        if not corners or not reach[0] < s < reach[1]:
+            return 0.0
+        gap = float(geo.gap(np.array([s]))[0][0])
+        side = "approach" if r_deg > first else "recess"
+        return pair_force(tips[side], te - gap)[0] if te > gap else 0.0
+
+    def moment(theta: float, te: float) -> float:
+        return geo.base_radius * sum(force(theta + k * pitch, te) for k in range(-4, 5))
+
+    out = np.empty(n)
+    for i, theta in enumerate(np.linspace(last, last + pitch, n, endpoint=False)):
+        lo, hi = math.log(1e-12), math.log(1e-3)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if moment(theta, math.exp(mid)) >= pinion_torque else (mid, hi)
+        out[i] = math.exp(0.5 * (lo + hi))
+    return out
+
+
+def pair_compliance(gearset, mesh_dir: Path, reference: Path | None,
+                    probe_depth: float | None = None) -> dict:
+    """The rolling model's quasi-static single-pair approach against the mesh cycle's FE.
+
+    At each FE position of the reference (the flank positions along the path and the
+    tip-edge corners), the rolling model's approach of one pair held at that roll angle
+    (:func:`~fe_impact.rolling.model.static_pair_approach`: both sectors' displacement
+    read at depth plus the layers' compression, or the FE at the surface plus Hertz) at
+    the FE's two largest forces, beside the FE's approach and its Hertz part. A
+    diagnosis of (b) (which part of the pair's compliance differs, and where), not a
+    pass/fail check: the FE measures a tip-edge pair from its first touch, the rolling
+    model places it at the path's end with the flank's ellipse.
+    """
+    from fe_impact.rolling.api import RollInputs, _sector_mesh
+    from fe_impact.rolling.bodies import sector_bodies
+    from fe_impact.rolling.model import ContactGeometry, Roller, RollSettings, static_pair_approach
+    from fe_impact.rolling.sectors import tooth_range
+
+    if reference is None:
+        return {"passed": None, "note": "no --reference mesh_cycle.json: not compared"}
+    data = json.loads(Path(reference).read_text())
+    inputs = RollInputs(stage=1, level="coarse", speed_rpm=50.0, torque_nm=0.0, cycles=1.0,
+                        probe_depth=probe_depth)
+    mesh = _sector_mesh(gearset, inputs, mesh_dir)
+    geo = ContactGeometry.build(gearset, 1)
+    pinion, face = sector_bodies(mesh["mesh_path"], gearset, 1)
+    r_bp, r_b2 = geo.base_radii
+    roller = Roller(geo, pinion, face, tooth_range(), mesh["pinion_roll_placed"],
+                    mesh["face_angle_placed"],
+                    RollSettings(speed=1.0, torque=1000.0 * r_b2, probe_depth=probe_depth))
+    solvers: dict = {}
+    rows = []
+    for rec in sorted([*data["positions"], *data.get("corners", [])],
+                      key=lambda r: -r["roll_angle_deg"]):
+        if rec["stage"] != 1 or rec.get("companion"):
+            continue
+        s = geo.mesh.s_pitch - r_bp * math.radians(rec["roll_angle_deg"])
+        for i in (-2, -1):
+            force = rec["forces"][i]
+            part = static_pair_approach(roller, s, force, solvers=solvers)
+            rows.append({"contact": rec.get("contact", "flank"),
+                         "roll_deg": rec["roll_angle_deg"], "s_m": s, "force_n": force,
+                         "fe_approach_m": rec["approaches"][i],
+                         "fe_hertz_m": rec["hertz_approaches"][i], **part,
+                         "error": part["total"] / rec["approaches"][i] - 1.0})
+    return {"passed": None, "positions": rows}
 
 
 def energy(gearset, out: Path, mesh_dir: Path, quick: bool,
@@ -144,6 +270,8 @@ def run(quick: bool = False, reference: Path | None = None, out: Path | None = N
     out = Path(out or "validation_rolling")
     mesh_dir = out / "mesh"
     checks = {"kinematics": lambda: kinematics(gearset, out, mesh_dir, quick, probe_depth),
+              "pair_compliance": lambda: pair_compliance(gearset, mesh_dir, reference,
+                                                         probe_depth),
               "quasi_static": lambda: quasi_static(gearset, out, mesh_dir, reference, quick,
                                                    probe_depth),
               "energy": lambda: energy(gearset, out, mesh_dir, quick, probe_depth)}
@@ -164,7 +292,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--probe-depth", type=float, metavar="MM",
                    help="depth [mm] of the sectors' reading below the contact (default: two "
                         "flank element sizes; 0: on the surface, Hertz approach added)")
-    p.add_argument("--only", choices=("kinematics", "quasi_static", "energy"),
+    p.add_argument("--only", choices=("kinematics", "pair_compliance", "quasi_static",
+                                      "energy"),
                    help="run one check only")
     args = p.parse_args(argv)
     if args.probe_depth is not None and not (args.probe_depth >= 0.0):

@@ -63,7 +63,8 @@ from fe_impact.errors import CaseError
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Body", "ContactGeometry", "RollSettings", "Roller", "inertial_terms"]
+__all__ = ["Body", "ContactGeometry", "RollSettings", "Roller", "inertial_terms",
+           "static_pair_approach"]
 
 BETA, GAMMA = 0.25, 0.5
 #: Points along the Hertz ellipse's major axis a pair's force is spread over.
@@ -704,6 +705,52 @@ class Roller:
                                                          strict=True))
             return LayerLaw(k, zeta, kappa, self._tables)
         return HertzLaw(np.array([row["kh"] for row in rows]))
+
+
+def static_pair_approach(roller: Roller, s: float, force: float, tooth: int = 1,
+                         solvers: dict | None = None) -> dict[str, float]:
+    """The quasi-static approach [m] of one drive pair at ``s`` [m] under ``force`` [N],
+    both rotors held, split into its parts: what the rolling model takes for the pair
+    the mesh cycle's FE measures (``validation/rolling.py``).
+
+    The pair of pinion tooth ``tooth`` is placed at ``s`` on the line of action; its
+    force enters the sectors as in a step (spread along the Hertz ellipse) and the
+    static displacement (the stiffness alone, the hubs tied to their held rotors) is
+    read where the step reads it. Returns ``fe_pinion``, ``fe_face`` (each sector's
+    displacement at the reading along the contact normal), ``local`` (the local law's
+    approach: the layers' compression, or Hertz's when read at the surface),
+    ``total`` (their sum, the pair's approach), ``depth`` [m] and ``surface_pinion``,
+    ``surface_face`` (each sector's displacement at the surface under the spread load,
+    for comparison). ``solvers``: a dict the static factorisations are kept in
+    between calls (keyed by body name).
+    """
+    from fe_impact.fe.linalg import SPDSolver
+
+    solvers = {} if solvers is None else solvers
+    theta_p = roller.roll_placed - (roller.geo.mesh.s_pitch - s) / roller.r_bp \
+        - tooth * roller.pitch_p
+    rows = [row for row in roller._rows(theta_p, roller.ratio * theta_p)
+            if row["tooth"] == tooth and row["flank"] == 0]
+    if not rows:
+        raise CaseError(f"s = {s * 1e3:.4g} mm: pinion tooth {tooth}'s drive pair is not in "
+                        "the sectors' reach there")
+    row = rows[0]
+    out = {"depth": float(row.get("depth", 0.0))}
+    for body, key in ((roller.p, "p"), (roller.f, "f")):
+        name = "pinion" if key == "p" else "face"
+        if not body.elastic:
+            out[f"fe_{name}"] = out[f"surface_{name}"] = 0.0
+            continue
+        if body.name not in solvers:
+            solvers[body.name] = SPDSolver(body.K.tocsr()[:-1, :-1].tocsr()).solve
+        load, read = np.zeros(body.n - 1), np.zeros(body.n - 1)
+        np.add.at(load, row[key][0], row[key][1])
+        np.add.at(read, row[key + "_read"][0], row[key + "_read"][1])
+        u = np.asarray(solvers[body.name](force * load)).ravel()
+        out[f"fe_{name}"], out[f"surface_{name}"] = float(read @ u), float(load @ u)
+    out["local"] = float(roller.law([row]).approach(np.array([force]))[0])
+    out["total"] = out["fe_pinion"] + out["fe_face"] + out["local"]
+    return out
 
 
 # -- the local law of a pair: its approach as a function of its force -----------------------------

@@ -1,23 +1,53 @@
 """Friction condensed on the contact patch's tangent coordinates only.
 
-A large zone with friction is condensed on its nodes' normal coordinates and on
-the tangent ones of the nodes the rows in contact reach, grown (a new
-factorisation) when a row with a force reaches a node left out
+A zone with friction is condensed on its nodes' normal coordinates and on the
+tangent ones of a patch: the nodes the solver predicts the contact to reach
+(:func:`fe_impact.contact.linearised.predicted_patch`,
+:func:`~fe_impact.contact.linearised.flight_patch`), grown (a new factorisation)
+when a row with a force reaches a node left out
 (:data:`fe_impact.contact.condensed.FULL_TANGENTIAL_COORDINATES`). A row with no
 force carries no tangential force, so the solution is the one condensed on all
-three coordinates of every node: these tests force the patch's condensation on
-the small zones of the friction studies and compare.
+three coordinates of every node: these tests condense the small zones of the
+friction studies on all three, on the predicted patch, and on a patch grown from
+nothing, and compare.
 """
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import fe_impact.contact.condensed as condensed
+import fe_impact.contact.linearised as linearised
+import fe_impact.solvers.dynamic as dynamic
+import fe_impact.solvers.static as static
 
 
-def _patch_only(monkeypatch):
-    monkeypatch.setattr(condensed, "FULL_TANGENTIAL_COORDINATES", 0)
+def _whole_zone(monkeypatch):
+    monkeypatch.setattr(condensed, "FULL_TANGENTIAL_COORDINATES", 10 ** 9)
+
+
+def _no_prediction(monkeypatch):
+    def none(*args, **kwargs):
+        return np.zeros(0, dtype=np.int64)
+
+    monkeypatch.setattr(dynamic, "predicted_patch", none)
+    monkeypatch.setattr(dynamic, "flight_patch", none)
+    monkeypatch.setattr(static, "predicted_patch", none)
+
+
+def _counted_growths(monkeypatch, cls, name):
+    grown = []
+    grow = getattr(cls, name)
+
+    def counted(self, *args):
+        out = grow(self, *args)
+        if out is not False:
+            grown.append(1)
+        return out
+
+    monkeypatch.setattr(cls, name, counted)
+    return grown
 
 
 def test_newmark_oblique_impact_on_the_patch_equals_the_whole_zone(tmp_path, monkeypatch):
@@ -30,21 +60,20 @@ def test_newmark_oblique_impact_on_the_patch_equals_the_whole_zone(tmp_path, mon
     # would move the rebound by its share of the force (1e-3 or more).
     from validation import friction_oblique
 
-    whole = friction_oblique.run(quick=True, out=tmp_path / "whole", integrator="newmark",
-                                 angles=(62.0,))["angles"][0]
-    _patch_only(monkeypatch)
-    grown = []
-    grow = condensed.CondensedContact._grow_tangential
+    def run(name):
+        return friction_oblique.run(quick=True, out=tmp_path / name, integrator="newmark",
+                                    angles=(62.0,))["angles"][0]
 
-    def counted(self, rows):
-        grown.append(len(rows))
-        return grow(self, rows)
-
-    monkeypatch.setattr(condensed.CondensedContact, "_grow_tangential", counted)
-    patch = friction_oblique.run(quick=True, out=tmp_path / "patch", integrator="newmark",
-                                 angles=(62.0,))["angles"][0]
+    predicted = run("predicted")
+    with monkeypatch.context() as m:
+        _whole_zone(m)
+        whole = run("whole")
+    _no_prediction(monkeypatch)
+    grown = _counted_growths(monkeypatch, condensed.CondensedContact, "_grow_tangential")
+    patch = run("grown")
     assert grown, "the patch's tangent coordinates never grew"
     for key in ("tangential_restitution", "tan_rebound", "friction_dissipation_J"):
+        assert predicted[key] == pytest.approx(whole[key], rel=1e-8), key
         assert patch[key] == pytest.approx(whole[key], rel=1e-8), key
 
 
@@ -55,11 +84,44 @@ def test_static_cattaneo_on_the_patch_equals_the_whole_zone(tmp_path, monkeypatc
     # path: 1e-5 relative on the forces and the microslip.
     from validation import friction_cattaneo as fc
 
-    whole = fc.run_level(tmp_path, "whole", 0.2e-3, steps=6)
-    _patch_only(monkeypatch)
+    predicted = fc.run_level(tmp_path, "predicted", 0.2e-3, steps=6)
+    with monkeypatch.context() as m:
+        _whole_zone(m)
+        whole = fc.run_level(tmp_path, "whole", 0.2e-3, steps=6)
+    _no_prediction(monkeypatch)
+    grown = _counted_growths(monkeypatch, static.StaticSolver, "_grow_tangential")
     patch = fc.run_level(tmp_path, "patch", 0.2e-3, steps=6)
+    assert grown, "the patch's tangent coordinates never grew"
+    assert predicted["n_contact_dofs"] < whole["n_contact_dofs"]
     assert patch["n_contact_dofs"] < whole["n_contact_dofs"]
-    for a, b in zip(whole["steps"], patch["steps"], strict=True):
-        for key in ("P", "Q", "microslip_fe_m"):
-            assert b[key] == pytest.approx(a[key], rel=1e-5, abs=1e-5 * abs(a["slide_m"])
-                                           if key == "microslip_fe_m" else 0.0), key
+    for run in (predicted, patch):
+        for a, b in zip(whole["steps"], run["steps"], strict=True):
+            for key in ("P", "Q", "microslip_fe_m"):
+                assert b[key] == pytest.approx(a[key], rel=1e-5, abs=1e-5 * abs(a["slide_m"])
+                                               if key == "microslip_fe_m" else 0.0), key
+
+
+def test_predicted_patch_takes_the_rows_within_the_share_of_the_reach():
+    # One pair, rows with gaps 0..9 um and a search distance of 10 um: the rows
+    # within 0.65 of the reach beyond the smallest gap (0..6 um) are predicted, and
+    # their nodes are what tangential_nodes gives for those rows.
+    import scipy.sparse as sp
+
+    class _Contact:
+        pass
+
+    class _State:
+        gap = np.arange(10) * 1e-6
+
+    r = 10
+    c = _Contact()
+    c.states = [_State()]
+    c.g_ref = _State.gap.copy()
+    c.active_rows = np.ones(r, dtype=bool)
+    # row k reaches node k alone (its three components)
+    cols = 3 * np.arange(r)
+    c.Bt_full = sp.csr_matrix((np.ones(2 * r), (np.arange(2 * r), np.tile(cols, 2))),
+                              shape=(2 * r, 3 * r))
+    nodes = linearised.predicted_patch(None, c, [10e-6], fraction=0.65)
+    assert list(nodes) == [0, 1, 2, 3, 4, 5, 6]
+    assert len(linearised.predicted_patch(None, c, [None])) == 0

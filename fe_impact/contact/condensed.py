@@ -70,16 +70,19 @@ SCHUR_SOLVES = 250
 ROW_SPACE_COORDINATES = 8000
 #: With friction, a zone whose nodes have at most this many coordinates in all is
 #: condensed on all three of every node; a larger one on its nodes' normal
-#: coordinates and on the tangent ones of the nodes the rows in contact reach
-#: (:func:`frictional_frames`), grown by a new factorisation when a row with a
-#: force reaches a node left out. Each growth costs a factorisation, which pays
-#: only where the dense block is large. Measured on one thread, friction over
-#: frictionless: bench_static (31k DOFs, 2,317 coordinates, 1,577 with the
-#: patch's) 1.39 x with all against 1.69 x with the patch's; bench_dynamic's
-#: Newmark run (18.8k DOFs, 2,342) 1.29 x against 1.46 x; the coarse tooth impact
-#: of validation/friction_tooth.py (43k DOFs, 8,166 coordinates, 4,966 with the
-#: patch's after two growths) 3.2 x against 2.1 x.
-FULL_TANGENTIAL_COORDINATES = 4000
+#: coordinates and on the tangent ones of a patch (:func:`frictional_frames`): the
+#: nodes the solvers predict the contact to reach
+#: (:func:`~fe_impact.contact.linearised.predicted_patch`,
+#: :func:`~fe_impact.contact.linearised.flight_patch`), grown by a new factorisation
+#: when a row with a force reaches a node left out. With the prediction the patch
+#: rarely grows, and it pays at every size (0: always the patch). Measured on one
+#: thread, friction over frictionless, all three coordinates against the predicted
+#: patch: bench_static (31k DOFs) 2,317 against 1,751 coordinates, 1.46 x against
+#: 1.26 x; bench_dynamic's Newmark run (18.8k DOFs) 2,342 against 1,566, 1.50 x
+#: against 1.27 x; the coarse tooth impact of validation/friction_tooth.py (43k DOFs)
+#: 8,166 against 4,300 coordinates without a growth (4,966 after two growths before
+#: the prediction), 14.7 s against 8.6 s CPU (6.4 s frictionless).
+FULL_TANGENTIAL_COORDINATES = 0
 
 
 def frictional_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel,
@@ -87,9 +90,10 @@ def frictional_frames(mesh: FEMesh, kin: Kinematics, contact: ContactModel,
     """:func:`~fe_impact.contact.linearised.zone_frames` of a zone with friction: all
     three coordinates of every node up to :data:`FULL_TANGENTIAL_COORDINATES`, else
     the normal ones and the tangent ones of the nodes ``tangential``."""
-    frames = zone_frames(mesh, kin, contact, all_components=True)
-    if len(frames.condensed) <= FULL_TANGENTIAL_COORDINATES:
-        return frames
+    if FULL_TANGENTIAL_COORDINATES > 0:
+        frames = zone_frames(mesh, kin, contact, all_components=True)
+        if len(frames.condensed) <= FULL_TANGENTIAL_COORDINATES:
+            return frames
     return zone_frames(mesh, kin, contact, tangential=tangential)
 
 
@@ -355,15 +359,18 @@ class CondensedContact:
 
     def __init__(self, mesh: FEMesh, kin: Kinematics, contact: ContactModel,
                  K_eff: sp.csr_matrix, force_factor: float,
-                 schur_solves: int = SCHUR_SOLVES, friction=None) -> None:
+                 schur_solves: int = SCHUR_SOLVES, friction=None,
+                 tangential: np.ndarray | None = None) -> None:
         self.mesh, self.kin, self.contact = mesh, kin, contact
         #: :class:`~fe_impact.contact.friction.ImplicitFriction` of a contact model with
         #: friction: the zone is condensed on its nodes' normal coordinates and on the
         #: tangent ones of the nodes the rows in contact reach (:attr:`tangential`)
         self.friction = friction
         #: friction: the nodes (``mesh.point_dof`` numbers) whose tangent coordinates are
-        #: condensed, grown as the contact patch grows (:meth:`_grow_tangential`)
-        self.tangential = np.zeros(0, dtype=np.int64)
+        #: condensed, grown as the contact patch grows (:meth:`_grow_tangential`); the
+        #: start ``tangential`` (:func:`~fe_impact.contact.linearised.predicted_patch`)
+        self.tangential = np.zeros(0, dtype=np.int64) if tangential is None else \
+            np.unique(np.asarray(tangential, dtype=np.int64))
         self.tangential_growths = 0
         self._fdelassus: list | None = None    # see _frictional_columns
         self._fjac: tuple | None = None        # (projection, the rows' condensed Jacobian)

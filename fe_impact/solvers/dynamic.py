@@ -44,7 +44,12 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 from fe_impact.contact.condensed import CondensedContact, StepContact
 from fe_impact.contact.friction import ExplicitFriction, ImplicitFriction, pair_laws
-from fe_impact.contact.linearised import ContactModel, SurfaceMonitor
+from fe_impact.contact.linearised import (
+    ContactModel,
+    SurfaceMonitor,
+    flight_patch,
+    predicted_patch,
+)
 from fe_impact.contact.zone import (
     PENALTY_FACTOR_EXPLICIT,
     ContactZone,
@@ -206,6 +211,7 @@ class DynamicSolver:
         clock.lap("contact_pairs")
         setup = ContactSetup.build(case, self.mesh, self.pairs, gap_reach(self.mesh))
         self.zone = setup.zone
+        self.reach = setup.reach
         laws = pair_laws(case.contacts)
         h_min = min(face_size(self.mesh, p.slave) for p in self.pairs)
         slip_tolerance = None
@@ -254,9 +260,30 @@ class DynamicSolver:
         if self.contact.friction:
             self.friction = ImplicitFriction(self.dt)
         # One factorisation serves the solves and the condensation (see ZoneSolver).
+        tangential = self._predicted_tangential() if self.contact.friction else None
         return nm, CondensedContact(self.mesh, self.kin, self.contact,
                                     nm.effective_stiffness(), nm.force_factor,
-                                    friction=self.friction)
+                                    friction=self.friction, tangential=tangential)
+
+    def _predicted_tangential(self) -> np.ndarray:
+        """The nodes whose tangent coordinates the friction's condensation starts with
+        (the patch grows from them as contact spreads; see
+        :attr:`CondensedContact.tangential`): the rows within
+        :data:`~fe_impact.contact.linearised.PREDICTED_PATCH_FRACTION` of a pair's
+        given search distance (which a tooth impact sets beyond its Hertz approach)
+        and, from a rigid start, those the first touch's growth would take. Without
+        them the first contact made a second factorisation."""
+        c = self.contact
+        reach = [r if spec.search_distance is not None else None
+                 for r, spec in zip(self.reach, self.case.contacts, strict=True)]
+        nodes = predicted_patch(self.mesh, c, reach)
+        if self.free_flight and self.v0 is not None and np.any(self.v0):
+            K = self.K
+            size = float(np.linalg.norm(abs(K) @ np.abs(self.v0)))
+            if size > 0.0 and float(np.linalg.norm(K @ self.v0)) <= RIGID_START * size:
+                nodes = np.union1d(nodes, flight_patch(self.mesh, c, c.B_full @ self.v0,
+                                                       self.dt))
+        return nodes
 
     @property
     def initial_gap(self) -> float:

@@ -61,7 +61,12 @@ from fe_impact.contact.condensed import (
 )
 from fe_impact.contact.friction import pair_laws, slip_dissipation, solve_frictional
 from fe_impact.contact.lcp import solve_penalty_lcp
-from fe_impact.contact.linearised import ContactModel, patch_growth, zone_frames
+from fe_impact.contact.linearised import (
+    ContactModel,
+    patch_growth,
+    predicted_patch,
+    zone_frames,
+)
 from fe_impact.contact.surfaces import nodal_areas, nodal_pressure
 from fe_impact.contact.zone import ContactZone, contact_pairs, face_size
 from fe_impact.errors import CaseError, ContactError
@@ -244,7 +249,8 @@ class StaticSolver:
         self.rows: _RowSpace | None = None    # set when the zone is solved in row space
         # friction: the nodes (mesh.point_dof numbers) whose tangent coordinates are
         # condensed, grown as the contact patch grows (_grow_tangential)
-        self.tangential = np.zeros(0, dtype=np.int64)
+        self.tangential = predicted_patch(self.mesh, self.contact, setup.reach) \
+            if self.friction else np.zeros(0, dtype=np.int64)
         self.tangential_growths = 0
         self._condense()
         # The load-controlled body (at most one) and its unit response.
@@ -803,6 +809,9 @@ class StaticSolver:
         if grew:
             logger.info("contact zone sized for the largest load (%.3g)", loads.max())
             self.contact.update(eq.z)
+            if self.friction:     # the largest load's patch, predicted as at the start
+                self.tangential = np.union1d(self.tangential, predicted_patch(
+                    self.mesh, self.contact, distances))
             self._condense()
         return grew
 

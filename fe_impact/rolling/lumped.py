@@ -78,7 +78,8 @@ def stage_laws(laws: LawSet, stage: int) -> LawSet:
 
 def lumped_model(condition: RollingCondition, gearset: GearSet | None = None,
                  calibration: str | Path | None = None,
-                 output_share: float = OUTPUT_SHARE) -> DriveModel:
+                 output_share: float = OUTPUT_SHARE,
+                 tip_edge_damping: bool = True) -> DriveModel:
     """The single-stage, single-mesh `DriveModel` of ``condition``.
 
     Parameters
@@ -90,6 +91,10 @@ def lumped_model(condition: RollingCondition, gearset: GearSet | None = None,
         A ``calibration.json`` of ``gearset``; None: the closed-form laws.
     output_share : float
         Share ``f`` of the face-gear inertia on the output, in (0, 0.5].
+    tip_edge_damping : bool
+        False: the tip-edge (corner) laws without their damping (``cmax = 0``),
+        as the elastic rolling FE has them; a diagnostic that separates what the
+        mesh-in laws' restitution dissipates from the rest of the comparison.
     """
     gearset = default_gearset() if gearset is None else gearset
     if not 0.0 < output_share <= 0.5:
@@ -103,7 +108,8 @@ def lumped_model(condition: RollingCondition, gearset: GearSet | None = None,
         friction="gearset" if condition.friction else None, drive="speed",
         mesh_phase=condition.mesh_phase, engage_position=1.0)
     if calibration is None:
-        return model.with_laws(closed_form_laws(single, [model.effective_mass(1)]))
+        return _tip_edges(model.with_laws(closed_form_laws(single, [model.effective_mass(1)])),
+                          tip_edge_damping)
     # the file's stages are the full set's: read it on that set, with each stage's
     # effective mass of one mesh on a rotor of its own ring's inertia (the closed-form
     # fallbacks of missing kinds), then keep the condition's stage
@@ -112,7 +118,19 @@ def lumped_model(condition: RollingCondition, gearset: GearSet | None = None,
               for stage in gearset.stages]
     masses[condition.stage - 1] = model.effective_mass(1)
     laws = load_calibration(calibration, gearset, masses)
-    return model.with_laws(stage_laws(laws, condition.stage))
+    return _tip_edges(model.with_laws(stage_laws(laws, condition.stage)), tip_edge_damping)
+
+
+def _tip_edges(model: DriveModel, damping: bool) -> DriveModel:
+    """``model``, or with no damping in its tip-edge (corner) laws."""
+    if damping:
+        return model
+    law_set = model.law_set
+    tables = {key: replace(table, cmax=np.zeros_like(table.cmax))
+              if key[1].startswith("corner") else table
+              for key, table in law_set.tables.items()}
+    return model.with_laws(replace(law_set, tables=tables,
+                                   source=f"{law_set.source}; tip edges undamped"))
 
 
 def events_from_run(events) -> ContactEvents:
@@ -140,7 +158,8 @@ def load_series(condition: RollingCondition, points: int = RAMP_POINTS) -> LoadS
 
 def run_lumped(condition: RollingCondition, laws: str = "closed-form",
                gearset: GearSet | None = None, calibration: str | Path | None = None,
-               output_share: float = OUTPUT_SHARE) -> RollingRecord:
+               output_share: float = OUTPUT_SHARE,
+               tip_edge_damping: bool = True) -> RollingRecord:
     """Run the lumped model on ``condition`` and return its `RollingRecord`.
 
     Parameters
@@ -152,7 +171,7 @@ def run_lumped(condition: RollingCondition, laws: str = "closed-form",
         Default: the seed's set.
     calibration : path, optional
         The ``calibration.json`` for ``laws = "calibrated"``.
-    output_share : float
+    output_share, tip_edge_damping
         See `lumped_model`.
 
     Returns
@@ -167,7 +186,7 @@ def run_lumped(condition: RollingCondition, laws: str = "closed-form",
                         "written by fe-impact calibrate)")
     gearset = default_gearset() if gearset is None else gearset
     model = lumped_model(condition, gearset, calibration if laws == "calibrated" else None,
-                         output_share)
+                         output_share, tip_edge_damping)
     schedule = StageSchedule((Segment(condition.duration, 1, condition.speed_rpm,
                                       load_series=load_series(condition)),))
     period = 1.0 / condition.mesh_frequency(gearset.pinion.teeth)
@@ -181,6 +200,7 @@ def run_lumped(condition: RollingCondition, laws: str = "closed-form",
     logger.info("lumped %s, %s: %d steps, %.1f s, %d impacts", condition.name, laws,
                 info["steps"], info["wall_s"], len(run.events))
     return RollingRecord(
-        source=f"lumped, {laws}", condition=condition, pinion_teeth=gearset.pinion.teeth,
+        source=f"lumped, {laws}" + ("" if tip_edge_damping else ", tip edges undamped"),
+        condition=condition, pinion_teeth=gearset.pinion.teeth,
         time=s["time_s"], te=s["mesh_displacement_m"], drive_force=s["drive_force_N"],
         coast_force=s["coast_force_N"], events=events_from_run(run.events), info=info)

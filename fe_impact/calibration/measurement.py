@@ -113,7 +113,7 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
 
     keep_freed_memory()
 
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     folder = Path(out) / "cases" / case.id
     gearset = gearset_from_dict(tomllib.loads(gearset_text))
     key = case_hash(case, settings, gearset_text)
@@ -164,6 +164,7 @@ def run_case(case: ImpactCase, settings: Settings, gearset_text: str, out: str,
         picture(record)
         timings["picture"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
+    timings["cpu"] = time.process_time() - cpu0   # the process's, all its threads
     record = replace(record, timings_s=timings)
     write_record(folder / "result.json", record)
     return record

@@ -57,6 +57,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
                         "run whose step follows the load's variation, not the impacts)")
     p.add_argument("--rigid", action="store_true",
                    help="rigid rotors, Hertz contact only (no sector mesh): a quick look")
+    p.add_argument("--no-friction", dest="friction", action="store_false",
+                   help="frictionless flanks (default: Coulomb friction with the gear "
+                        "set's [friction] coefficients)")
     p.add_argument("--mesh-dir", type=Path, metavar="DIR",
                    help="where the sector mesh is kept and reused (default: OUT/mesh)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
@@ -78,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
                         steps_per_cycle=args.steps_per_cycle,
                         ramp_cycles=(args.ramp_cycles if args.ramp_cycles is not None
                                      else min(1.0, 0.5 * args.cycles)),
-                        te_amplitude=args.te_amplitude * 1e-6, elastic=not args.rigid)
+                        te_amplitude=args.te_amplitude * 1e-6, elastic=not args.rigid,
+                        friction=args.friction)
     # bad input: one line, nothing written
     check_inputs(gearset, inputs, check_step=not args.quasi_static)
     check_output_dir(args.out)

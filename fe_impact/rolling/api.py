@@ -47,7 +47,10 @@ class RollInputs:
     :class:`~fe_impact.rolling.model.RollSettings`); ``elastic``: False for rigid
     rotors (Hertz only); ``probe_depth``
     [m]: where the sectors' displacement is read below the contact point (None: the
-    default, two flank element sizes; 0: on the surface, with the Hertz approach added).
+    default, two flank element sizes; 0: on the surface, with the Hertz approach added);
+    ``friction``: Coulomb friction between the flanks with the gear set's ``[friction]``
+    coefficients (the lumped model's law, :mod:`fe_impact.rolling.friction`; none
+    when the set gives 0 and 0), False: frictionless flanks.
     """
 
     stage: int
@@ -64,6 +67,7 @@ class RollInputs:
     frames_per_cycle: int = 20
     start_cycles: float | None = None
     probe_depth: float | None = None
+    friction: bool = True
 
 
 def _speed_rad(rpm: float) -> float:
@@ -260,6 +264,7 @@ def roll(gearset, inputs: RollInputs, out: str | Path | None = None, *, progress
     import contextlib
 
     from fe_impact.fe.linalg import limit_threads
+    from fe_impact.rolling.friction import friction_of
     from fe_impact.rolling.model import ContactGeometry, Roller, RollSettings, rigid_body
     from fe_impact.rolling.run import integrate
     from fe_impact.rolling.sectors import tooth_range
@@ -305,7 +310,8 @@ def roll(gearset, inputs: RollInputs, out: str | Path | None = None, *, progress
         clear_frames(Path(out))
     with limit_threads(1), (while_stepping or contextlib.nullcontext()):
         result = integrate(roller, progress=progress, stop=stop,
-                           frame=frames.write if frames else None)
+                           frame=frames.write if frames else None,
+                           friction=friction_of(gearset) if inputs.friction else None)
     result.info.update(inputs=inputs.__dict__, gearset=gearset.name,
                        backlash_m=geo.backlash, mesh=mesh, probe_depth_m=roller.depth,
                        probe_depth_range_m=getattr(roller, "depth_range", None),

@@ -617,7 +617,7 @@ class Roller:
             row = {"flank": fl, "tooth": k, "s": s, "g": g + 0.5 * m.backlash - sign * e,
                    "kh": kh, "dtheta_p": -sign * self.r_bp * (1.0 - dg) - sign * de,
                    "dtheta_f": sign * self.r_b2,
-                   "sign": sign, "xp": xp, "xf": xf}
+                   "sign": sign, "xp": xp, "xf": xf, "np": np_, "nf": nf}
             mp, mf, a1 = self._majors
             half = a1 * self.spread_force ** (1.0 / 3.0)
             if self.depth > 0.0:

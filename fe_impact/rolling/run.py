@@ -79,10 +79,16 @@ class RollResult:
     energy : dict of ndarray (n,)
         ``kinetic``, ``strain``, ``hertz`` (the local law's: the Hertz or the layers'
         energy), ``drive_work``, ``load_work``,
-        ``centrifugal_work`` (of the centrifugal load on the sectors), ``error``.
+        ``centrifugal_work`` (of the centrifugal load on the sectors),
+        ``friction_dissipation`` (minus the work of the flanks' friction on both
+        gears, cumulative), ``friction_power`` (``sum mu F_n |v_s|`` over the pairs at
+        each step [W]: the rate the dissipation should have), ``error``.
     events : list of ContactEvent
     info : dict
         Inputs, sizes and costs.
+    pair_slip_m_s : ndarray (n, n_teeth, 2) or None
+        With friction: each pair's sliding speed (the pinion's on the face gear,
+        positive towards the pinion's tip; NaN: out of reach); None without.
     """
 
     time_s: np.ndarray
@@ -96,6 +102,7 @@ class RollResult:
     energy: dict
     events: list = field(default_factory=list)
     info: dict = field(default_factory=dict)
+    pair_slip_m_s: np.ndarray | None = None
 
     def energy_balance(self) -> dict:
         """The energy balance's largest error in J, and against the kinetic energy and
@@ -151,8 +158,13 @@ def _body_solve(body, rhs: np.ndarray) -> np.ndarray:
 
 
 def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
-              frame=None) -> RollResult:
+              frame=None, friction=None) -> RollResult:
     """Integrate ``roller`` over its steps.
+
+    ``friction``: the flanks' Coulomb law (:func:`fe_impact.rolling.friction.friction_of`;
+    None: frictionless), applied at each pair as :mod:`fe_impact.rolling.friction`
+    says: its coefficient and direction from the step's end kinematics, its size the
+    step's normal force (part of each pair's unit-force column).
 
     The energies are evaluated every ``energy_every`` steps (and at the last;
     NaN between: two sparse products each), the works at every step.
@@ -180,7 +192,12 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
     place = np.full((n_steps + 1, len(teeth), 2), np.nan)
     point = np.full((n_steps + 1, len(teeth), 2, 3), np.nan)
     en = {k: np.zeros(n_steps + 1) for k in ("kinetic", "strain", "hertz", "drive_work",
-                                              "load_work", "centrifugal_work", "error")}
+                                              "load_work", "centrifugal_work",
+                                              "friction_dissipation", "friction_power",
+                                              "error")}
+    slip = np.full((n_steps + 1, len(teeth), 2), np.nan) if friction is not None else None
+    g_fric = (np.zeros(p.n), np.zeros(f.n))     # friction's generalised forces, step before
+    w_friction = 0.0
 
     def x_of(qp, qf):
         return r.r_bp * qp[-1] - r.r_b2 * qf[-1] + 0.5 * c
@@ -225,6 +242,9 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
         vt_f = sf.v + (1 - GAMMA) * dt * sf.a
         rows = r._rows(th1, qt_f[-1])
         m = len(rows)
+        if friction is not None:
+            from fe_impact.rolling.friction import slide
+            slide(r, rows, friction, th1, w1, qt_f[-1], sf.v[-1] + dt * sf.a[-1])
         # one solve per gear for the free motion and every pair's unit force
         # A: where a pair's force enters the sectors; R: where its gap reads them
         A_p, A_f = np.zeros((m, p.n)), np.zeros((m, f.n))
@@ -236,6 +256,11 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
                     np.add.at(R[i], row[key + "_read"][0], row[key + "_read"][1])
             A_f[i, -1] += row["dtheta_f"]
             R_f[i, -1] += row["dtheta_f"]
+            if friction is not None:        # the friction rides on the normal force
+                for key, A in (("p", A_p), ("f", A_f)):
+                    if row[key + "_t"] is not None:
+                        np.add.at(A[i], row[key + "_t"][0], row[key + "_t"][1])
+                A_f[i, -1] += row["dtheta_f_t"]
         a_p = np.zeros(p.n)
         a_p[-1] = al1
         yp = np.zeros((m, p.n))
@@ -264,7 +289,7 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
         if cand:
             yp, yf = yp[on], yf[on]
             D = BETA * dt * dt * (R_p[on] @ yp.T + R_f[on] @ yf.T)
-            if r.depth <= 0.0:      # read where loaded: symmetric but for round-off
+            if r.depth <= 0.0 and friction is None:  # read where loaded: symmetric
                 D = 0.5 * (D + D.T)
             law = r.law(cand)
             lam = solve_contact(gfree[on], D, law)
@@ -280,7 +305,24 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
         sf.v = vt_f + GAMMA * dt * a_f
         sf.a = a_f
         # the drive torque: the pinion rotor's equation solved for it
-        contact_torque = sum(li * row["dtheta_p"] for li, row in zip(lam, cand, strict=True))
+        contact_torque = sum(li * (row["dtheta_p"] + row.get("dtheta_p_t", 0.0))
+                             for li, row in zip(lam, cand, strict=True))
+        if friction is not None:    # its work: trapezoidal, as Newmark's energy balance
+            g_new = (np.zeros(p.n), np.zeros(f.n))
+            power = 0.0
+            for li, row in zip(lam, cand, strict=True):
+                for g, key in zip(g_new, ("p", "f"), strict=True):
+                    if row[key + "_t"] is not None:
+                        np.add.at(g, row[key + "_t"][0], li * row[key + "_t"][1])
+                g_new[0][-1] += li * row["dtheta_p_t"]
+                g_new[1][-1] += li * row["dtheta_f_t"]
+                power += li * abs(row["mu"]) * abs(row["slip_speed"])
+            w_friction += 0.5 * ((g_fric[0] + g_new[0]) @ (sp_.q - qp0)
+                                 + (g_fric[1] + g_new[1]) @ (sf.q - qf0))
+            g_fric = g_new
+            en["friction_dissipation"][n], en["friction_power"][n] = -w_friction, power
+            for row in rows:
+                slip[n, col[row["tooth"]], row["flank"]] = row["slip_speed"]
         t_drive1 = float((Mp[-1] @ a_p)[0]) - contact_torque
         w_drive += 0.5 * (torque_drive + t_drive1) * (th1 - th0)
         w_load += 0.5 * (torque_load + load1) * (sf.q[-1] - thf0)
@@ -306,7 +348,7 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
             en["kinetic"][n] = kinetic()
             en["strain"][n] = strain()
             en["error"][n] = (en["kinetic"][n] + en["strain"][n] + hertz_pe - e0 - w_drive
-                              - w_load - w_centrifugal)
+                              - w_load - w_centrifugal - w_friction)
         else:
             en["kinetic"][n] = en["strain"][n] = en["error"][n] = np.nan
         if frame is not None:
@@ -323,10 +365,15 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
     info = {"n_steps": done, "complete": done == n_steps, "dt_s": dt,
             "dofs": {"pinion": p.n, "face_gear": f.n},
             "wall_s": time.perf_counter() - started, "cpu_s": time.process_time() - cpu0,
-            "cycles_done": done / max(r.set.steps_per_cycle, 1)}
+            "cycles_done": done / max(r.set.steps_per_cycle, 1),
+            "friction": None if friction is None else {
+                "mu_static": friction.static, "mu_dynamic": friction.dynamic,
+                "stiction_speed_m_s": friction.stiction_speed,
+                "transition_speed_m_s": friction.transition_speed}}
     return RollResult(np.arange(k) * dt, te[:k], wp_[:k], wf_[:k], teeth, force[:k],
                       place[:k], point[:k], {key: v[:k] for key, v in en.items()},
-                      sorted(events, key=lambda e: e.time_s), info)
+                      sorted(events, key=lambda e: e.time_s), info,
+                      None if slip is None else slip[:k])
 
 
 def _events(r: Roller, t: float, rows, lam, cand, open_events, pending, events, prev_gap,

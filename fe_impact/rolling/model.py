@@ -381,6 +381,11 @@ class RollSettings:
         sizes. 0: read on the surface and add the Hertz approach (:class:`HertzLaw`;
         the FE's own indentation under the spread load is then counted on top of
         Hertz's). Rigid rotors always take the Hertz approach.
+    layer_scale : tuple of (float, float)
+        A diagnostic, not part of the model: points ``(s [m], factor)`` by which the
+        layers' compression of a pair at ``s`` is multiplied (linear between them,
+        the end values beyond); ``validation/rolling.py``'s sensitivity of the
+        quasi-static TE to the pinion tip's compliance. Empty: none.
     """
 
     speed: float
@@ -393,6 +398,7 @@ class RollSettings:
     te_amplitude: float = 0.0
     spread_force: float | None = None
     probe_depth: float | None = None
+    layer_scale: tuple = ()
 
 
 def inertial_terms(sector_mass: float, radius: float, speed: float, mesh_force: float,
@@ -658,7 +664,11 @@ class Roller:
     def _layer_parameters(self, s: float, depth: float) -> tuple[float, float, float]:
         """``(k, zeta_d, kappa)`` of :class:`LayerLaw` at ``s``, read at ``depth``."""
         a1, b1, p01 = self.geo.unit_ellipse_at(s)
-        return 2.0 * p01 * b1 / self.geo.youngs_modulus, depth / a1, b1 / a1
+        k = 2.0 * p01 * b1 / self.geo.youngs_modulus
+        if self.set.layer_scale:
+            at, factor = zip(*self.set.layer_scale, strict=True)
+            k *= float(np.interp(s, at, factor))
+        return k, depth / a1, b1 / a1
 
     def pair_depth(self, fl: int, k: int, s: float, theta_p: float) -> float:
         """Depth [m] of the reading of pair ``(fl, k)`` at ``s``: the run's depth, at most

@@ -78,17 +78,17 @@ def coefficient(law, speed: float) -> float:
     return float(friction_coefficient(float(speed), _record(law)))
 
 
-def _frame(roller, theta: float, body: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``R``, ``c`` and ``dR/dtheta`` of ``body``'s placement at ``theta``: a reference
-    point ``x`` is at ``R x + c`` in the mesh frame
-    (:meth:`~fe_impact.rolling.model.Roller.world`), ``dR/dtheta`` by central differences."""
+def _frame(roller, theta: float, body: str
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``R``, ``c``, ``dR/dtheta`` and ``dc/dtheta`` of ``body``'s placement at ``theta``: a
+    reference point ``x`` is at ``R x + c`` in the mesh frame
+    (:meth:`~fe_impact.rolling.model.Roller.world`), the rates by central differences."""
     def rot(a):
         c = roller.world(np.zeros(3), a, body)
         return np.column_stack([roller.world(e, a, body) - c for e in np.eye(3)]), c
 
-    R, c = rot(theta)
-    dR = (rot(theta + _DTHETA)[0] - rot(theta - _DTHETA)[0]) / (2.0 * _DTHETA)
-    return R, c, dR
+    (R, c), (R1, c1), (R0, c0) = rot(theta), rot(theta + _DTHETA), rot(theta - _DTHETA)
+    return R, c, (R1 - R0) / (2.0 * _DTHETA), (c1 - c0) / (2.0 * _DTHETA)
 
 
 def _spread(entry, direction: np.ndarray):
@@ -115,13 +115,13 @@ def slide(roller, rows: list[dict], law, theta_p: float, omega_p: float, theta_f
     """
     if not rows:
         return
-    Rp, cp, dRp = _frame(roller, theta_p, "pinion")
-    Rf, _, dRf = _frame(roller, theta_f, "face_gear")
+    Rp, cp, dRp, dcp = _frame(roller, theta_p, "pinion")
+    Rf, _, dRf, dcf = _frame(roller, theta_f, "face_gear")
     axis_point = roller.p.axis_point
     axis = roller.p.axis / np.linalg.norm(roller.p.axis)
     for row in rows:
         xp = Rp @ row["xp"] + cp
-        dxp, dxf = dRp @ row["xp"], dRf @ row["xf"]
+        dxp, dxf = dRp @ row["xp"] + dcp, dRf @ row["xf"] + dcf
         n = Rp @ row["np"]
         n /= np.linalg.norm(n)
         v = omega_p * dxp - omega_f * dxf

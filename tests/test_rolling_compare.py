@@ -243,3 +243,21 @@ def test_phase_offset_of_the_mesh_in_impacts_wraps_around_the_period():
     assert phase_offset(at([0.14, 1.14]), at([0.93, 1.93])) == pytest.approx(0.79, abs=1e-9)
     assert phase_offset(at([0.95, 1.96]), at([0.05, 1.06])) == pytest.approx(0.10, abs=1e-9)
     assert math.isnan(phase_offset(at([]), at([0.5])))
+
+
+def test_undamped_tip_edges_change_only_the_tip_edge_laws_damping():
+    # the diagnostic run of rolling_compare: the corner (mesh-in) laws lose their damping,
+    # every other law and parameter is the closed-form run's
+    condition = _condition("tip", 1, 1000.0, 50.0)
+    damped = lumped_model(condition).law_set.tables
+    undamped = lumped_model(condition, tip_edge_damping=False).law_set.tables
+    assert damped.keys() == undamped.keys()
+    assert any(kind.startswith("corner") for _, kind in damped)
+    for key, table in damped.items():
+        other = undamped[key]
+        for name in ("impact_speed", "k", "exponent", "d"):
+            np.testing.assert_array_equal(getattr(other, name), getattr(table, name))
+        if key[1].startswith("corner"):
+            assert not other.cmax.any() and table.cmax.any()
+        else:
+            np.testing.assert_array_equal(other.cmax, table.cmax)

@@ -115,17 +115,21 @@ CONDITIONS = (("loaded-1000", 1000.0, LOAD, 0.0, 1.0, 1.0),
               ("noload-1000", 1000.0, 0.0, TE_AMPLITUDE, 0.0, 0.4))
 
 
-def conditions(gearset: GearSet, stage: int, cycles: float = CYCLES
+def conditions(gearset: GearSet, stage: int, cycles: float = CYCLES, friction: bool = False
                ) -> list[RollingCondition]:
-    """The three `RollingCondition` of the study on ``stage`` of ``gearset``."""
+    """The three `RollingCondition` of the study on ``stage`` of ``gearset``; with
+    ``friction`` the flanks have the gear set's coefficients in both models (the names
+    end in ``-friction``, so that their FE records are kept apart)."""
     backlash = _default_backlash(gearset, stage)
     out = []
     for name, rpm, torque, te, ramp, settle in CONDITIONS:
         period = 60.0 / (gearset.pinion.teeth * rpm)
         out.append(RollingCondition(
-            name, stage, rpm, torque + DRAG, cycles * period, gearset.pinion.inertia,
-            gearset.stages[stage - 1].inertia, backlash, transmission_error=te,
-            settle=settle * period, load_ramp=ramp * period, mesh_phase=MESH_PHASE))
+            f"{name}-friction" if friction else name, stage, rpm, torque + DRAG,
+            cycles * period, gearset.pinion.inertia, gearset.stages[stage - 1].inertia,
+            backlash, transmission_error=te,
+            settle=settle * period, load_ramp=ramp * period, mesh_phase=MESH_PHASE,
+            friction=friction))
     return out
 
 
@@ -157,11 +161,13 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
         return None
     period = 1.0 / condition.mesh_frequency(gearset.pinion.teeth)
     kwargs = dict(stage=condition.stage, speed_rpm=condition.speed_rpm,
-                  steps_per_cycle=FE_STEPS[condition.name],
+                  steps_per_cycle=FE_STEPS[condition.name.removesuffix("-friction")],
                   torque_nm=condition.torque + condition.drag_torque,
                   cycles=condition.duration / period, level=level,
                   ramp_cycles=condition.load_ramp / period,
                   te_amplitude=condition.transmission_error)
+    if "friction" in RollInputs.__dataclass_fields__:   # the same flanks as the lumped run
+        kwargs["friction"] = condition.friction
     if "start_cycles" in RollInputs.__dataclass_fields__:
         kwargs["start_cycles"] = condition.mesh_phase - FE_PAIR_OFFSET
     else:
@@ -186,7 +192,8 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
 
 
 def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int = 1,
-        cycles: float = CYCLES, run_fe: bool = False, level: str = "coarse") -> dict:
+        cycles: float = CYCLES, run_fe: bool = False, level: str = "coarse",
+        friction: bool = False) -> dict:
     """Compute the records, metrics and goal checks of every condition.
 
     Returns
@@ -199,7 +206,7 @@ def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int 
     if calibration is None or not calibration.is_file():
         missing.append(f"calibration file {calibration}")
     shift = math.nan
-    for condition in conditions(gearset, stage, cycles):
+    for condition in conditions(gearset, stage, cycles, friction):
         fe_side = fe_record(condition, gearset, fe, run_fe, level)
         if fe_side is not None:
             condition = fe_side.condition
@@ -260,6 +267,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cycles", type=float, default=CYCLES,
                         help=f"mesh periods simulated (default {CYCLES}, what the FE's "
                         "sectors hold)")
+    parser.add_argument("--friction", action="store_true", help="the gear set's flank "
+                        "friction in both models (the calibration should have it too)")
     parser.add_argument("--out", type=Path, default=Path("out/rolling_compare"))
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(message)s")
@@ -274,7 +283,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.run_fe and args.fe is None:
             raise FeImpactError("--run-fe needs --fe DIR (where the FE records are kept)")
         result = run(gearset, args.calibration, args.fe, args.stage, args.cycles,
-                     args.run_fe, args.level)
+                     args.run_fe, args.level, args.friction)
     except FeImpactError as exc:
         print(f"rolling_compare: {exc}", file=sys.stderr)
         return 1

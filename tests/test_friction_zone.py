@@ -125,3 +125,52 @@ def test_predicted_patch_takes_the_rows_within_the_share_of_the_reach():
     nodes = linearised.predicted_patch(None, c, [10e-6], fraction=0.65)
     assert list(nodes) == [0, 1, 2, 3, 4, 5, 6]
     assert len(linearised.predicted_patch(None, c, [None])) == 0
+
+
+def test_static_friction_in_the_rows_space_equals_the_condensed_zone(tmp_path, monkeypatch):
+    # A zone above FRICTION_ROW_SPACE_COORDINATES is solved in the space of its normal and
+    # tangential rows (their compliances kept by row, the gaps and slips corrected
+    # by the exact response to the last forces each projection) instead of on its
+    # condensed coordinates; forced here on small zones. The coarse Cattaneo-Mindlin
+    # loading, and a load-controlled rigid body pressing the sphere with friction
+    # (the load root on the rows' problem). The projection iteration stops at the
+    # analysis tolerance (1e-6 of the contact displacement) from two paths: 1e-5
+    # relative on the Cattaneo loading, as above; the loaded case is converged to
+    # 1e-10 of its contact displacement and held to 1e-7 (measured 1e-10; at the
+    # default tolerance its rigid coordinate differed by 1.0e-5).
+    from dataclasses import replace
+    from pathlib import Path
+
+    from fe_impact.fe.case import RigidBodySpec
+    from fe_impact.fe.mesh import load_mesh
+    from validation import friction_cattaneo as fc
+    from validation.impact_cases import sphere_block_case
+
+    meshes = Path(__file__).resolve().parents[1] / "meshes"
+    case = sphere_block_case(meshes / "hertz_coarse_p1.msh")
+    case = replace(case, contacts=(replace(case.contacts[0], mu_static=0.3, mu_dynamic=0.3),),
+                   rigid_bodies=(RigidBodySpec("sphere_equator", "translation", (0.0, 0.0, 1.0),
+                                               loads=(-40.0, -90.0)),),
+                   analysis=replace(case.analysis, tolerance=1e-10, max_iterations=100))
+    mesh = load_mesh(case.mesh_file)
+
+    def both():
+        name = f"rows{static.FRICTION_ROW_SPACE_COORDINATES}"
+        level = fc.run_level(tmp_path, name, 0.2e-3, steps=3)
+        solver = static.StaticSolver(case, mesh, stress=False)
+        return level, solver.run(), solver.rows is not None
+
+    coordinates = both()
+    monkeypatch.setattr(static, "FRICTION_ROW_SPACE_COORDINATES", 0)
+    rows = both()
+    assert not coordinates[2] and rows[2]
+    for a, b in zip(coordinates[0]["steps"], rows[0]["steps"], strict=True):
+        for key in ("P", "Q", "microslip_fe_m"):
+            assert b[key] == pytest.approx(a[key], rel=1e-5, abs=1e-5 * abs(a["slide_m"])
+                                           if key == "microslip_fe_m" else 0.0), key
+    for a, b in zip(coordinates[1].steps, rows[1].steps, strict=True):
+        assert np.linalg.norm(a.friction_force[0]) > 1e-3 * a.contact_force[0]
+        assert b.rigid_values[0] == pytest.approx(a.rigid_values[0], rel=1e-7)
+        assert b.contact_force[0] == pytest.approx(a.contact_force[0], rel=1e-7)
+        assert b.friction_force[0] == pytest.approx(a.friction_force[0], rel=1e-7,
+                                                    abs=1e-7 * a.contact_force[0])

@@ -30,7 +30,11 @@ Jacobian, kept over the projections and the load steps); because a kept
 row's Jacobian is that of the projection it was formed at, each projection
 corrects the gaps by the exact response to the last forces (one more
 solve), so the iteration converges to the same solution (to 1e-12 of the
-coordinate-space one in the tests).
+coordinate-space one in the tests). With friction the rows' space keeps the
+normal and both tangential rows of every gap row (:class:`_FrictionalRowSpace`),
+corrected the same way (the gaps and the slips), so a zone too large to condense
+keeps its friction (to 1e-10 of the condensed solution at a tight tolerance in the
+tests).
 
 A rigid body whose ``loads`` are given (a torque on a hub) is solved for its
 coordinate ``q`` inside each projection: the contact-free displacement is
@@ -92,6 +96,17 @@ TRUSTED_RATE = 0.1
 #: Iterations of the load-controlled coordinate per projection; the reaction
 #: is piecewise linear in it, so a safeguarded secant needs a handful.
 MAX_LOAD_ITERATIONS = 60
+#: With friction, a zone of more condensed coordinates than this (its nodes' normal
+#: ones and the tangent ones of the predicted patch) is solved in the rows' space
+#: (:class:`_FrictionalRowSpace`): the condensed zone's dense factor and the growths
+#: of its patch (a factorisation each) cost more there than the rows' compliances
+#: and a solve a projection. Measured on one thread against the frictionless solve:
+#: bench_static's sphere (31k DOFs, 1,751 coordinates) 1.24 x condensed, 1.71 x in
+#: the rows' space; coarse tooth pairs of the mesh cycle (stage 1, six loads to
+#: 1 kN) at 2.07 deg (38k DOFs, 3,513) 2.7 x condensed (a growth to 5,203), 1.09 x
+#: in the rows' space, and at 14.47 deg (55k DOFs, 5,581) 5.0 x condensed (a growth
+#: to 8,339), 1.30 x in the rows' space (2.9 x switching to it at the growth).
+FRICTION_ROW_SPACE_COORDINATES = 3000
 #: Right-hand sides per block of :class:`_RowSpace`'s solves (memory: one
 #: block of the free DOFs' size).
 ROW_BLOCK = 128
@@ -278,14 +293,12 @@ class StaticSolver:
         factor = self.solver.factor_seconds
         frames = frictional_frames(self.mesh, self.kin, self.contact, self.tangential) \
             if self.friction else zone_frames(self.mesh, self.kin, self.contact)
-        self.contact.set_projector(frames.projector)
         self.n_condensed = len(frames.condensed)
-        if self.friction and self.n_condensed > ROW_SPACE_COORDINATES:
-            raise ContactError(f"the contact zone holds {self.n_condensed} coordinates, above "
-                               f"the {ROW_SPACE_COORDINATES} friction can be condensed on: "
-                               "set a smaller [[contacts]] search_distance or coarsen the "
-                               "contact faces")
-        if self.rows is None and self.n_condensed > ROW_SPACE_COORDINATES:
+        limit = FRICTION_ROW_SPACE_COORDINATES if self.friction else ROW_SPACE_COORDINATES
+        # in the rows' space nothing is condensed: the rows keep every component
+        self.contact.set_projector(None if self.friction and (
+            self.rows is not None or self.n_condensed > limit) else frames.projector)
+        if self.rows is None and self.n_condensed > limit:
             self.solver.release()
             self.solver = ZoneSolver(self.K_ff, schur_solves=0)   # a plain factorisation
             factor = 0.0
@@ -294,7 +307,13 @@ class StaticSolver:
                         "rows", self.n_condensed)
         if self.rows is not None:
             ok = self.contact.active_rows
-            self.rows.prime(self._row_keys()[ok], self.contact.B[ok])
+            self.R_open = None    # nothing condensed: no tangent coordinate to grow
+            if self.friction:     # the normal and both tangential rows of every row
+                keys, B_all = self._frictional_rows()
+                ok3 = np.tile(ok, 3)
+                self.rows.prime(keys[ok3], B_all[ok3])
+            else:
+                self.rows.prime(self._row_keys()[ok], self.contact.B[ok])
         else:
             S = self.solver.condense(frames.R, frames.condensed)
             if self.friction:
@@ -314,6 +333,15 @@ class StaticSolver:
         factorised = self.solver.factor_seconds - factor
         self.timings["factorisation"] = self.timings.get("factorisation", 0.0) + factorised
         self.timings["condensation"] += time.perf_counter() - t - factorised
+
+    def _frictional_rows(self) -> tuple[np.ndarray, sp.csr_matrix]:
+        """Keys and Jacobians of the normal rows, then the t1 and the t2 rows, of the
+        current projection (on the free DOFs): the rows' space with friction keeps
+        them by these keys (``3 k``, ``3 k + 1``, ``3 k + 2`` of a row's key ``k``)."""
+        c = self.contact
+        keys = 3 * self._row_keys()
+        return (np.concatenate([keys, keys + 1, keys + 2]),
+                sp.vstack([c.B, c.Bt]).tocsr())
 
     def _row_keys(self) -> np.ndarray:
         """A key per gap row of the contact model that names its slave node and pair
@@ -507,8 +535,22 @@ class StaticSolver:
             h = np.where(c.active_rows, c.gaps(u0), np.inf)
             # slips from the last step's displacement (prescribed DOFs included)
             s0 = (c.Bt_full @ (self._full(u0, u_d) - self._u_prev)).reshape(2, r).T
-            B_all = (sp.vstack([c.B, c.Bt]) @ self.R_c).tocsr()
-            block = _compliance_blocks(B_all, self.L, r)
+            if self.rows is None:
+                B_all = (sp.vstack([c.B, c.Bt]) @ self.R_c).tocsr()
+                block = _compliance_blocks(B_all, self.L, r)
+            else:
+                keys, B_all = self._frictional_rows()
+                rows = _FrictionalRowSpace(keys, B_all, c.active_rows, self.rows,
+                                           self.solver.solve)
+                if sol_prev is not None and len(sol_prev.lam) == r:
+                    # the kept compliances' Jacobians are those of the projections the
+                    # rows entered at: the gaps and slips corrected by the exact
+                    # response to the last forces (as _RowSpaceCompliance)
+                    offset = rows.offset(np.concatenate([sol_prev.lam, sol_prev.t[:, 0],
+                                                         sol_prev.t[:, 1]]))
+                    h = h + offset[:r]
+                    s0 = s0 + offset[r:].reshape(2, r).T
+                block = rows.block
             t_old, mu = self._friction_history(), c.row_coefficients()
             if load is None:
                 sol = solve_frictional(block, h, s0, c.eps_w, c.eps_w, mu, t_old, warm=sol_prev)
@@ -889,6 +931,52 @@ def _compliance_blocks(B: sp.csr_matrix, L: np.ndarray, r: int):
 
         return LinearOperator((len(other), W.shape[1]), matvec=matvec, dtype=float)
     return block
+
+
+class _FrictionalRowSpace:
+    """The frictional problem's compliances ``D`` on a :class:`_RowSpace` that keeps the
+    normal and tangential rows by key (:meth:`StaticSolver._frictional_rows`).
+
+    :meth:`block` gives ``D(idx)`` and ``D(idx, other)`` of
+    :func:`~fe_impact.contact.friction.solve_frictional` from the kept compliances;
+    :meth:`offset` the gaps' and slips' correction that makes the problem on them the
+    current projection's where the last forces stand: a defect correction whose
+    fixed point is the exact solution, as :class:`_RowSpaceCompliance`'s.
+    """
+
+    def __init__(self, keys: np.ndarray, B: sp.csr_matrix, ok: np.ndarray, space: _RowSpace,
+                 solve: Callable[[np.ndarray], np.ndarray]) -> None:
+        self.keys, self.B, self.space, self.solve = keys, B, space, solve
+        self.r = len(ok)
+        self._ok3 = np.tile(ok, 3)
+
+    def _positions(self, rows3: np.ndarray) -> np.ndarray:
+        return self.space.positions(self.keys[rows3], self.B[rows3])
+
+    def block(self, idx: np.ndarray, other: np.ndarray | None = None) -> np.ndarray:
+        r = self.r
+        rows3 = np.concatenate([idx, r + idx, 2 * r + idx])
+        pos = self._positions(rows3)
+        if other is None:
+            return self.space.C[np.ix_(pos, pos)]
+        out = np.zeros((len(other), len(rows3)))
+        ok = self._ok3[other]        # rows with no gap (no Jacobian) close nothing
+        if ok.any():
+            out[ok] = self.space.C[np.ix_(self._positions(other[ok]), pos)]
+        return out
+
+    def offset(self, p: np.ndarray) -> np.ndarray:
+        """``[B; B_t] K^-1 [B; B_t]^T p - D p`` on every row (3 r; 0 where no gap) for the
+        forces ``p`` (stacked normal, t1, t2), by one solve."""
+        out = np.zeros(3 * self.r)
+        on = np.flatnonzero(p)
+        if len(on) == 0:
+            return out
+        ok = np.flatnonzero(self._ok3)
+        exact = self.B[ok] @ self.solve(self.B[on].T @ p[on])
+        kept = self.space.C[np.ix_(self._positions(ok), self._positions(on))] @ p[on]
+        out[ok] = exact - kept
+        return out
 
 
 def _alternates(cycle: list[tuple[np.ndarray, np.ndarray, float]], z: np.ndarray,

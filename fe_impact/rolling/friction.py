@@ -27,11 +27,14 @@ takes the force's moment, ``F . dx/dtheta``.
 
 In a time step (:func:`fe_impact.rolling.run.integrate`) ``mu`` and ``t`` are those of
 the step's end, from the pinion's prescribed motion and the face gear's predicted
-angle and speed; the normal force is the step's own (the friction is part of each
-pair's unit-force column, so the contact problem sees it). The one explicit part is
-the face gear's speed in ``v_s``; its change over a step is of the order of the TE's
-rate, so the step is converged when the run is (``validation/rolling_friction.py``
-halves the step and compares).
+angle and speed (Newmark's predictors, ``v + dt a / 2`` for the speed: it stays
+within the range of the speeds even when the face gear rings faster than the step
+resolves, where ``v + dt a`` overshoots); the normal force is the step's own (the
+friction is part of each pair's unit-force column, so the contact problem sees it).
+The one explicit part is the face gear's speed in ``v_s``: its error is a part of
+the face gear's speed fluctuation (mm/s against sliding speeds of m/s), which
+matters only where the sliding reverses; ``validation/rolling_friction.py`` halves
+the step and compares the loss.
 """
 
 from __future__ import annotations

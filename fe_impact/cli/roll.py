@@ -112,6 +112,15 @@ def run(args: argparse.Namespace) -> int:
           f"{len(result.events)} contact events, energy balance error "
           f"{balance['error_j']:.2e} J ({balance['relative_to_kinetic'] or 0.0:.2e} of the "
           f"kinetic energy{versus}); wall {info['wall_s']:.0f} s, cpu {info['cpu_s']:.0f} s")
+    friction = info.get("friction")
+    if friction:
+        lost = float(result.energy["friction_dissipation"][-1])
+        drive = float(result.energy["drive_work"][-1])
+        share = f" ({lost / drive:.2%} of the drive's work)" if drive > 0.0 else ""
+        print(f"flank friction mu_static {friction['mu_static']:g}, mu_dynamic "
+              f"{friction['mu_dynamic']:g}: {lost:.3e} J dissipated{share}")
+    else:
+        print("frictionless flanks")
     print(f"wrote {args.out} ({time.perf_counter() - t0:.1f} s)")
     if info.get("passed_through"):
         print(f"fe-impact: error: the results in {args.out} are not valid: the teeth went "

@@ -258,3 +258,37 @@ def test_newmark_friction_with_plasticity_closes_the_energy_balance(tmp_path):
     assert np.abs(h["total_energy"] - e0).max() <= 1e-3 * e0
     assert h["friction_dissipation"][-1] > 0.05 * e0
     assert h["plastic_dissipation"][-1] > 0.05 * e0
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_coupled_newton_meets_the_law_and_the_alternation(seed, monkeypatch):
+    # A random frictional problem of 12 rows (SPD compliance with a weak normal-
+    # tangential coupling, rows open and closed, stick and slip): the forces must be
+    # a fixed point of the local law, p = F(y0 + D p) (local_law, the return
+    # mapping written independently of both solvers), to the solvers' tolerance
+    # (1e-10 of the forces' size), and the coupled Newton's forces the alternation's
+    # (each stops at 1e-8-1e-10 of the forces: 1e-7).
+    import fe_impact.contact.friction as fr
+
+    rng = np.random.default_rng(seed)
+    r = 12
+    X = rng.standard_normal((3 * r, 3 * r))
+    D = 1e-9 * (X @ X.T / (3 * r) + np.eye(3 * r))
+    D[:r, r:] *= 0.1
+    D[r:, :r] *= 0.1
+    eps = np.full(r, 1e9)
+    # every third row 5 nm open (the forces move a gap by about 1 nm), the others closed
+    h = 1e-9 * np.where(np.arange(r) % 3 == 0, 5.0, -rng.uniform(0.5, 3.0, r))
+    s0 = 1e-9 * rng.standard_normal((r, 2))
+    mu = np.full(r, 0.3)
+    t_old = 0.1 * rng.standard_normal((r, 2))
+    coupled = solve_frictional(D, h, s0, eps, eps, mu, t_old, rows=np.arange(r))
+    p = np.concatenate([coupled.lam, coupled.t[:, 0], coupled.t[:, 1]])
+    y = np.concatenate([h, s0[:, 0], s0[:, 1]]) + D @ p
+    law, _ = local_law(y, eps, eps, mu, t_old)
+    assert np.linalg.norm(law - p) <= 1e-9 * np.linalg.norm(p)
+    assert (coupled.lam > 0).any() and (coupled.lam == 0).any()
+    monkeypatch.setattr(fr, "_coupled_newton", lambda *a, **k: None)
+    alternated = solve_frictional(D, h, s0, eps, eps, mu, t_old, rows=np.arange(r))
+    q = np.concatenate([alternated.lam, alternated.t[:, 0], alternated.t[:, 1]])
+    assert np.linalg.norm(q - p) <= 1e-7 * np.linalg.norm(p)

@@ -36,10 +36,15 @@ An implicit solve (static or Newmark) gives the contact-free gaps ``h`` and
 slip increments ``s0`` of the rows and their compliance ``D`` (the Delassus
 matrix of the normal and two tangential rows of every node). The forces
 ``p = (lambda, t1, t2)`` solve ``p = F(y0 + D p)``, ``F`` the local law above;
-:func:`solve_frictional` does it on the rows near contact only, alternating
-the normal part (a penalty complementarity problem, solved exactly) and the
-tangential part at fixed cones (a convex problem over discs, by semismooth
-Newton on its scaled projection map: :func:`_tangential`).
+:func:`solve_frictional` does it on the rows near contact only: one pass of
+the alternation of the normal part (a penalty complementarity problem, solved
+exactly) and the tangential part at fixed cones (a convex problem over discs, by
+semismooth Newton on its scaled projection map: :func:`_tangential`) finds the
+rows in contact and slipping, and a semismooth Newton on the whole problem
+(:func:`_coupled_newton`) finishes; where that fails the alternation goes on.
+On the Newmark run of bench_dynamic the coupled Newton took 1.5 steps where the
+alternation took four passes (the frictional solves' time 0.15-0.19 -> 0.10-0.13 s
+CPU, the run's energy error the same to 1e-13).
 """
 
 from __future__ import annotations
@@ -310,7 +315,14 @@ def _newton(D, y0, eps_n, eps_t, mu, t_old, p0=None):
     lam = np.zeros(r) if p0 is None else p0[N].copy()
     t = np.zeros(2 * r) if p0 is None else p0[T].copy()
     total = 0
-    for _ in range(NEWTON_ITERATIONS):
+    for k in range(NEWTON_ITERATIONS):
+        if k == 1:
+            # one alternation found the sets near enough: the coupled semismooth
+            # Newton finishes in a step or two (the alternation goes on if it fails;
+            # from the warm start alone it took five)
+            done = _coupled_newton(D, y0, eps_n, eps_t, mu, t_old, np.concatenate([lam, t]))
+            if done is not None:
+                return done[0], done[1], total + done[2]
         lam_new, its = solve_penalty_lcp(None, None, y0[N] + D[N, T] @ t, eps_n,
                                          lam > 0, C=D[N, N])
         total += its
@@ -326,6 +338,103 @@ def _newton(D, y0, eps_n, eps_t, mu, t_old, p0=None):
                        f"{NEWTON_ITERATIONS} alternations of its normal and tangential "
                        f"parts (last change {change:.3g} of {size:.3g} N): apply the load in "
                        "smaller steps")
+
+
+#: Iterations of the coupled Newton (:func:`_coupled_newton`) before it gives way to
+#: the alternation.
+COUPLED_ITERATIONS = 8
+
+
+def _coupled_newton(D, y0, eps_n, eps_t, mu, t_old, p0):
+    """The forces of ``p = F(y0 + D p)`` by semismooth Newton on the whole problem,
+    from ``p0`` (the alternation's first pass); None if it does not converge in
+    :data:`COUPLED_ITERATIONS` steps with a decreasing residual.
+
+    The two halves' maps of :func:`_newton` taken together, each row scaled by its
+    own compliance as :func:`_tangential` does (Alart and Curnier 1991):
+
+    - normal: ``lambda = max(0, lambda - rho_n (y_n + D_n. p + lambda / eps_n))``,
+      ``rho_n = 1 / (D_ii + 1 / eps_n)``: the penalty law ``lambda = eps_n <-g>``;
+    - tangential: ``t = P_{mu lambda}(t - rho_t (y_t + D_t. p + (t - t_old) /
+      eps_t))``, the return mapping of :func:`_tangential` with the cone's radius
+      now an unknown.
+
+    Its fixed point is the alternation's; converged when the residual is below
+    :data:`NEWTON_TOL` times the forces' size. Returns the forces, the rows
+    slipping and the iterations.
+    """
+    n = len(y0)
+    r = n // 3
+    N, T = slice(0, r), slice(r, n)
+    e2 = np.concatenate([eps_t, eps_t])
+    Mn = D[N].copy()
+    Mn[:, :r] += np.diag(1.0 / eps_n)
+    Mt = D[T].copy()
+    Mt[:, r:] += np.diag(1.0 / e2)
+    qt = y0[T] - np.concatenate([t_old[:, 0], t_old[:, 1]]) / e2
+    rho_n = 1.0 / np.diag(Mn[:, :r])
+    dt = np.diag(Mt[:, r:])
+    rho = 1.0 / (0.5 * (dt[:r] + dt[r:]))
+    rho_t = np.concatenate([rho, rho])
+    i = np.arange(r)
+    # d u / d p, u the tangential map's argument (constant)
+    Gt = -rho_t[:, None] * Mt
+    Gt[np.arange(2 * r), r + np.arange(2 * r)] += 1.0
+    Gn = rho_n[:, None] * Mn
+
+    def residual(p):
+        lam = p[N]
+        an = lam - rho_n * (y0[N] + Mn @ p)
+        closed = an > 0.0
+        u = (p[T] - rho_t * (Mt @ p + qt)).reshape(2, r).T
+        norm = np.linalg.norm(u, axis=1)
+        cap = mu * np.maximum(lam, 0.0)
+        slip = norm > cap
+        scale = np.where(slip, cap / np.maximum(norm, 1e-300), 1.0)
+        F_t = (u * scale[:, None]).T.ravel()
+        R = np.concatenate([lam - np.where(closed, an, 0.0), p[T] - F_t])
+        return R, (closed, slip, scale, u / np.maximum(norm, 1e-300)[:, None], cap)
+
+    def size(p, cap):
+        return max(float(np.linalg.norm(p)), float(cap.max(initial=0.0)), 1e-300)
+
+    p = p0.copy()
+    R, state = residual(p)
+    res = float(np.linalg.norm(R))
+    for it in range(1, COUPLED_ITERATIONS + 1):
+        closed, slip, scale, e, cap = state
+        if res <= NEWTON_TOL * size(p, cap):
+            return p, slip, it - 1
+        J = np.zeros((n, n))
+        # normal rows: closed, R = rho_n g (d/dp = rho_n Mn); open, R = lambda
+        J[:r] = np.where(closed[:, None], Gn, 0.0)
+        J[i, i] += np.where(closed, 0.0, 1.0)
+        # tangential rows: R = t - P(u, mu lambda)
+        A = [np.where(slip, scale * ((a == b) - e[:, a] * e[:, b]), float(a == b))
+             for a in range(2) for b in range(2)]
+        G1, G2 = Gt[:r], Gt[r:]
+        J[r:2 * r] = -(A[0][:, None] * G1 + A[1][:, None] * G2)
+        J[2 * r:] = -(A[2][:, None] * G1 + A[3][:, None] * G2)
+        J[r + np.arange(2 * r), r + np.arange(2 * r)] += 1.0
+        on = slip & (cap > 0.0)
+        J[r + i, i] -= np.where(on, mu * e[:, 0], 0.0)
+        J[2 * r + i, i] -= np.where(on, mu * e[:, 1], 0.0)
+        try:
+            d = -np.linalg.solve(J, R)
+        except np.linalg.LinAlgError:
+            return None
+        step = 1.0
+        for _ in range(10):
+            R_new, state_new = residual(p + step * d)
+            res_new = float(np.linalg.norm(R_new))
+            if res_new < res:
+                break
+            step *= 0.5
+        else:
+            return None
+        p, R, state, res = p + step * d, R_new, state_new, res_new
+    closed, slip, scale, e, cap = state
+    return (p, slip, COUPLED_ITERATIONS) if res <= NEWTON_TOL * size(p, cap) else None
 
 
 def _tangential(D, y0, eps_t, cap, t_old, t0):

@@ -12,8 +12,8 @@ Runs (`fe_impact.rolling.api.roll`, each with the gear set's friction, mu_static
   one mesh cycle: a speed at which the rigid pair does not ring, so the forces are
   the static load sharing;
 - ``loaded-1000``: the loaded condition of ``validation/rolling_compare.py`` (1000
-  r/min, 50 N m plus its drag, its mesh phase and steps), with rigid sectors, again
-  at half the step, and (without ``--quick``) with the elastic coarse sectors.
+  r/min, 50 N m plus its drag, its mesh phase and steps), with rigid sectors and
+  (without ``--quick``) with the elastic coarse sectors, each again at half the step.
 
 Checks (tolerances set before the results were seen):
 
@@ -49,7 +49,7 @@ Checks (tolerances set before the results were seen):
     balance, the dissipation included, within `ENERGY` of the work done (the
     rolling validation's 1e-3).
 (4) The step: ``loaded-1000`` at the compare's steps and at twice as many; the
-    loss fraction moves by less than `STEP_CONVERGENCE` (reported, asserted).
+    loss fraction moves by less than `STEP_CONVERGENCE`.
 
 The loaded flanks touch beyond the path's ends (on the tip edges, once the Hertz
 approach exceeds the corner gap): with the real material ``quasi-static``'s loss
@@ -236,6 +236,9 @@ def run(quick: bool = False, out: Path | None = None, mesh_dir: Path | None = No
     if not quick:
         runs["loaded-1000-elastic"] = ({**fast, "elastic": True, "frames_per_cycle": 1},
                                        fast_cycles)
+        runs["loaded-1000-elastic-half-step"] = (
+            {**fast, "elastic": True, "frames_per_cycle": 1,
+             "steps_per_cycle": 2 * fast["steps_per_cycle"]}, fast_cycles)
     slow_res = None
     for name, (kw, cycles) in runs.items():
         both = {}
@@ -269,10 +272,15 @@ def run(quick: bool = False, out: Path | None = None, mesh_dir: Path | None = No
     closures = {name: results[name]["friction"]["energy_error"] for name in runs}
     results["energy_closure"] = closures
     checks["energy_closure"] = all(v < ENERGY for v in closures.values())
-    a = results["loaded-1000-rigid"]["friction"]["loss_fraction"]
-    b = results["loaded-1000-rigid-half-step"]["friction"]["loss_fraction"]
-    results["step"] = {"loss_fraction": a, "half_step": b, "change": b / a - 1.0}
-    checks["step"] = abs(b / a - 1.0) <= STEP_CONVERGENCE
+    results["step"] = {}
+    for kind in ("rigid", "elastic"):
+        if f"loaded-1000-{kind}" not in results:
+            continue
+        a = results[f"loaded-1000-{kind}"]["friction"]["loss_fraction"]
+        b = results[f"loaded-1000-{kind}-half-step"]["friction"]["loss_fraction"]
+        results["step"][kind] = {"loss_fraction": a, "half_step": b, "change": b / a - 1.0}
+    checks["step"] = all(abs(v["change"]) <= STEP_CONVERGENCE
+                         for v in results["step"].values())
     results["checks"] = checks
     results["tolerances"] = {"energy_loss": ENERGY_LOSS, "pitch_point": PITCH_POINT,
                              "loss_closed_form": LOSS_CLOSED_FORM, "energy": ENERGY,

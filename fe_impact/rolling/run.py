@@ -244,7 +244,7 @@ def integrate(roller: Roller, progress=None, stop=None, energy_every: int = 10,
         m = len(rows)
         if friction is not None:
             from fe_impact.rolling.friction import slide
-            slide(r, rows, friction, th1, w1, qt_f[-1], vt_f[-1], vt_p, vt_f)
+            slide(r, rows, friction, th1, w1, qt_f[-1], vt_f[-1])
         # one solve per gear for the free motion and every pair's unit force
         # A: where a pair's force enters the sectors; R: where its gap reads them
         A_p, A_f = np.zeros((m, p.n)), np.zeros((m, f.n))

@@ -54,6 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 
 from fe_impact.contact.surfaces import ContactPair, tri_shape
 from fe_impact.errors import ContactError
@@ -559,6 +560,42 @@ def return_mapping(t_old: np.ndarray, ds: np.ndarray, lam: np.ndarray, eps_t: np
     return t, slip_dissipation(norm, cap, eps_t), slipping
 
 
+@njit(cache=True)
+def _explicit_return_mapping(t_old, ds, lam, eps_t, mu_s, mu_d, v_t, dt):
+    """:func:`return_mapping` with each row's coefficient at its slip speed ``|ds| / dt``
+    (:meth:`FrictionLaw.coefficient` from the rows' ``mu_s``, ``mu_d`` and transition
+    speeds ``v_t``), row by row: the forces (r, 2), the energy dissipated (J), the
+    tangential springs' energy (J, :func:`stored_energy`) and whether any force is
+    nonzero."""
+    r = len(lam)
+    t = np.empty((r, 2))
+    dissipated = 0.0
+    stored = 0.0
+    held = False
+    for i in range(r):
+        s0, s1 = ds[i, 0], ds[i, 1]
+        x = min(max(np.sqrt(s0 * s0 + s1 * s1) / dt / v_t[i], 0.0), 1.0)
+        mu = mu_s[i] + (mu_d[i] - mu_s[i]) * x * x * (3.0 - 2.0 * x)
+        e = eps_t[i]
+        a = t_old[i, 0] - e * s0
+        b = t_old[i, 1] - e * s1
+        norm = np.sqrt(a * a + b * b)
+        cap = mu * lam[i]
+        if norm > cap:
+            scale = cap / max(norm, 1e-300)
+            a *= scale
+            b *= scale
+            if e > 0.0:
+                dissipated += cap * (norm - cap) / e
+        t[i, 0] = a
+        t[i, 1] = b
+        if e > 0.0:
+            stored += 0.5 * (a * a + b * b) / e
+        if a != 0.0 or b != 0.0:
+            held = True
+    return t, dissipated, stored, held
+
+
 class ExplicitFriction:
     """Friction of the explicit integrator: each step's return mapping from the slip
     increments of the step, committed at once.
@@ -602,13 +639,30 @@ class ExplicitFriction:
             return None
         t_old = self._t if self._t is not None else np.zeros((r, 2))
         ds = contact.slips(z, z_old)
-        speed = np.linalg.norm(ds, axis=1) / dt
-        eps_t = contact.eps_w
-        t, dissipated, _ = return_mapping(t_old, ds, lam, eps_t, contact.row_coefficients(speed))
-        self._t = t if np.any(t) else None
+        mu_s, mu_d, v_t = self._laws(contact)
+        # return_mapping with the coefficient at the step's slip speed, its dissipation
+        # and the springs' energy, in one pass (the numpy calls cost 0.12 ms a step)
+        t, dissipated, stored, held = _explicit_return_mapping(
+            t_old, ds, lam, contact.eps_w, mu_s, mu_d, v_t, dt)
+        self._t = t if held else None
         self.dissipation += dissipated
-        self.stored = stored_energy(t, eps_t) if self._t is not None else 0.0
+        self.stored = stored if held else 0.0
         return t
+
+    def _laws(self, contact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each row's ``mu_static``, ``mu_dynamic`` and transition speed (0, 0, 1 on a
+        frictionless pair), kept for the projection."""
+        if getattr(self, "_laws_at", None) != contact.n_projections:
+            r = len(contact.row_law)
+            mu_s, mu_d, v_t = np.zeros(r), np.zeros(r), np.ones(r)
+            for k, law in enumerate(contact.laws):
+                on = contact.row_law == k
+                if law is not None:
+                    mu_s[on], mu_d[on], v_t[on] = (law.mu_static, law.mu_dynamic,
+                                                   law.transition_speed)
+            self._law_rows = (mu_s, mu_d, v_t)
+            self._laws_at = contact.n_projections
+        return self._law_rows
 
 
 class ImplicitFriction(ExplicitFriction):

@@ -370,16 +370,18 @@ PREDICTED_PATCH_FRACTION = 0.6
 
 
 def predicted_patch(mesh: FEMesh, contact: ContactModel, reach: list[float | None],
-                    fraction: float = PREDICTED_PATCH_FRACTION) -> np.ndarray:
+                    fraction: float | None = None) -> np.ndarray:
     """The nodes (``mesh.point_dof`` numbers) whose tangent coordinates are condensed
     before any contact: those the rows reach whose gap in the projection lies within
-    ``fraction`` of each pair's search distance ``reach`` (m) beyond its smallest gap
-    (None: no row of that pair).
+    ``fraction`` (default :data:`PREDICTED_PATCH_FRACTION`) of each pair's search
+    distance ``reach`` (m) beyond its smallest gap (None: no row of that pair).
 
     Only a start: a row with a force that reaches a node left out grows the patch
     (:func:`patch_growth`), so the solution does not depend on it, only the number
     of factorisations (each growth makes one) and the size of the dense block.
     """
+    if fraction is None:
+        fraction = PREDICTED_PATCH_FRACTION
     rows, start = [], 0
     for st, s in zip(contact.states, reach, strict=True):
         n = len(st.gap)

@@ -851,9 +851,10 @@ class StaticSolver:
         if grew:
             logger.info("contact zone sized for the largest load (%.3g)", loads.max())
             self.contact.update(eq.z)
-            if self.friction:     # the largest load's patch, predicted as at the start
+            if self.friction:     # the largest load's patch: its edge at 2/3 of the
+                # sized distance beyond the first touch, and a margin
                 self.tangential = np.union1d(self.tangential, predicted_patch(
-                    self.mesh, self.contact, distances))
+                    self.mesh, self.contact, distances, fraction=0.75))
             self._condense()
         return grew
 

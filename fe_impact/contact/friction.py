@@ -120,8 +120,8 @@ def tangent_frames(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def relative_jacobian(pair: ContactPair, mesh: FEMesh, u: np.ndarray, slave_faces: np.ndarray,
-                      master_faces: np.ndarray) -> list[sp.csr_matrix]:
-    """``d r_a / d u`` of each weighted slave node, one matrix per component x, y, z.
+                      master_faces: np.ndarray) -> sp.csr_matrix:
+    """``d r_a / d u`` of each weighted slave node, all three components in one matrix.
 
     Called right after :meth:`ContactPair.gap_state` of the same configuration,
     it takes that call's projection (the pair keeps it as the next one's hint).
@@ -130,7 +130,10 @@ def relative_jacobian(pair: ContactPair, mesh: FEMesh, u: np.ndarray, slave_face
     slave and its closest master point (projected in the configuration
     ``X + u``), weighted as the gap of :meth:`ContactPair.gap_state` is, so its
     rows are those of the gap state (a node with no valid projection has a
-    zero row). Each matrix is (n_nodes, n_dofs).
+    zero row). The matrix is (n_nodes, n_dofs): the entry at DOF ``3 p + d`` is
+    the weight of node ``p``'s component ``d`` in ``r_a``'s component ``d`` (the
+    same for the three components; :func:`slip_jacobians` projects it on the
+    tangents).
     """
     x = mesh.points + u
     lay, proj = pair.projected_layout(mesh, x, slave_faces, master_faces)
@@ -144,29 +147,22 @@ def relative_jacobian(pair: ContactPair, mesh: FEMesh, u: np.ndarray, slave_face
     coef = np.concatenate([lay.Ns, -Nm], axis=1) * proj.valid[:, None]
     nq, na = nodes.shape
     ndof = 3 * (mesh.point_dof.max() + 1)
-    indptr = np.arange(0, nq * na + 1, na)
-    out = []
-    for d in range(3):
-        cols = 3 * mesh.point_dof[nodes] + d
-        Bq = sp.csr_matrix((coef.ravel(), cols.ravel(), indptr), shape=(nq, ndof))
-        out.append((Wn @ Bq).tocsr())
-    return out
+    cols = (3 * mesh.point_dof[nodes])[:, :, None] + np.arange(3)                # (q, a, 3)
+    data = np.broadcast_to(coef[:, :, None], cols.shape)
+    indptr = np.arange(0, 3 * nq * na + 1, 3 * na)
+    Bq = sp.csr_matrix((data.ravel(), cols.ravel(), indptr), shape=(nq, ndof))
+    return (Wn @ Bq).tocsr()
 
 
-def slip_jacobians(J: list[sp.csr_matrix], t1: np.ndarray, t2: np.ndarray
+def slip_jacobians(J: sp.csr_matrix, t1: np.ndarray, t2: np.ndarray
                    ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-    """The tangential rows ``t_k . J`` of each node's relative displacement."""
-    # sum_d diag(t_k[:, d]) J_d, summed entry by entry (a product with stacked
-    # diagonals cost ten times more)
-    Jc = [j.tocoo() for j in J]
-    rows = np.concatenate([j.row for j in Jc])
-    cols = np.concatenate([j.col for j in Jc])
-    shape = J[0].shape
-    out = []
-    for t in (t1, t2):
-        data = np.concatenate([j.data * t[j.row, d] for d, j in enumerate(Jc)])
-        out.append(sp.csr_matrix((data, (rows, cols)), shape=shape))
-    return tuple(out)
+    """The tangential rows ``t_k . J`` of each node's relative displacement (``J`` of
+    :func:`relative_jacobian`: each entry scaled by its row's tangent component)."""
+    J = J.tocsr()
+    rows = np.repeat(np.arange(J.shape[0]), np.diff(J.indptr))
+    d = J.indices % 3
+    return tuple(sp.csr_matrix((J.data * t[rows, d], J.indices.copy(), J.indptr.copy()),
+                               shape=J.shape) for t in (t1, t2))
 
 
 def local_law(y: np.ndarray, eps_n: np.ndarray, eps_t: np.ndarray, mu: np.ndarray,

@@ -413,3 +413,17 @@ def test_friction_section_of_the_calibration(calibrated):
         assert 0.0 < te <= te0 * (1.0 + 1e-6)
     report = (out / "run" / "report.md").read_text()
     assert "## Flank friction" in report and imp["id"] in report and pos["id"] in report
+
+
+def test_the_tooth_root_stress_is_taken_under_the_largest_flank_force(calibrated):
+    # The sweep's workers compute each stage's tooth-root stress once its flank positions
+    # are done: under the largest contact force of those positions' records, and the
+    # report has its section.
+    out, _ = calibrated
+    run = out / "run"
+    cycle = json.loads((run / "mesh_cycle.json").read_text())
+    largest = max(max(p["forces"]) for p in cycle["positions"]
+                  if p["stage"] == 1 and p["contact"] == "flank")
+    root = json.loads((run / "root_stress" / "stage1.json").read_text())
+    assert root["normal_force_N"] == largest
+    assert "## Tooth-root bending stress" in (run / "report.md").read_text()

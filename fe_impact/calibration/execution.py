@@ -184,11 +184,13 @@ def _calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, o
                        "them and takes their results", busy, out)
     written = []      # the calibration's files are complete once this holds their path
 
-    def finish(draw: Draw) -> Path:
+    def finish(draw: Draw, roots: Callable[[], list[str]] | None = None) -> Path:
         """The files of a completed sweep, the pictures drawn by ``draw``, and the
         switching studies run by ``draw``: on the workers (``draw_on``) the studies
         start as soon as calibration.json is written and run beside the report's
-        pictures (no idle worker between the two); drawn here they run after."""
+        pictures (no idle worker between the two); drawn here they run after.
+        ``roots``: waits for the tooth-root stresses the sweep started
+        (:func:`start_root_stresses`); None: they are drawn by ``draw``."""
         started: list[Callable[[], None]] = []
 
         def start(calibration: Path) -> None:
@@ -196,7 +198,7 @@ def _calibrate(gearset_text: str, cases: list[ImpactCase], settings: Settings, o
 
         path = _write_summary(out, cases, sweep, settings, time.perf_counter() - t0,
                               "completed", gearset_text, draw,
-                              None if draw is draw_here else start, cache)
+                              None if draw is draw_here else start, cache, roots)
         written.append(path)
         if started:
             started[0]()
@@ -230,10 +232,12 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
                    settings: Settings, wall: float, status: str, gearset_text: str,
                    draw: Draw = draw_here,
                    written: Callable[[Path], None] | None = None,
-                   cache: Path | None = None) -> Path:
+                   cache: Path | None = None,
+                   roots: Callable[[], list[str]] | None = None) -> Path:
     """summary.json and, for a completed run, calibration.json/.csv and report.md (its
     pictures drawn by ``draw`` while the tables are written, with the tooth-root
-    stresses at the mesh cycle's largest force when there is a mesh ``cache``);
+    stresses at the mesh cycle's largest force when there is a mesh ``cache``: drawn
+    by ``draw``, or, if the sweep started them, waited for by ``roots``);
     ``written(path)`` is called once calibration.json is complete (it must not block)."""
     from fe_impact.calibration.report import (
         friction_effect,
@@ -269,9 +273,9 @@ def _write_summary(out: Path, cases: list[ImpactCase | PositionCase], sweep: Swe
             if written is not None:
                 written(path)
             write_calibration_csv(out / "calibration.csv", records)
-            roots = [] if cache is None else root_stress_jobs(
+            jobs = [] if cache is None or roots is not None else root_stress_jobs(
                 out, gearset_text, positions, settings.position_level, cache)
-            write_calibration_report(out, calibration, draw, roots)
+            write_calibration_report(out, calibration, draw, jobs, roots)
             if drawing is not None:
                 drawing()
         summary_path = write_json(out / "summary.json", summary)
@@ -334,7 +338,7 @@ def _studies_stopped(out: Path) -> None:
 
 
 def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
-              progress, finish: Callable[[Draw], Path] | None = None,
+              progress, finish: Callable[..., Path] | None = None,
               numba: Path | None = None) -> Path | None:
     import_distributed()
     with contextlib.ExitStack() as stack:
@@ -344,10 +348,12 @@ def _run_dask(todo, settings, gearset_text, out, cache, workers, scheduler, swee
 
 def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler, sweep,
                    progress, stack: contextlib.ExitStack,
-                   finish: Callable[[Draw], Path] | None = None,
+                   finish: Callable[..., Path] | None = None,
                    numba: Path | None = None) -> Path | None:
     """Run ``todo`` on a local cluster or ``scheduler``; then, every case done, return
-    ``finish(draw)`` with a :data:`~fe_impact.output.drawing.Draw` on the same workers."""
+    ``finish(draw, roots)`` with a :data:`~fe_impact.output.drawing.Draw` on the same
+    workers and what waits for the tooth-root stresses started with the cases
+    (:func:`start_root_stresses`)."""
     from dask.distributed import Client, Event
 
     if scheduler:
@@ -368,6 +374,8 @@ def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
                                  key=f"fe-impact-{c.id}-{case_hash(c, settings, gearset_text)}",
                                  priority=len(order) - i, pure=False): c
                    for i, c in enumerate(order)}
+        roots = None if finish is None else start_root_stresses(
+            client, futures, sweep, settings, gearset_text, out, cache)
         failures: list[str] = []
         with _interrupt_flag() as interrupted:
             try:
@@ -379,13 +387,56 @@ def _sweep_on_dask(todo, settings, gearset_text, out, cache, workers, scheduler,
         if failures:
             raise CalibrationError(f"{len(failures)} case(s) failed (finished cases are kept; "
                                    "rerun to retry): " + "; ".join(failures))
-        return None if finish is None else finish(draw_on(client))
+        return None if finish is None else finish(draw_on(client), roots)
     finally:
         with ignore_signals():
             client.close()
             if cluster is not None:
                 cluster.close()
         _clean_cases(out, todo)
+
+
+def start_root_stresses(client, futures: dict, sweep: Sweep, settings: Settings,
+                        gearset_text: str, out: Path, cache) -> Callable[[], list[str]] | None:
+    """Start each stage's tooth-root stresses on the sweep's workers, each as soon as
+    the stage's flank positions are done and a worker has no case left to take (the
+    lowest priority): the end of the sweep, where a worker would wait for the other's
+    last case, rather than after it with the report's pictures and the studies (where
+    they were the longest jobs and came last). The same job as
+    :func:`~fe_impact.calibration.report.root_stress_jobs` (the largest force of the
+    stage's flank position records). Returns what waits for them and gives the files
+    written (a failed one is logged and left out); None without flank positions.
+    """
+    from fe_impact.calibration.report import ROOT_STRESS, root_stress_task
+    from fe_impact.output.drawing import outcome
+
+    running = {c.id: f for f, c in futures.items()}
+    flank = [c for c in sweep.cases
+             if isinstance(c, PositionCase) and c.contact == "flank" and not c.companion]
+    jobs = []
+    for stage in sorted({c.stage for c in flank}):
+        inputs = [running.get(c.id, sweep.done.get(c.id)) for c in flank if c.stage == stage]
+        if any(x is None for x in inputs):   # not planned in this sweep: nothing to wait for
+            return None
+        name = f"{ROOT_STRESS}/stage{stage}.json"
+        jobs.append((name, client.submit(
+            root_stress_task, gearset_text, stage, settings.position_level, str(cache),
+            Path(out) / name, *inputs, priority=0, pure=False)))
+    if not jobs:
+        return None
+
+    def wait() -> list[str]:
+        done = []
+        for name, future in jobs:
+            try:
+                result = future.result()
+            except Exception as exc:   # noqa: BLE001 - a lost worker: the section is skipped
+                result = (False, f"{type(exc).__name__}: {exc}")
+            if outcome(name, result):
+                done.append(name)
+        return done
+
+    return wait
 
 
 def sweep_order(cases: list) -> list:

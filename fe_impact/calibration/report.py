@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -279,13 +280,31 @@ def root_stress_jobs(out: Path, gearset_text: str, positions, level: str,
     tooth-root stresses (:func:`fe_impact.calibration.root_stress.fe_root_stress`,
     about 20 s of CPU a stage at the coarse level) under the largest force of its mesh-cycle
     flank positions, at the positions' mesh ``level``; none without positions."""
+    return [(f"{ROOT_STRESS}/stage{s}.json", write_root_stress,
+             (gearset_text, s, f, level, str(cache), out / ROOT_STRESS / f"stage{s}.json"))
+            for s, f in sorted(root_stress_forces(positions).items())]
+
+
+def root_stress_forces(positions) -> dict[int, float]:
+    """Per stage, the largest force [N] of its mesh-cycle flank positions (records, or
+    cases: their ``contact``, ``stage`` and ``forces``)."""
     force: dict[int, float] = {}
     for p in positions:
         if p.contact == "flank":
             force[p.stage] = max(force.get(p.stage, 0.0), max(p.forces))
-    return [(f"{ROOT_STRESS}/stage{s}.json", write_root_stress,
-             (gearset_text, s, f, level, str(cache), out / ROOT_STRESS / f"stage{s}.json"))
-            for s, f in sorted(force.items())]
+    return force
+
+
+def root_stress_task(gearset_text: str, stage: int, level: str, cache: str, path: Path,
+                     *positions) -> tuple[bool, str]:
+    """:func:`write_root_stress` of ``stage`` under the largest force of the finished
+    flank ``positions`` (its mesh-cycle records), as a drawing job's outcome
+    (:func:`~fe_impact.output.drawing.drawn`): run on the sweep's workers once the
+    stage's positions are done (:func:`fe_impact.calibration.execution.start_root_stresses`)."""
+    from fe_impact.output.drawing import drawn
+
+    return drawn(write_root_stress, gearset_text, stage,
+                 root_stress_forces(positions)[stage], level, cache, path)
 
 
 def write_root_stress(gearset_text: str, stage: int, force: float, level: str, cache: str,
@@ -318,11 +337,14 @@ def _root_stress_lines(out: Path, written: list[str]) -> list[str]:
 
 
 def write_calibration_report(out: Path, calibration: Calibration,
-                             draw: Draw = draw_here, jobs=()) -> Path:
+                             draw: Draw = draw_here, jobs=(),
+                             started: Callable[[], list[str]] | None = None) -> Path:
     """Write ``report.md`` and its plots for a calibration (records with every section).
 
     The plots, and the further ``jobs`` (the tooth-root stresses,
-    :func:`root_stress_jobs`), are drawn by ``draw`` while the tables are written.
+    :func:`root_stress_jobs`), are drawn by ``draw`` while the tables are written;
+    ``started`` waits for jobs started before (the sweep's tooth-root stresses) and
+    returns the files they wrote.
     """
     cases = calibration.cases
     settings = calibration.settings or {}
@@ -414,7 +436,7 @@ def write_calibration_report(out: Path, calibration: Calibration,
         lines += ["", f"Sum over cases {total:.0f} s; wall time of this run "
                   f"{_fmt(calibration.wall_time_s, '.0f')} s (resumed cases cost nothing "
                   "the second time)."]
-    written = wait()
+    written = wait() + (started() if started is not None else [])
     lines += [""] + [f"![{p}]({p})" for p in written if p.endswith(".png")] + [""]
     if calibration.mesh_cycle:
         from fe_impact.calibration.meshcycle_report import report_lines

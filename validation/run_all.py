@@ -23,7 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ("hertz_static", "hertz_impact", "patch_test", "plastic_impact", "time_step",
            "mesh_cycle", "two_pair", "corner_gaps", "corner_contact", "friction_sliding",
-           "friction_oblique", "friction_cattaneo", "nearfield_hertz", "face_gear_limits",
+           "friction_oblique", "friction_cattaneo", "rolling_friction", "nearfield_hertz",
+           "face_gear_limits",
            "exudyn_export", "bench_static", "bench_dynamic", "bench_static_pair",
            "bench_tooth_impact", "bench_switching", "bench_sweep", "calculix_pair")
 #: Studies with no coarse setting: ``--quick`` runs them as they are (the near
@@ -38,6 +39,8 @@ LEFT_OUT = {
     "friction_tooth": "a measurement of what friction changes, with no check",
     "compare_calibrations": "a tool comparing two calibrations, not a study",
     "rolling_compare": "needs a calibration and the rolling FE's outputs as its inputs",
+    "rolling": "its quasi-static check needs a calibration's mesh cycle (--reference), and "
+               "its 3% target against it is not met yet",
 }
 #: Exit status of a study that could not run here (a peer program missing).
 SKIPPED = 2

@@ -174,3 +174,27 @@ def test_static_friction_in_the_rows_space_equals_the_condensed_zone(tmp_path, m
         assert b.contact_force[0] == pytest.approx(a.contact_force[0], rel=1e-7)
         assert b.friction_force[0] == pytest.approx(a.friction_force[0], rel=1e-7,
                                                     abs=1e-7 * a.contact_force[0])
+
+
+def test_static_friction_refuses_a_rows_space_too_large_to_keep(monkeypatch):
+    # The rows' space keeps a dense compliance of three rows per gap row: above
+    # FRICTION_ROW_SPACE_ROWS the solver refuses in one ContactError naming the
+    # count and the limit (the calibration then solves the position frictionless).
+    from dataclasses import replace
+    from pathlib import Path
+
+    from fe_impact.errors import ContactError
+    from fe_impact.fe.case import RigidBodySpec
+    from fe_impact.fe.mesh import load_mesh
+    from validation.impact_cases import sphere_block_case
+
+    meshes = Path(__file__).resolve().parents[1] / "meshes"
+    case = sphere_block_case(meshes / "hertz_coarse_p1.msh")
+    case = replace(case, contacts=(replace(case.contacts[0], mu_static=0.3, mu_dynamic=0.3),),
+                   rigid_bodies=(RigidBodySpec("sphere_equator", "translation", (0.0, 0.0, 1.0),
+                                               values=(-4e-6,)),))
+    monkeypatch.setattr(static, "FRICTION_ROW_SPACE_COORDINATES", 0)
+    monkeypatch.setattr(static, "FRICTION_ROW_SPACE_ROWS", 3)
+    with pytest.raises(ContactError, match=r"gap rows, \d+ with their tangential rows, above "
+                                           r"the 3 whose compliances friction can keep"):
+        static.StaticSolver(case, load_mesh(case.mesh_file), stress=False)

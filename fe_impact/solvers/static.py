@@ -107,6 +107,13 @@ MAX_LOAD_ITERATIONS = 60
 #: in the rows' space, and at 14.47 deg (55k DOFs, 5,581) 5.0 x condensed (a growth
 #: to 8,339), 1.30 x in the rows' space (2.9 x switching to it at the growth).
 FRICTION_ROW_SPACE_COORDINATES = 3000
+#: The most normal and tangential rows (three per gap row) the rows' space keeps with
+#: friction: their dense compliance (and PARDISO's Schur complement it comes from)
+#: takes 8 bytes squared each, 0.29 GB at this size, about 1 GB at the peak of its
+#: forming. A tip edge's corner zone of 49,297 coordinates took 6 GB before this
+#: limit; such a zone is refused (a ContactError, which the calibration answers by
+#: solving it frictionless).
+FRICTION_ROW_SPACE_ROWS = 6000
 #: Right-hand sides per block of :class:`_RowSpace`'s solves (memory: one
 #: block of the free DOFs' size).
 ROW_BLOCK = 128
@@ -309,6 +316,15 @@ class StaticSolver:
             ok = self.contact.active_rows
             self.R_open = None    # nothing condensed: no tangent coordinate to grow
             if self.friction:     # the normal and both tangential rows of every row
+                n_rows = 3 * int(ok.sum())
+                if n_rows > FRICTION_ROW_SPACE_ROWS:
+                    raise ContactError(
+                        f"the contact zone holds {n_rows // 3} gap rows, {n_rows} with their "
+                        f"tangential rows, above the {FRICTION_ROW_SPACE_ROWS} whose "
+                        "compliances friction can keep: set a smaller [[contacts]] "
+                        "search_distance or coarsen the contact faces")
+                logger.info("friction in the rows' space: %d normal and tangential rows",
+                            n_rows)
                 keys, B_all = self._frictional_rows()
                 ok3 = np.tile(ok, 3)
                 self.rows.prime(keys[ok3], B_all[ok3])

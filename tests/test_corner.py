@@ -333,3 +333,28 @@ def test_the_recess_corner_of_a_face_cut_to_its_undercut_limit():
         edge = pinion_edge_rounding(pair, gs.pinion.tip_edge_radius, n=201)
         touches.append(corner_contact(pair, edge, "recess", roll))
     assert touches[1].gap == pytest.approx(touches[0].gap, rel=1e-2)
+
+
+def test_a_node_just_beyond_a_face_end_below_the_generated_flank_is_continued():
+    # geometry/two-stage.toml, stage 1: the inner end (139 mm) lies 0.05 mm outside
+    # the undercut limit, so 0.02 mm beyond it the lowest generated height is 23 um
+    # above h_ext. A mesh node there (the 1000 r/min impact's mesh had one) has no
+    # exact flank point; it is continued from the end at its own radius and height:
+    # 0.02 mm from the end's flank point at the same height (the flank turns by
+    # ~1 rad/m, a few nanometres over that).
+    from pathlib import Path
+
+    from fe_impact.gears.gearset import load_gearset
+    from fe_impact.meshing.pairgeometry import _FaceFlank
+
+    root = Path(__file__).resolve().parents[1]
+    face = GearPair.from_gearset(load_gearset(root / "geometry" / "two-stage.toml"), 1).face
+    flank = _FaceFlank(face)
+    radius = face.face_inner - 2e-5
+    height = 0.5 * (flank.h_ext + face.height_range(radius)[0])
+    assert flank.h_ext < height < face.height_range(radius)[0]
+    p = flank.point(np.array([radius]), np.array([height]))[0]
+    end = face.flank(face.face_inner, height).points
+    assert math.hypot(p[0], p[2]) == pytest.approx(radius, rel=1e-12)
+    assert p[1] == height
+    assert np.linalg.norm(p - end) == pytest.approx(2e-5, rel=0.01)

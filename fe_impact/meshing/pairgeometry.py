@@ -107,12 +107,25 @@ class _FaceFlank:
         return angle
 
     def point(self, radius: NDArray, height: NDArray) -> NDArray:
-        """Flank points (..., 3): exact (crowning included) above ``h_ext``."""
+        """Flank points (..., 3): exact (crowning included) above ``h_ext``.
+
+        A node a little beyond a face end that lies close to the undercut limit
+        can be above ``h_ext`` but below the lowest generated height at its own
+        radius (two-stage drive, stage 1: the inner end 0.05 mm outside the
+        undercut limit, a node 0.02 mm beyond it): it has no exact flank point
+        and is continued as the nodes below ``h_ext`` are.
+        """
         radius, height = np.broadcast_arrays(np.asarray(radius, float), np.asarray(height, float))
         out = np.empty(radius.shape + (3,))
         above = height >= self.h_ext
         if np.any(above):
-            out[above] = self.face.flank(radius[above], height[above]).points
+            out[above] = self.face.flank(radius[above], height[above], strict=False).points
+            lost = np.zeros_like(above)
+            lost[above] = ~np.isfinite(out[above]).all(axis=-1)
+            lost &= (radius < self.face.face_inner) | (radius > self.face.face_outer)
+            above &= ~lost
+            if not np.isfinite(out[above]).all():   # inside the face: a real error
+                self.face.flank(radius[above], height[above])
         if np.any(~above):
             a = self.angle(radius[~above], height[~above])
             r = radius[~above]

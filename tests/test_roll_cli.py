@@ -301,7 +301,7 @@ def test_interrupted_meshing_leaves_nothing(gearset, tmp_path, monkeypatch):
 
     monkeypatch.setattr(sectors, "build_sectors", half_mesh)
     with pytest.raises(KeyboardInterrupt):
-        api._sector_mesh(gearset, _inputs(elastic=True), tmp_path / "out" / "mesh")
+        api.sector_mesh(gearset, _inputs(elastic=True), tmp_path / "out" / "mesh")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -321,13 +321,13 @@ def test_reused_mesh_found_from_another_folder(gearset, tmp_path, monkeypatch):
     (tmp_path / "first").mkdir()
     (tmp_path / "second").mkdir()
     monkeypatch.chdir(tmp_path / "first")
-    first = api._sector_mesh(gearset, _inputs(elastic=True), Path("e1") / "mesh")
+    first = api.sector_mesh(gearset, _inputs(elastic=True), Path("e1") / "mesh")
     assert Path(first["mesh_path"]) == Path("e1") / "mesh" / "sectors.msh"
     stored = json.loads((Path("e1") / "mesh" / "sectors.json").read_text())
     assert stored["mesh_path"] == "sectors.msh"       # relative to the mesh folder
     monkeypatch.chdir(tmp_path / "second")
     folder = tmp_path / "first" / "e1" / "mesh"
-    again = api._sector_mesh(gearset, _inputs(elastic=True), folder)
+    again = api.sector_mesh(gearset, _inputs(elastic=True), folder)
     assert len(made) == 1                              # reused, not meshed again
     assert Path(again["mesh_path"]) == folder / "sectors.msh"
     assert Path(again["mesh_path"]).read_text() == "mesh"

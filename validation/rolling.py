@@ -159,7 +159,7 @@ def tip_sensitivity(gearset, mesh_dir: Path, reference: Path | None, quick: bool
     (``compliance``: :func:`pair_compliance`'s rows, at the force nearest the
     500 N the leaving pair carries), 1 at the path's end, linear between.
     """
-    from fe_impact.rolling.api import RollInputs, _sector_mesh
+    from fe_impact.rolling.api import RollInputs, sector_mesh
     from fe_impact.rolling.bodies import sector_bodies
     from fe_impact.rolling.model import ContactGeometry, Roller, RollSettings
     from fe_impact.rolling.run import integrate
@@ -187,7 +187,7 @@ def tip_sensitivity(gearset, mesh_dir: Path, reference: Path | None, quick: bool
                             torque=pinion_torque * r_b2 / r_bp, cycles=QS_CYCLES,
                             steps_per_cycle=steps, ramp_cycles=QS_RAMP,
                             probe_depth=probe_depth, layer_scale=tuple(scale))
-    mesh = _sector_mesh(gearset, RollInputs(stage=1, level="coarse", speed_rpm=QS_SPEED_RPM,
+    mesh = sector_mesh(gearset, RollInputs(stage=1, level="coarse", speed_rpm=QS_SPEED_RPM,
                                             torque_nm=0.0, cycles=1.0), mesh_dir)
     pinion, face = sector_bodies(mesh["mesh_path"], gearset, 1)
     roller = Roller(geo, pinion, face, tooth_range(), mesh["pinion_roll_placed"],
@@ -274,7 +274,7 @@ def pair_compliance(gearset, mesh_dir: Path, reference: Path | None,
     pass/fail check: the FE measures a tip-edge pair from its first touch, the rolling
     model places it at the path's end with the flank's ellipse.
     """
-    from fe_impact.rolling.api import RollInputs, _sector_mesh
+    from fe_impact.rolling.api import RollInputs, sector_mesh
     from fe_impact.rolling.bodies import sector_bodies
     from fe_impact.rolling.model import ContactGeometry, Roller, RollSettings, static_pair_approach
     from fe_impact.rolling.sectors import tooth_range
@@ -284,7 +284,7 @@ def pair_compliance(gearset, mesh_dir: Path, reference: Path | None,
     data = json.loads(Path(reference).read_text())
     inputs = RollInputs(stage=1, level="coarse", speed_rpm=50.0, torque_nm=0.0, cycles=1.0,
                         probe_depth=probe_depth)
-    mesh = _sector_mesh(gearset, inputs, mesh_dir)
+    mesh = sector_mesh(gearset, inputs, mesh_dir)
     geo = ContactGeometry.build(gearset, 1)
     pinion, face = sector_bodies(mesh["mesh_path"], gearset, 1)
     r_bp, r_b2 = geo.base_radii

@@ -18,7 +18,7 @@ from fe_impact.errors import CaseError
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["RollInputs", "check_inputs", "passed_through", "roll"]
+__all__ = ["RollInputs", "check_inputs", "passed_through", "roll", "sector_mesh"]
 
 #: Time steps per Hertz contact time of the fastest mesh-in the run can see, at least.
 STEPS_PER_CONTACT = 8
@@ -290,7 +290,7 @@ def roll(gearset, inputs: RollInputs, out: str | Path | None = None, *, progress
         raise CaseError(f"{_window_options(inputs)}: {exc}") from exc
     mesh = None
     if inputs.elastic:
-        mesh = _sector_mesh(gearset, inputs, Path(mesh_dir) if mesh_dir else (
+        mesh = sector_mesh(gearset, inputs, Path(mesh_dir) if mesh_dir else (
             Path(out) / "mesh" if out else Path("rolling_mesh")))
         _ellipse_resolution(gearset, inputs, pair, mesh)
         from fe_impact.rolling.bodies import sector_bodies
@@ -377,7 +377,7 @@ def _ellipse_resolution(gearset, inputs: RollInputs, pair, mesh: dict) -> None:
                        element * 1e3, inputs.torque_nm, ellipse.a * 1e3)
 
 
-def _sector_mesh(gearset, inputs: RollInputs, folder: Path) -> dict:
+def sector_mesh(gearset, inputs: RollInputs, folder: Path) -> dict:
     """The sector mesh of ``inputs``' stage and level, reused when already written.
 
     ``mesh_path`` is ``folder / "sectors.msh"`` (``sectors.json`` stores it relative

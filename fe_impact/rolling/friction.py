@@ -1,7 +1,7 @@
 """Coulomb friction between the flanks of the rolling mesh (the seed's eqs. 9-10).
 
 The law is the lumped switching model's, called, not copied
-(:func:`fe_impact.switching._kernel.friction_coefficient` with the coefficients of
+(:func:`fe_impact.switching.simulation.friction_coefficient` with the coefficients of
 :class:`fe_impact.switching.model.Friction`, taken from the gear set's
 ``[friction]`` section, :class:`~fe_impact.gears.gearset.FlankFriction`): the seed's
 ``F_t = -mu F_n sgn(v12)`` with ``sgn`` smoothed by the ADAMS STEP cubic below the
@@ -44,7 +44,6 @@ step and compares the loss.
 
 from __future__ import annotations
 
-import functools
 import logging
 
 import numpy as np
@@ -67,23 +66,12 @@ def friction_of(gearset):
     return Friction(fr.mu_static, fr.mu_dynamic) if fr.active else None
 
 
-@functools.lru_cache(maxsize=8)
-def _record(law):
-    from fe_impact.switching._kernel import PARAMS
-
-    p = np.zeros(1, dtype=PARAMS)[0]
-    p["mu_static"], p["mu_dynamic"] = law.static, law.dynamic
-    p["stiction_speed"], p["transition_speed"] = law.stiction_speed, law.transition_speed
-    p["friction"] = 1
-    return p
-
-
 def coefficient(law, speed: float) -> float:
     """``mu`` [-] at the sliding speed ``speed`` [m/s] (signed: ``mu(|v|) sgn(v)``,
     smoothed): the lumped model's law itself."""
-    from fe_impact.switching._kernel import friction_coefficient
+    from fe_impact.switching.simulation import friction_coefficient
 
-    return float(friction_coefficient(float(speed), _record(law)))
+    return friction_coefficient(law, speed)
 
 
 def _frame(roller, theta: float, body: str

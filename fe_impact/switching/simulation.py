@@ -26,12 +26,20 @@ import numpy as np
 from fe_impact.calibration.records import KINDS
 from fe_impact.errors import CaseError, SolverError
 from fe_impact.switching import _kernel as K
-from fe_impact.switching.model import DRIVES, RPM, DriveModel, Segment, StageSchedule
+from fe_impact.switching.model import (
+    DRIVES,
+    RPM,
+    DriveModel,
+    Friction,
+    Segment,
+    StageSchedule,
+)
 
 logger = logging.getLogger(__name__)
 
 __all__ = [
     "CONTACT_NAMES",
+    "friction_coefficient",
     "KIND_NAMES",
     "LAW_NAMES",
     "SERIES_QUANTITIES",
@@ -258,12 +266,7 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     p["s_start"], p["s_end"], p["s_pitch"] = geo.s_start, geo.s_end, geo.s_pitch
     p["pinions"] = model.pinions
     p["te_amplitude"] = model.transmission_error
-    fr = model.friction
-    if fr is not None:
-        p["mu_static"], p["mu_dynamic"], p["friction"] = fr.static, fr.dynamic, 1
-        p["stiction_speed"], p["transition_speed"] = fr.stiction_speed, fr.transition_speed
-    else:
-        p["stiction_speed"], p["transition_speed"] = 1.0, 2.0
+    _set_friction(p, model.friction)
     p["drive"] = DRIVES.index(model.drive)
     p["u0"] = model.mesh_phase * geo.base_pitch
     p["rtol"] = model.rtol
@@ -544,3 +547,23 @@ def mechanical_energy(run: SwitchingRun) -> np.ndarray:
         kinetic = kinetic + 0.5 * model.ring_inertias[i] * s[f"ring{i + 1}_speed_rad_s"] ** 2
         elastic = elastic + 0.5 * model.couplings[i] * s[f"ring{i + 1}_twist_rad"] ** 2
     return kinetic + elastic
+
+
+def _set_friction(p, friction: Friction | None) -> None:
+    """Write ``friction``'s coefficients and speeds into a `_kernel.PARAMS` record."""
+    if friction is not None:
+        p["mu_static"], p["mu_dynamic"], p["friction"] = (friction.static, friction.dynamic,
+                                                          1)
+        p["stiction_speed"] = friction.stiction_speed
+        p["transition_speed"] = friction.transition_speed
+    else:
+        p["stiction_speed"], p["transition_speed"] = 1.0, 2.0
+
+
+def friction_coefficient(friction: Friction, speed: float) -> float:
+    """The signed coefficient ``mu(|v|) sgn(v)`` [-] of the lumped model's flank friction
+    (seed eqs. 9-10, the sign smoothed below the stiction speed) at the sliding speed
+    ``speed`` [m/s]: the kernel's own law, for models that share it (the rolling FE)."""
+    params = np.zeros(1, dtype=K.PARAMS)
+    _set_friction(params[0], friction)
+    return float(K.friction_coefficient(float(speed), params[0]))

@@ -116,10 +116,7 @@ class RollResult:
         e = self.energy
         error = float(np.nanmax(np.abs(e["error"]), initial=0.0))
         kinetic = float(np.nanmax(e["kinetic"], initial=0.0))
-        k = e["kinetic"][~np.isnan(e["kinetic"])]
-        work = max(float(np.abs(e["drive_work"]).max(initial=0.0)),
-                   float(np.abs(e["load_work"]).max(initial=0.0)),
-                   float(np.ptp(k)) if len(k) else 0.0)
+        work = self._work_scale()
         return {"error_j": error, "kinetic_j": kinetic, "work_j": work,
                 "relative_to_kinetic": error / kinetic if kinetic > 0.0 else None,
                 "relative_to_work": error / work if work > 1e-9 * kinetic and work > 0.0
@@ -128,12 +125,17 @@ class RollResult:
     def energy_error(self) -> float:
         """Largest ``|E - E_0 - W_drive - W_load|`` over the run, divided by the largest of
         the drive's work, the load's work and the kinetic energy's change [-]."""
+        scale = max(self._work_scale(), 1e-300)
+        return float(np.nanmax(np.abs(self.energy["error"]), initial=0.0) / scale)
+
+    def _work_scale(self) -> float:
+        """The largest of the drive's work, the load's work and the kinetic energy's
+        change over the run [J]."""
         e = self.energy
         kinetic = e["kinetic"][~np.isnan(e["kinetic"])]
-        scale = max(np.abs(e["drive_work"]).max(initial=0.0),
-                    np.abs(e["load_work"]).max(initial=0.0),
-                    np.ptp(kinetic) if len(kinetic) else 0.0, 1e-300)
-        return float(np.nanmax(np.abs(e["error"]), initial=0.0) / scale)
+        return max(float(np.abs(e["drive_work"]).max(initial=0.0)),
+                   float(np.abs(e["load_work"]).max(initial=0.0)),
+                   float(np.ptp(kinetic)) if len(kinetic) else 0.0)
 
     def to_dict(self) -> dict:
         return {"time_s": self.time_s.tolist(), "te_m": self.te_m.tolist(),

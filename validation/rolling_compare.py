@@ -165,9 +165,8 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
                   torque_nm=condition.torque + condition.drag_torque,
                   cycles=condition.duration / period, level=level,
                   ramp_cycles=condition.load_ramp / period,
-                  te_amplitude=condition.transmission_error)
-    if "friction" in RollInputs.__dataclass_fields__:   # the same flanks as the lumped run
-        kwargs["friction"] = condition.friction
+                  te_amplitude=condition.transmission_error,
+                  friction=condition.friction)      # the same flanks as the lumped run
     if "start_cycles" in RollInputs.__dataclass_fields__:
         kwargs["start_cycles"] = condition.mesh_phase - FE_PAIR_OFFSET
     else:

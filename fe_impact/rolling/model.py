@@ -367,8 +367,10 @@ class RollSettings:
     te_amplitude : float
         A kinematic transmission error [m] (a pinion profile error, the torsional
         model's ``e = A sin(2 pi u / p_b)``, ``u`` the pinion's roll on the line of
-        action since the start): it closes the drive gaps and opens the coast gaps
-        by ``e``. 0: exact flanks.
+        action since the start): it opens the drive gaps and closes the coast gaps
+        by ``e``, as the torsional model's kernel does, so that the unloaded drive
+        flank's TE is ``+e`` in the TE's sign (positive when the pinion leads:
+        the pinion must lead by ``e`` more to touch). 0: exact flanks.
     spread_force : float or None
         A pair's force enters the sectors spread along the major axis of the Hertz
         ellipse of this force [N] (the line load of the Hertz pressure, ``~ 1 -
@@ -620,8 +622,8 @@ class Roller:
             xp, xf, np_, nf, kh = self._ref_points(fl, k, s, theta_p)
             sign = 1.0 if fl == 0 else -1.0
             e, de = self.excitation(theta_p)
-            row = {"flank": fl, "tooth": k, "s": s, "g": g + 0.5 * m.backlash - sign * e,
-                   "kh": kh, "dtheta_p": -sign * self.r_bp * (1.0 - dg) - sign * de,
+            row = {"flank": fl, "tooth": k, "s": s, "g": g + 0.5 * m.backlash + sign * e,
+                   "kh": kh, "dtheta_p": -sign * self.r_bp * (1.0 - dg) + sign * de,
                    "dtheta_f": sign * self.r_b2,
                    "sign": sign, "xp": xp, "xf": xf, "np": np_, "nf": nf}
             mp, mf, a1 = self._majors

@@ -145,6 +145,38 @@ def test_goal_check_and_files(tmp_path):
         read_record(tmp_path / "bad.json")
 
 
+def test_basis_lines_name_figures_set_by_one_event():
+    # 300 r/min (95 Hz), 0.1 s, no settle: the window is the last 9 whole periods. One
+    # record has a decaying ring started by a mesh-in at 0.07 s (max 1/4 of a ring
+    # period later, 0.07 + 0.25 / 1000 s; min at 0.75 of it): both extremes follow that
+    # one mesh-in by far less than a mesh period; the other is a pure mesh-order sine
+    # and one rattle, whose extremes (0.25 and 0.75 of a mesh period) are not both
+    # after it.
+    from fe_impact.rolling.compare import basis_lines, te_extremes
+
+    condition = _condition(speed=300.0, duration=0.1)
+    f = condition.mesh_frequency(GEARSET.pinion.teeth)
+    t = np.linspace(0.0, 0.1, 100001)
+    ring = np.where(t >= 0.07, np.exp(-(t - 0.07) / 0.01)
+                    * np.sin(2 * np.pi * 1000.0 * (t - 0.07)), 0.0) * 1e-6
+    one = ContactEvents([0.07], ["mesh-in"], [1], [0.05], [600.0], ["corner-approach"],
+                        [math.nan])
+    rung = _record(t, ring + 1e-8 * np.sin(2 * np.pi * f * t), one, "rung", condition)
+    hi, lo = te_extremes(rung)
+    assert hi == pytest.approx(0.07 + 0.25e-3, abs=2e-5)
+    assert lo == pytest.approx(0.07 + 0.75e-3, abs=2e-5)
+    rattle = ContactEvents([0.05], ["rattle"], [-1], [0.01], [20.0], ["flank"], [math.nan])
+    sine = _record(t, 1e-6 * np.sin(2 * np.pi * f * t), rattle, "sine", condition)
+    text = basis_lines([rung, sine]).splitlines()
+    assert len(text) == 2
+    assert "TE over 9 mesh periods" in text[0]
+    assert "mesh-in figures from one event" in text[0]
+    assert "peak-to-peak set by one mesh-in" in text[0]
+    # 0.25 and 0.75 ms after it: 0.024 and 0.071 of a 10.5 ms mesh period
+    assert "max 0.02 periods after a mesh-in, its min 0.07 periods after" in text[0]
+    assert "set by one" not in text[1] and "from one event" not in text[1]
+
+
 # -- the lumped runner ----------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def loaded():

@@ -69,6 +69,7 @@ from fe_impact.rolling.compare import (
     REFERENCE,
     RollingCondition,
     RollingRecord,
+    basis_lines,
     check_goal,
     comparison_rows,
     goal_lines,
@@ -288,6 +289,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     write_comparison(args.out, result["records"], goal=result["goal"])
     print(markdown_table(comparison_rows(result["records"])))
+    print(basis_lines(result["records"]))
     if result["goal"]:
         print(goal_lines(result["goal"]))
     for what in result["missing"]:

@@ -59,12 +59,14 @@ __all__ = [
     "LOCATIONS",
     "ContactEvents",
     "GoalCheck",
+    "basis_lines",
     "MeshMetrics",
     "RollingCondition",
     "RollingRecord",
     "check_goal",
     "compare_metrics",
     "counted_events",
+    "te_extremes",
     "comparison_rows",
     "markdown_table",
     "mesh_harmonics",
@@ -572,6 +574,57 @@ def mesh_metrics(record: RollingRecord) -> MeshMetrics:
         rattle_speed_max=_stat(rattle.closing_speed, np.max))
 
 
+def te_extremes(record: RollingRecord) -> tuple[float, float]:
+    """Times [s] of the largest and the smallest transmission error in the metrics'
+    window (`mesh_window`): the two samples its peak-to-peak is taken from."""
+    t0, t1, _ = mesh_window(record.time, record.mesh_frequency, record.condition.settle)
+    inside = np.flatnonzero((record.time >= t0) & (record.time <= t1))
+    te = record.te[inside]
+    return float(record.time[inside[np.argmax(te)]]), float(record.time[inside[np.argmin(te)]])
+
+
+def _last_impact(record: RollingRecord, t: float) -> tuple[float, str] | None:
+    """Onset [s] and kind of the record's last mesh-in or rattle impact in the mesh
+    period up to ``t`` (counted by the metrics or not: one near the record's end still
+    rings the TE); None when there is none."""
+    ev = record.events
+    first = t - 1.0 / record.mesh_frequency
+    before = [(float(e), str(kind)) for e, kind in zip(ev.time, ev.kind, strict=True)
+              if kind in ("mesh-in", "rattle") and first < e <= t]
+    return max(before) if before else None
+
+
+def basis_lines(records) -> str:
+    """What each condition's figures rest on, one Markdown line per condition and model:
+    the whole mesh periods of the TE window, where its peak-to-peak's two extremes
+    fall (how many mesh periods after an impact, when less than one), and how many
+    impacts the impact figures count. A figure taken from one impact (its median is its
+    largest) and a peak-to-peak whose two extremes both follow the same impact by less
+    than a mesh period are that event's, not a statistic of the mesh: the line says
+    so."""
+    lines = []
+    for name, group in _by_condition(records).items():
+        for record in group:
+            m = mesh_metrics(record)
+            f = record.mesh_frequency
+            extremes = te_extremes(record)
+            after = [_last_impact(record, t) for t in extremes]
+            where = [f"{(t - a[0]) * f:.2f} periods after a {a[1]}" if a else
+                     "not within a period after an impact"
+                     for t, a in zip(extremes, after, strict=True)]
+            single = []
+            if m.mesh_in_count == 1:
+                single.append("mesh-in figures from one event")
+            if after[0] and after[0] == after[1]:
+                single.append(f"peak-to-peak set by one {after[0][1]}")
+            note = f" ({'; '.join(single)})" if single else ""
+            lines.append(f"- {name}, {record.source}: TE over {m.periods} mesh period"
+                         f"{'s' if m.periods != 1 else ''}, its max {where[0]}, its min "
+                         f"{where[1]}; {m.mesh_in_count} mesh-in, {m.rattle_count} "
+                         f"rattle{note}")
+    return "\n".join(lines) + "\n"
+
+
 def mesh_in_phase(record: RollingRecord) -> float:
     """Where in the mesh period the record's mesh-in impacts fall, from ``settle`` on:
     the circular mean of ``t f mod 1`` [-, 0..1); NaN without a mesh-in."""
@@ -722,7 +775,7 @@ def write_comparison(out: str | Path, records, reference: str = REFERENCE,
     out.mkdir(parents=True, exist_ok=True)
     rows = comparison_rows(records, reference)
     columns = list(dict.fromkeys(k for row in rows for k in row))
-    text = markdown_table(rows)
+    text = markdown_table(rows) + "\n" + basis_lines(records)
     if goal:
         text += "\n" + goal_lines(goal)
     with atomic_path(out / "compare.md") as tmp:

@@ -49,8 +49,12 @@ __all__ = ["LAW_SOURCES", "OUTPUT_SHARE", "lumped_model", "run_lumped", "stage_g
 #: Share of the face-gear rotor's inertia put on the lumped model's output (the rest
 #: on the ring).
 OUTPUT_SHARE = 0.05
-#: Samples per mesh period of the record's time series.
-SAMPLES_PER_PERIOD = 64
+#: Samples per mesh period of the record's time series: a peak-to-peak read from samples
+#: misses up to ``1 - cos(pi / n)`` of a sine sampled ``n`` times a cycle; the ring after
+#: a mesh-in at 1000 r/min (about 2 kHz, 6.3 mesh orders) gets 40 samples a cycle
+#: (0.3%; 64 a period gave it 10, 4.9%, and the undamped tip edges' TE peak-to-peak
+#: 1.2% below its converged value).
+SAMPLES_PER_PERIOD = 256
 #: Samples of a load ramp (`load_series`).
 RAMP_POINTS = 32
 #: The two law sources `run_lumped` takes.

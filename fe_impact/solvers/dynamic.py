@@ -45,6 +45,7 @@ from threadpoolctl import threadpool_info, threadpool_limits
 from fe_impact.contact.condensed import CondensedContact, StepContact
 from fe_impact.contact.friction import ExplicitFriction, ImplicitFriction, pair_laws
 from fe_impact.contact.linearised import (
+    IMPACT_PATCH_FRACTION,
     ContactModel,
     SurfaceMonitor,
     flight_patch,
@@ -269,14 +270,14 @@ class DynamicSolver:
         """The nodes whose tangent coordinates the friction's condensation starts with
         (the patch grows from them as contact spreads; see
         :attr:`CondensedContact.tangential`): the rows within
-        :data:`~fe_impact.contact.linearised.PREDICTED_PATCH_FRACTION` of a pair's
+        :data:`~fe_impact.contact.linearised.IMPACT_PATCH_FRACTION` of a pair's
         given search distance (which a tooth impact sets beyond its Hertz approach)
         and, from a rigid start, those the first touch's growth would take. Without
         them the first contact made a second factorisation."""
         c = self.contact
         reach = [r if spec.search_distance is not None else None
                  for r, spec in zip(self.reach, self.case.contacts, strict=True)]
-        nodes = predicted_patch(self.mesh, c, reach)
+        nodes = predicted_patch(self.mesh, c, reach, fraction=IMPACT_PATCH_FRACTION)
         if self.free_flight and self.v0 is not None and np.any(self.v0):
             K = self.K
             size = float(np.linalg.norm(abs(K) @ np.abs(self.v0)))

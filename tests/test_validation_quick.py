@@ -101,6 +101,21 @@ def test_a_study_that_cannot_run_here_is_skipped_not_passed(monkeypatch, capsys)
     assert capsys.readouterr().out.rstrip().endswith("0 passed, 1 failed, 1 skipped")
 
 
+def test_a_study_without_its_summary_line_fails(monkeypatch, tmp_path, capsys):
+    # a study that exits 0 without reporting its checks has checked nothing: it was
+    # listed as FAIL and yet counted as passed
+    import subprocess
+
+    from validation import run_all
+
+    monkeypatch.setattr(subprocess, "run", lambda *a, **k: subprocess.CompletedProcess(
+        a[0], 0, stdout='{"figure": 1.0}\n', stderr=""))
+    assert run_all.main(["--only", "corner_gaps", "--out", str(tmp_path)]) == 1
+    out = capsys.readouterr().out.rstrip()
+    assert "corner_gaps: FAIL (exit status 0, no summary line" in out
+    assert out.endswith("0 passed, 1 failed, 0 skipped")
+
+
 def test_every_checked_study_is_run_or_said_why_not(tmp_path):
     # A study that asserts figures (ck.finish) is in `make validate` or in its list
     # of studies left out with the reason; each study listed takes --quick when

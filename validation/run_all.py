@@ -62,9 +62,12 @@ def run_study(name: str, out: Path, quick: bool) -> tuple[int, str, float]:
     (out / name).mkdir(parents=True, exist_ok=True)
     (out / name / "log.txt").write_text(proc.stdout + proc.stderr)
     lines = [s for s in proc.stdout.splitlines() if s.startswith(f"{name}: ")]
-    line = lines[-1] if lines else (f"{name}: FAIL (exit status {proc.returncode}; see "
-                                    f"{out / name / 'log.txt'})")
-    return proc.returncode, line, time.perf_counter() - t
+    if lines:
+        return proc.returncode, lines[-1], time.perf_counter() - t
+    # no summary line: the study did not report its checks, whatever its exit status
+    line = (f"{name}: FAIL (exit status {proc.returncode}, no summary line; see "
+            f"{out / name / 'log.txt'})")
+    return proc.returncode or 1, line, time.perf_counter() - t
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -257,6 +257,40 @@ def test_record_of_a_rolling_fe_run_sums_its_pairs_and_names_its_events():
         record_from_roll(bad, _condition(), GEARSET.pinion.teeth)
 
 
+def test_pairs_touching_together_after_a_flight_are_one_rattle_of_their_flank():
+    # The FE lists a rattle per tooth pair; the module's convention (and the lumped
+    # model) has one per flank contact, its peak force the flank's total. Two drive
+    # pairs touch in the same step at 2 ms (closing 2.15 and 2.16 mm/s), carrying
+    # 9 N and 11 N at 3 ms (20 N together); a coast pair touches at 8 ms, after
+    # their contact ended (7 ms): one drive rattle of 20 N at 2.16 mm/s, one coast.
+    from types import SimpleNamespace
+
+    from fe_impact.rolling.compare import record_from_roll
+
+    t = np.linspace(0.0, 0.01, 11)
+    forces = np.zeros((11, 3, 2))
+    forces[2:8, 0, 0] = [1.0, 9.0, 6.0, 3.0, 1.0, 0.0]
+    forces[2:8, 1, 0] = [1.5, 11.0, 7.0, 2.0, 0.5, 0.0]
+    forces[8:10, 2, 1] = [4.0, 2.0]
+
+    def rattle(time, flank, tooth, speed, peak, end):
+        return SimpleNamespace(time_s=time, flank=flank, tooth=tooth, kind="rattle",
+                               closing_speed_m_s=speed, peak_force_n=peak, where="flank",
+                               s_m=5e-3, end_time_s=end, end_s_m=6e-3)
+
+    events = [rattle(0.002, "drive", 0, 2.15e-3, 9.0, 0.007),
+              rattle(0.002, "drive", 1, 2.16e-3, 11.0, 0.007),
+              rattle(0.008, "coast", 2, 1.0e-3, 4.0, 0.010)]
+    result = SimpleNamespace(time_s=t, te_m=np.zeros(11), pair_force_n=forces,
+                             events=events, info={})
+    ev = record_from_roll(result, _condition(), GEARSET.pinion.teeth).events
+    assert ev.kind.tolist() == ["rattle", "rattle"]
+    assert ev.flank.tolist() == [1, -1]
+    assert ev.peak_force.tolist() == [20.0, 4.0]
+    assert ev.closing_speed.tolist() == [2.16e-3, 1.0e-3]
+    assert ev.time.tolist() == [0.002, 0.008]
+
+
 def test_phase_offset_of_the_mesh_in_impacts_wraps_around_the_period():
     from fe_impact.rolling.compare import phase_offset
 

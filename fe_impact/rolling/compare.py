@@ -376,17 +376,30 @@ def record_from_roll(result, condition: RollingCondition, pinion_teeth: int,
 
     Flank forces are the sums of the tooth pairs' (``pair_force_n[..., 0]`` drive,
     ``[..., 1]`` coast; NaN, out of reach, counts 0); each `ContactEvent` keeps its
-    kind, closing speed, peak force, place and ``s``.
+    kind, closing speed, peak force, place and ``s``, except the rattle impacts:
+    the FE lists one per tooth pair, and two pairs of a flank that touch together
+    at the end of a flight across the backlash (the contact ratio is above 1) are
+    two rattle events there. A rattle is the flank's (module conventions), as the
+    lumped model counts it: the FE's rattle events of one flank that begin before
+    the first of them ends are one impact, at the first's time, place and closing
+    speed (the fastest of those that touched in that step), with the flank's largest
+    total force over the merged contact as its peak force (`_flank_rattles`).
     """
     forces = np.nan_to_num(np.asarray(result.pair_force_n, dtype=float))
-    rows = []
+    rows, rattles = [], []
     for e in result.events:
         if e.where not in _FE_WHERE or e.flank not in _FE_FLANK or e.kind not in EVENT_KINDS:
             raise CaseError(f"{source}: event at {e.time_s:g} s has kind = {e.kind!r}, "
                             f"where = {e.where!r}, flank = {e.flank!r}; expected "
                             f"{list(EVENT_KINDS)}, {list(_FE_WHERE)}, {list(_FE_FLANK)}")
-        rows.append((e.time_s, e.kind, _FE_FLANK[e.flank], e.closing_speed_m_s, e.peak_force_n,
-                     _FE_WHERE[e.where], e.s_m))
+        row = (e.time_s, e.kind, _FE_FLANK[e.flank], e.closing_speed_m_s, e.peak_force_n,
+               _FE_WHERE[e.where], e.s_m)
+        if e.kind == "rattle":
+            rattles.append((row, getattr(e, "end_time_s", math.nan)))
+        else:
+            rows.append(row)
+    rows.extend(_flank_rattles(rattles, np.asarray(result.time_s, dtype=float),
+                               forces.sum(axis=1)))
     rows.sort(key=lambda r: r[0])
     columns = list(zip(*rows, strict=True)) if rows else [[]] * 7
     events = (ContactEvents(*columns) if rows else ContactEvents.empty())
@@ -395,6 +408,32 @@ def record_from_roll(result, condition: RollingCondition, pinion_teeth: int,
         time=result.time_s, te=result.te_m, drive_force=forces[..., 0].sum(axis=1),
         coast_force=forces[..., 1].sum(axis=1), events=events,
         pair_force=forces.reshape(forces.shape[0], -1), info=dict(result.info))
+
+
+def _flank_rattles(rattles, time: np.ndarray, flank_forces: np.ndarray) -> list[tuple]:
+    """One event row per flank contact of the FE's per-pair rattle events.
+
+    ``rattles``: ``(row, end_time)`` of `record_from_roll`'s rows; ``flank_forces``
+    (n, 2): the drive and coast flanks' total force at ``time``. Events of one flank
+    whose onsets fall before the first one's end (NaN: still open) are merged.
+    """
+    out = []
+    for flank in (1, -1):
+        group = sorted((r for r in rattles if r[0][2] == flank), key=lambda r: r[0][0])
+        column = flank_forces[:, 0 if flank == 1 else 1]
+        while group:
+            (first, end), rest = group[0], group[1:]
+            stop = math.inf if math.isnan(end) else end
+            merged = [first] + [r for r, _ in rest if r[0] < stop]
+            group = [(r, e) for r, e in rest if r[0] >= stop]
+            ends = [stop] + [e for r, e in rest if r[0] < stop]
+            last = max(math.inf if math.isnan(e) else e for e in ends)
+            inside = (time >= first[0]) & (time <= last)
+            peak = float(column[inside].max()) if inside.any() else first[4]
+            speed = max(r[3] for r in merged if r[0] == first[0])
+            out.append((first[0], "rattle", flank, speed, max(peak, first[4]), first[5],
+                        first[6]))
+    return out
 
 
 # -- metrics ------------------------------------------------------------------------------

@@ -3,7 +3,10 @@
 Run ``python validation/rolling_compare.py --calibration CAL --fe DIR --run-fe --out
 out/rolling_compare`` with ``CAL`` a ``calibration.json`` of the seed set (``fe-impact
 calibrate --level coarse --corners --out D``; ``make run`` writes
-``out/calibration/calibration.json``). ``--run-fe`` runs the rolling FE
+``out/calibration/calibration.json``). Add ``--corner-impacts`` for the tip edges'
+FE-measured restitution (without it their laws take the closed-form one, which
+dissipates most of a mesh-in), and calibrate a copy of the set with ``[friction]`` 0
+and 0 for the frictionless comparison. ``--run-fe`` runs the rolling FE
 (`fe_impact.rolling.api.roll`, coarse) of each condition whose record is not yet in
 ``DIR/<condition>/record.json`` and keeps it there; without it, the records already
 there are used. The lumped runs take about a second each. Exit status: 0 when the goal
@@ -34,8 +37,10 @@ mesh-in impacts on the first condition that has them (printed), on every conditi
 Compared per condition (`fe_impact.rolling.compare.COMPARED`): the mean-removed TE's
 peak-to-peak and RMS and its amplitudes at mesh orders 1-4 (whole periods, exact DFT
 bins), the peak mesh-in force (median and largest), the mesh-in closing speeds, the
-number of mesh-in and rattle impacts, the mean mesh force. The lumped model runs twice:
-on the calibration's laws and on the seed's closed forms.
+number of mesh-in and rattle impacts, the largest rattle's force and closing speed,
+the mean mesh force; below the table, what each model's figures rest on
+(`fe_impact.rolling.compare.basis_lines`: figures set by one impact are named). The
+lumped model runs twice: on the calibration's laws and on the seed's closed forms.
 
 A third lumped run, on the calibrated laws with no damping in the tip-edge (mesh-in)
 laws, is shown beside them and left out of the goal: the rolling FE is elastic, so it

@@ -512,7 +512,8 @@ class MeshMetrics:
 #: The figures `compare_metrics` sets side by side, in the table's order.
 COMPARED = ("te_peak_to_peak", "te_rms", *(f"te_h{h}" for h in range(1, HARMONICS + 1)),
             "mesh_in_force_median", "mesh_in_force_max", "mesh_in_speed_median",
-            "mesh_in_speed_max", "mesh_in_count", "rattle_count", "mean_drive_force")
+            "mesh_in_speed_max", "mesh_in_count", "rattle_count", "rattle_force_max",
+            "rattle_speed_max", "mean_drive_force")
 #: The figures of the goal: the calibrated model within `GOAL` of the rolling FE, and
 #: closer than the closed forms.
 GOAL_FIGURES = ("te_peak_to_peak", "te_rms", "mesh_in_force_median", "mesh_in_force_max")
@@ -523,6 +524,7 @@ UNITS = {"te_peak_to_peak": ("um", 1e6), "te_rms": ("um", 1e6),
          "mesh_in_force_median": ("N", 1.0), "mesh_in_force_max": ("N", 1.0),
          "mesh_in_speed_median": ("mm/s", 1e3), "mesh_in_speed_max": ("mm/s", 1e3),
          "mesh_in_count": ("", 1.0), "rattle_count": ("", 1.0),
+         "rattle_force_max": ("N", 1.0), "rattle_speed_max": ("mm/s", 1e3),
          "mean_drive_force": ("N", 1.0)}
 
 

@@ -28,14 +28,14 @@ def gearset():
     return default_gearset()
 
 
-def _roller(gearset, settings, stiffen=1.0, n=31):
+def _roller(gearset, settings, stiffen=1.0, n=31, teeth=5):
     # planar tip-corner gaps: quicker to tabulate than the solid ones, and none of
     # these checks depends on which (the command uses the solid ones)
     geo = ContactGeometry.build(gearset, 1, stiffen=stiffen, n=n, corners="planar")
     pair = geo.pair
     p = rigid_body("pinion", gearset.pinion.inertia, *pair.pinion_axis)
     f = rigid_body("face_gear", gearset.stages[0].inertia, *pair.face_axis)
-    return Roller(geo, p, f, tooth_range(), 0.0, pair.nominal_face_angle(0.0), settings)
+    return Roller(geo, p, f, tooth_range(teeth), 0.0, pair.nominal_face_angle(0.0), settings)
 
 
 def test_solve_contact_single_pair_is_hertz():
@@ -115,7 +115,53 @@ def test_cycles_beyond_sector(gearset):
         _roller(gearset, RollSettings(speed=100.0, cycles=9.0))
 
 
+@pytest.mark.parametrize("teeth", [4, 5, 6, 7])
+def test_window_holds_the_geometric_count_of_cycles(gearset, teeth):
+    # independent truth: a pair can touch over a reach of (hi - lo) along the line of
+    # action (the path of contact and the tip edges' approach and recess); N teeth span
+    # N base pitches of it, so the pinion turns through N - reach / p_b base pitches while
+    # every pair in reach is in the sectors, less the window's margins (0.01 pitch each
+    # end). Tolerance: the window is searched on a grid of 16/3200 = 0.005 pitch, one step
+    # lost at each end at most, so 0.01 (+ round-off).
+    roller = _roller(gearset, RollSettings(speed=100.0, cycles=0.1), teeth=teeth)
+    lo, hi = roller.geo.reach()
+    count = teeth - (hi - lo) / roller.p_b - 0.02
+    assert roller.capacity == pytest.approx(count, abs=0.0101)
+    # the window is where the sectors mesh: at its middle a drive pair is in reach
+    middle = 0.5 * sum(roller.held_window())
+    assert any(fl == 0 for fl, *_ in roller.positions(middle))
+
+
+def test_cycles_beyond_sector_says_what_fits(gearset):
+    # the refusal's count is the geometric one of the test above (7 teeth: 7 - 2.23
+    # - 0.02 = 4.75 on the planar corners), and it names the option that gives more
+    roller = _roller(gearset, RollSettings(speed=100.0, cycles=0.1), teeth=7)
+    with pytest.raises(CaseError, match="cycles = 5: the sectors \\(7 teeth each\\) hold "
+                       f"{roller.capacity:.2f} mesh cycles.*--teeth"):
+        _roller(gearset, RollSettings(speed=100.0, cycles=5.0), teeth=7)
+    with pytest.raises(CaseError, match="start_cycles -4 is before the window"):
+        _roller(gearset, RollSettings(speed=100.0, cycles=1.0, start_cycles=-4.0), teeth=7)
+
+
+@pytest.mark.parametrize("teeth, first, last", [(4, -1, 2), (5, -1, 3), (6, -2, 3),
+                                                (7, -2, 4)])
+def test_tooth_range_counts_the_teeth(teeth, first, last):
+    assert list(tooth_range(teeth)) == list(range(first, last + 1))
+    assert len(tooth_range(teeth)) == teeth
+
+
+@pytest.mark.parametrize("teeth", [3, 8, 0, True, 5.5])
+def test_bad_teeth_refused(teeth):
+    from fe_impact.rolling.sectors import check_teeth
+
+    with pytest.raises(CaseError, match=f"--teeth {teeth}: .* 4 to 7 .*4..7"):
+        check_teeth(teeth)
+
+
 @pytest.mark.parametrize("argv, option", [
+    (["--speed", "1000", "--teeth", "3"], "--teeth 3"),
+    (["--speed", "1000", "--teeth", "40"], "--teeth 40"),
+    (["--speed", "1000", "--teeth", "7", "--cycles", "5", "--rigid"], "--cycles 5"),
     (["--stage", "4", "--speed", "1000"], "--stage 4"),
     (["--speed", "0"], "--speed 0"),
     (["--speed", "1000", "--torque", "5000"], "--torque 5000"),

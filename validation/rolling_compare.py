@@ -17,7 +17,8 @@ written, and nothing is asserted.
 Conditions (the seed set, stage 1 unless ``--stage``, one pinion on one face-gear rotor
 of the stage's inertia, the pinion at constant speed from t = 0, the face gear at the
 conjugate speed touching its drive flank at zero force, the stage's default backlash,
-`CYCLES` mesh periods: what the FE's sectors hold):
+`CYCLES` mesh periods: what the FE's 5-tooth sectors hold; ``--teeth N`` (4..7) sectors
+hold ``N - 5`` more, and the runs are that much longer, `cycles_for`):
 
 - ``loaded-1000``: 1000 r/min, 50 N m on the face gear rising as ``sin^2`` over the
   first period (634 N a mesh on stage 1, inside the mesh cycle's calibrated forces
@@ -100,16 +101,20 @@ TE_AMPLITUDE = 1e-6
 DRAG = 0.01
 #: Load torque of the loaded condition [N m].
 LOAD = 50.0
-#: Mesh periods the rolling FE's sectors hold (5 teeth each: 2.47 cycles).
+#: Mesh periods the rolling FE's sectors hold (5 teeth each: 2.47 cycles; each added
+#: tooth adds one, `cycles_for`).
 CYCLES = 2.4
+#: Teeth of each of the rolling FE's sectors by default.
+TEETH = 5
 #: Pair 0 this many base pitches past the path's start at t = 0: a pair then enters at
 #: about 0.08, 1.08 and 2.08 cycles, so the pair entering after the 1-cycle load ramp
 #: passes its single-contact zone (0.76-1 period after entry, contact ratio 1.76), where
 #: its force peaks, before the run ends.
 MESH_PHASE = 0.85
-#: The rolling FE numbers its pairs from a tooth two pitches earlier: the same mesh
-#: phase is ``MESH_PHASE - 2`` there, which the sectors' window (from -1.22 on the
-#: seed set's coarse sectors) holds for `CYCLES`.
+#: The rolling FE numbers its pairs from a tooth two pitches earlier (5-tooth sectors):
+#: the same mesh phase is ``MESH_PHASE - 2`` there, which the sectors' window (from
+#: -1.22 on the seed set's coarse sectors) holds for `CYCLES`. The window begins a
+#: pitch earlier for each tooth past tooth 3 (`pair_offset`).
 FE_PAIR_OFFSET = 2
 #: Time steps per mesh period of the rolling FE: 8 or more per Hertz contact time of its
 #: fastest mesh-in (`fe_impact.rolling.api.STEPS_PER_CONTACT`; the FE asks 363 at 300 r/min).
@@ -119,6 +124,20 @@ FE_STEPS = {"loaded-1000": 240, "rattle-300": 400, "noload-1000": 240}
 CONDITIONS = (("loaded-1000", 1000.0, LOAD, 0.0, 1.0, 1.0),
               ("rattle-300", 300.0, 0.0, TE_AMPLITUDE, 0.0, 0.4),
               ("noload-1000", 1000.0, 0.0, TE_AMPLITUDE, 0.0, 0.4))
+
+
+def cycles_for(teeth: int) -> float:
+    """Mesh periods run with sectors of ``teeth`` teeth: `CYCLES` and one more for each
+    tooth past 5 (the window grows by a base pitch a tooth)."""
+    return CYCLES + (teeth - TEETH)
+
+
+def pair_offset(teeth: int) -> int:
+    """`FE_PAIR_OFFSET` for sectors of ``teeth`` teeth: the window's start moves a pitch
+    earlier with each tooth past tooth 3 (the last one of the 5-tooth sectors)."""
+    from fe_impact.rolling.sectors import tooth_range
+
+    return FE_PAIR_OFFSET + max(tooth_range(teeth)) - max(tooth_range(TEETH))
 
 
 def conditions(gearset: GearSet, stage: int, cycles: float = CYCLES, friction: bool = False
@@ -148,7 +167,8 @@ def _default_backlash(gearset: GearSet, stage: int) -> float:
 
 
 def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
-              run_fe: bool = False, level: str = "coarse") -> RollingRecord | None:
+              run_fe: bool = False, level: str = "coarse", teeth: int = TEETH
+              ) -> RollingRecord | None:
     """The rolling FE's record of ``condition``: ``fe/<name>/record.json`` if there, else
     (``run_fe``) a rolling run written there; None when neither."""
     if fe is None:
@@ -173,8 +193,10 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
                   ramp_cycles=condition.load_ramp / period,
                   te_amplitude=condition.transmission_error,
                   friction=condition.friction)      # the same flanks as the lumped run
+    if teeth != TEETH:
+        kwargs["teeth"] = teeth
     if "start_cycles" in RollInputs.__dataclass_fields__:
-        kwargs["start_cycles"] = condition.mesh_phase - FE_PAIR_OFFSET
+        kwargs["start_cycles"] = condition.mesh_phase - pair_offset(teeth)
     else:
         logger.warning("the rolling FE takes no start_cycles: pair 0 starts at the path's "
                        "start in both models")
@@ -198,7 +220,7 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
 
 def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int = 1,
         cycles: float = CYCLES, run_fe: bool = False, level: str = "coarse",
-        friction: bool = False) -> dict:
+        friction: bool = False, teeth: int = TEETH) -> dict:
     """Compute the records, metrics and goal checks of every condition.
 
     Returns
@@ -212,7 +234,7 @@ def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int 
         missing.append(f"calibration file {calibration}")
     shift = math.nan
     for condition in conditions(gearset, stage, cycles, friction):
-        fe_side = fe_record(condition, gearset, fe, run_fe, level)
+        fe_side = fe_record(condition, gearset, fe, run_fe, level, teeth)
         if fe_side is not None:
             condition = fe_side.condition
             records.append(fe_side)
@@ -269,9 +291,12 @@ def main(argv: list[str] | None = None) -> int:
                         "conditions whose record is not in --fe yet, and keep it there")
     parser.add_argument("--level", default="coarse", help="mesh level of the rolling FE")
     parser.add_argument("--stage", type=int, default=1)
-    parser.add_argument("--cycles", type=float, default=CYCLES,
-                        help=f"mesh periods simulated (default {CYCLES}, what the FE's "
-                        "sectors hold)")
+    parser.add_argument("--teeth", type=int, default=TEETH,
+                        help=f"teeth of each of the rolling FE's sectors, 4..7 (default "
+                        f"{TEETH})")
+    parser.add_argument("--cycles", type=float,
+                        help=f"mesh periods simulated (default {CYCLES} with 5 teeth and "
+                        "one more for each added tooth, what the FE's sectors hold)")
     parser.add_argument("--friction", action="store_true", help="the gear set's flank "
                         "friction in both models (the calibration should have it too)")
     parser.add_argument("--out", type=Path, default=Path("out/rolling_compare"))
@@ -282,13 +307,18 @@ def main(argv: list[str] | None = None) -> int:
         if not 1 <= args.stage <= len(gearset.stages):
             raise FeImpactError(f"--stage {args.stage}: the gear set has stages "
                                 f"1..{len(gearset.stages)}")
+        from fe_impact.rolling.sectors import check_teeth
+
+        check_teeth(args.teeth)
+        if args.cycles is None:
+            args.cycles = cycles_for(args.teeth)
         if not (math.isfinite(args.cycles) and args.cycles >= 2.0):
             raise FeImpactError(f"--cycles {args.cycles}: give 2 or more (a load ramp of "
                                 "one period, then one whole period compared)")
         if args.run_fe and args.fe is None:
             raise FeImpactError("--run-fe needs --fe DIR (where the FE records are kept)")
         result = run(gearset, args.calibration, args.fe, args.stage, args.cycles,
-                     args.run_fe, args.level, args.friction)
+                     args.run_fe, args.level, args.friction, args.teeth)
     except FeImpactError as exc:
         print(f"rolling_compare: {exc}", file=sys.stderr)
         return 1

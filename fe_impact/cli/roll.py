@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 _DESCRIPTION = (
-    "Transient FE of a pinion sector and a face-gear sector (5 teeth each) turning "
+    "Transient FE of a pinion sector and a face-gear sector (5 teeth each, --teeth) turning "
     "through mesh: each sector elastic in a frame turning with its rotor (the gear set's "
     "inertias), the pinion at a constant speed, the face gear under a load torque, the "
     "contact at the exact flanks and rounded tip edges with the gear set's backlash. "
@@ -43,7 +43,12 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
                         "several pinions on the ring, the output torque divided by "
                         "their number")
     p.add_argument("--cycles", type=float, default=2.0, metavar="K",
-                   help="mesh cycles to simulate (2; the sectors hold about 2.4)")
+                   help="mesh cycles to simulate (2; 5-tooth sectors hold about 2.4, each "
+                        "added tooth one more)")
+    p.add_argument("--teeth", type=int, default=5, metavar="N",
+                   help="teeth of each sector, 4..7 (5): the mesh cycles they hold are "
+                        "about N minus the reach of a pair along the line of action in "
+                        "base pitches (2.5 on the seed set)")
     p.add_argument("--level", default="coarse", help="mesh level (coarse)")
     p.add_argument("--steps-per-cycle", type=int, default=240, metavar="N",
                    help="time steps per mesh cycle (240)")
@@ -82,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
                         ramp_cycles=(args.ramp_cycles if args.ramp_cycles is not None
                                      else min(1.0, 0.5 * args.cycles)),
                         te_amplitude=args.te_amplitude * 1e-6, elastic=not args.rigid,
-                        friction=args.friction)
+                        friction=args.friction, teeth=args.teeth)
     # bad input: one line, nothing written
     check_inputs(gearset, inputs, check_step=not args.quasi_static)
     check_output_dir(args.out)

@@ -50,7 +50,8 @@ class RollInputs:
     default, two flank element sizes; 0: on the surface, with the Hertz approach added);
     ``friction``: Coulomb friction between the flanks with the gear set's ``[friction]``
     coefficients (the lumped model's law, :mod:`fe_impact.rolling.friction`; none
-    when the set gives 0 and 0), False: frictionless flanks.
+    when the set gives 0 and 0), False: frictionless flanks; ``teeth``: teeth of each
+    sector (:data:`~fe_impact.rolling.sectors.TEETH_RANGE`; more hold more mesh cycles).
     """
 
     stage: int
@@ -68,6 +69,7 @@ class RollInputs:
     start_cycles: float | None = None
     probe_depth: float | None = None
     friction: bool = True
+    teeth: int = 5
 
 
 def _speed_rad(rpm: float) -> float:
@@ -77,7 +79,7 @@ def _speed_rad(rpm: float) -> float:
 def check_inputs(gearset, inputs: RollInputs, check_step: bool = True) -> None:
     """Refuse inputs the model cannot take, one line naming the option each.
 
-    In order: the stage; the speed, cycles and torque as numbers; the speed
+    In order: the stage; the sectors' teeth; the speed, cycles and torque as numbers; the speed
     against the fastest pitch-line speed a gear set may run at (as the
     switching schedules do); the level; the steps per cycle; the ramps (the
     load must reach its torque within the run); the TE amplitude against the
@@ -92,12 +94,14 @@ def check_inputs(gearset, inputs: RollInputs, check_step: bool = True) -> None:
     from fe_impact.gears.kinematics import default_backlash
     from fe_impact.gears.tca import GearPair
     from fe_impact.meshing.sizing import LEVELS
+    from fe_impact.rolling.sectors import check_teeth
     from fe_impact.switching.schedule import speed_problem
 
     n = len(gearset.stages)
     if not (isinstance(inputs.stage, int) and 1 <= inputs.stage <= n):
         raise CaseError(f"--stage {inputs.stage}: the gear set '{gearset.name}' has stages "
                         f"1..{n}; pick one of them")
+    check_teeth(inputs.teeth)
     for name, value in (("--speed", inputs.speed_rpm), ("--cycles", inputs.cycles)):
         if not (math.isfinite(value) and value > 0.0):
             raise CaseError(f"{name} {value:g}: must be a number > 0")
@@ -284,8 +288,8 @@ def roll(gearset, inputs: RollInputs, out: str | Path | None = None, *, progress
                         *pair.face_axis))
     pinion, face = rigid
     try:    # on rigid rotors first: cycles beyond the sectors refused before any meshing
-        roller = Roller(geo, pinion, face, tooth_range(), 0.0, pair.nominal_face_angle(0.0),
-                        settings)
+        roller = Roller(geo, pinion, face, tooth_range(inputs.teeth), 0.0,
+                        pair.nominal_face_angle(0.0), settings)
     except CaseError as exc:
         raise CaseError(f"{_window_options(inputs)}: {exc}") from exc
     mesh = None
@@ -294,9 +298,11 @@ def roll(gearset, inputs: RollInputs, out: str | Path | None = None, *, progress
             Path(out) / "mesh" if out else Path("rolling_mesh")))
         _ellipse_resolution(gearset, inputs, pair, mesh)
         from fe_impact.rolling.bodies import sector_bodies
-        pinion, face = sector_bodies(mesh["mesh_path"], gearset, inputs.stage, inputs.stiffen)
+        pinion, face = sector_bodies(mesh["mesh_path"], gearset, inputs.stage, inputs.stiffen,
+                                     inputs.teeth)
         try:
-            roller = Roller(geo, pinion, face, tooth_range(), mesh["pinion_roll_placed"],
+            roller = Roller(geo, pinion, face, tooth_range(inputs.teeth),
+                            mesh["pinion_roll_placed"],
                             mesh["face_angle_placed"], settings)
         except CaseError as exc:
             raise CaseError(f"{_window_options(inputs)}: {exc}") from exc
@@ -393,11 +399,12 @@ def sector_mesh(gearset, inputs: RollInputs, folder: Path) -> dict:
     from dataclasses import asdict
 
     from fe_impact.atomic import write_json
-    from fe_impact.rolling.sectors import NEIGHBOURS, TEETH, build_sectors
+    from fe_impact.rolling.sectors import build_sectors, split_teeth
 
+    loaded, neighbours = split_teeth(inputs.teeth)
     key = hashlib.sha256(json.dumps(
         {"gearset": asdict(gearset), "stage": inputs.stage, "level": inputs.level,
-         "teeth": TEETH, "neighbours": NEIGHBOURS, "format": 1}, sort_keys=True,
+         "teeth": loaded, "neighbours": neighbours, "format": 1}, sort_keys=True,
         default=repr).encode()).hexdigest()[:16]
     folder = Path(folder)
     summary = folder / "sectors.json"
@@ -409,7 +416,7 @@ def sector_mesh(gearset, inputs: RollInputs, folder: Path) -> dict:
     folder.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}-", dir=folder.parent))
     try:
-        mesh = build_sectors(gearset, inputs.stage, inputs.level, tmp)
+        mesh = build_sectors(gearset, inputs.stage, inputs.level, tmp, teeth=inputs.teeth)
         data = {**mesh.to_dict(), "mesh_path": "sectors.msh", "key": key}
         write_json(tmp / "sectors.json", data)
         folder.mkdir(exist_ok=True)

@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 
 from fe_impact.errors import CaseError
 from fe_impact.rolling.model import Body
-from fe_impact.rolling.sectors import tooth_range
+from fe_impact.rolling.sectors import SECTOR_TEETH, tooth_range
 
 logger = logging.getLogger(__name__)
 
@@ -90,10 +90,12 @@ def _mass(M, dofs: np.ndarray) -> float:
     return float(e @ (M @ e))
 
 
-def sector_bodies(mesh_path, gearset, stage: int, stiffen: float = 1.0) -> tuple[Body, Body]:
+def sector_bodies(mesh_path, gearset, stage: int, stiffen: float = 1.0,
+                  teeth: int = SECTOR_TEETH) -> tuple[Body, Body]:
     """Pinion and face-gear :class:`~fe_impact.rolling.model.Body` of ``sectors.msh``.
 
-    ``stiffen`` multiplies Young's modulus (the kinematic check's stiffened material).
+    ``stiffen`` multiplies Young's modulus (the kinematic check's stiffened material);
+    ``teeth``: the sectors' teeth each, as the mesh was built with.
     """
     from fe_impact.fe.case import MaterialSpec
     from fe_impact.fe.elasticity import assemble_mass, build_model
@@ -107,7 +109,7 @@ def sector_bodies(mesh_path, gearset, stage: int, stiffen: float = 1.0) -> tuple
     model = build_model(mesh, (spec,))
     K, M = model.K, assemble_mass(model)
     pair = GearPair.from_gearset(gearset, stage)
-    teeth = tooth_range()
+    teeth = tooth_range(teeth)
     (cp, ap), (cf, af) = pair.pinion_axis, pair.face_axis
     pinion = _body("pinion", mesh, K, M, "pinion", "pinion_hub",
                    [f"pinion_{s}_{k}" for s in ("drive", "coast") for k in teeth],

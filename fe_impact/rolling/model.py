@@ -485,15 +485,20 @@ class Roller:
         """Why the run leaves the sectors' window, with the start and length that fit."""
         msg = (f"cycles = {settings.cycles:g}: the sectors ({n_teeth} teeth each) hold "
                f"{self.capacity:.2f} mesh cycles from the start of their window")
+        more = "ask for fewer cycles or more --teeth (up to 7)"
         if settings.start_cycles is None:
-            return msg + "; ask for fewer cycles"
+            return f"{msg}; {more}"
         # start_cycles moves theta0 by the pinion angle of one base pitch per unit
         per = self.p_b / self.r_bp
         first = settings.start_cycles + (lo - self.theta0) / per
+        if self.theta0 < lo:      # the start is before the window: nothing fits from it
+            return (msg + f"; start_cycles {settings.start_cycles:g} is before the window, "
+                    f"which begins at start_cycles {first:.2f}: {more}, or move the start "
+                    "there or later")
         fits = settings.cycles * (hi - self.theta0) / (end - self.theta0)
         return (msg + f"; from start_cycles {settings.start_cycles:g} about "
                 f"{max(fits, 0.0):.2f} fit; start_cycles {first:.2f} or more uses the "
-                "window from its start: ask for fewer cycles or move the start")
+                f"window from its start: {more}, or move the start")
 
     # -- kinematics of the pinion (prescribed) --------------------------------------------------
     def pinion_motion(self, t: float) -> tuple[float, float, float]:
@@ -538,9 +543,11 @@ class Roller:
         return [(fl, k, s) for fl, k, s, held in self._pairs(theta_p, self.teeth) if held]
 
     def held(self, theta_p: float) -> bool:
-        """Whether every pair in reach at ``theta_p`` is in the sectors."""
+        """Whether every pair in reach at ``theta_p`` is in the sectors, and a drive pair
+        is (beyond the sectors no pair is in reach: not a window that meshes)."""
         wide = range(min(self.teeth) - 3, max(self.teeth) + 4)
-        return all(h for *_, h in self._pairs(theta_p, wide))
+        pairs = self._pairs(theta_p, wide)
+        return all(h for *_, h in pairs) and any(fl == 0 for fl, *_ in pairs)
 
     def held_window(self) -> tuple[float, float]:
         """The longest range of pinion angles [rad, drive sense] the sectors hold."""

@@ -170,11 +170,21 @@ def build_sectors(gearset, stage: int, level: str = "coarse", out_dir: str | Pat
     out.mkdir(parents=True, exist_ok=True)
     path = out / "sectors.msh"
     pinion_groups, face_groups = _groups(teeth)
+    # two neighbours a side: the ring cuts the face sector's left cut face short of the
+    # section that names the faces (its mid-point there lies beyond the outer radius),
+    # so that face is found by its plane instead
+    by_plane = neighbours > 1
+    if by_plane:
+        face_groups["face_hub"] = ("hub_right", "hub_bottom")
     with gmsh_session("rolling_sectors") as model:
         import gmsh
 
         volumes, groups = add_sectors(model, pair, analysis, pinion_teeth=loaded,
                                       pinion_groups=pinion_groups, face_groups=face_groups)
+        if by_plane:
+            pitch = 2.0 * np.pi / pair.face.teeth
+            cut = (-(loaded - 1 + neighbours) - 0.5) * pitch + analysis.contact.face_angle
+            groups["face_hub"] += _faces_on_cut(model, volumes["face_gear"], cut)
         flank_faces = [f for name, faces in groups.items() if "_drive_" in name
                        or "_coast_" in name for f in faces]
         field = model.mesh.field.add("Constant")
@@ -203,6 +213,24 @@ def build_sectors(gearset, stage: int, level: str = "coarse", out_dir: str | Pat
     return SectorMesh(path, float(analysis.pinion_roll_placed),
                       float(analysis.contact.face_angle), int(n_nodes), int(n_elements),
                       seconds, float(size), int(teeth))
+
+
+def _faces_on_cut(model, volume: int, angle: float) -> list[int]:
+    """Boundary faces of ``volume`` in the face sector's cut plane at ``angle`` [rad]:
+    the plane through the face gear's axis (``y``) holding the points ``(z tan(angle),
+    y, z)``, to 1 um (the model is in millimetres; the plane passes the origin)."""
+    normal = np.array([np.cos(angle), 0.0, -np.sin(angle)])
+    out = []
+    for _, tag in model.getBoundary([(3, volume)], oriented=False):
+        (u0, v0), (u1, v1) = model.getParametrizationBounds(2, tag)
+        uv = [(u, v) for u in np.linspace(u0, u1, 3) for v in np.linspace(v0, v1, 3)]
+        points = np.reshape(model.getValue(2, tag, np.ravel(uv)), (-1, 3))
+        if np.all(np.abs(points @ normal) < 1e-3):
+            out.append(tag)
+    if not out:
+        raise MeshError(f"face-gear sector: no face in its cut plane at {np.degrees(angle):.4g}"
+                        " deg")
+    return out
 
 
 def placed(mesh: SectorMesh) -> np.ndarray:

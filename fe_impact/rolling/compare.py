@@ -639,7 +639,8 @@ def basis_lines(records) -> str:
     """What each condition's figures rest on, one Markdown line per condition and model:
     the whole mesh periods of the TE window, where its peak-to-peak's two extremes
     fall (how many mesh periods after an impact, when less than one), and how many
-    impacts the impact figures count. A figure taken from one impact (its median is its
+    impacts the impact figures count (with several mesh-ins, the range of their peak
+    forces beside the median). A figure taken from one impact (its median is its
     largest) and a peak-to-peak whose two extremes both follow the same impact by less
     than a mesh period are that event's, not a statistic of the mesh: the line says
     so."""
@@ -659,10 +660,15 @@ def basis_lines(records) -> str:
             if after[0] and after[0] == after[1]:
                 single.append(f"peak-to-peak set by one {after[0][1]}")
             note = f" ({'; '.join(single)})" if single else ""
+            spread = ""
+            if m.mesh_in_count > 1:     # the spread the median and the largest come from
+                forces = counted_events(record)[0].peak_force
+                spread = (f" (peak forces {forces.min():.4g} .. {forces.max():.4g} N, "
+                          f"median {m.mesh_in_force_median:.4g} N)")
             lines.append(f"- {name}, {record.source}: TE over {m.periods} mesh period"
                          f"{'s' if m.periods != 1 else ''}, its max {where[0]}, its min "
-                         f"{where[1]}; {m.mesh_in_count} mesh-in, {m.rattle_count} "
-                         f"rattle{note}")
+                         f"{where[1]}; {m.mesh_in_count} mesh-in{spread}, "
+                         f"{m.rattle_count} rattle{note}")
     return "\n".join(lines) + "\n"
 
 

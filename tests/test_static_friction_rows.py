@@ -22,9 +22,11 @@ import fe_impact.solvers.static as static
 GEOMETRY = Path(__file__).resolve().parents[1] / "geometry"
 
 
-def test_refreshed_rows_hold_the_exact_compliance():
+def test_refreshed_rows_hold_the_exact_compliance(monkeypatch):
     """After :meth:`_RowSpace.refresh`, the kept ``C`` is ``B K^-1 B^T`` of the Jacobian
-    rows now held (some replaced), to round-off: against a dense inverse."""
+    rows now held (some replaced, one met first there), to round-off: against a dense
+    inverse. Solved two rows at a time, so that the blocks between chunks are formed."""
+    monkeypatch.setattr(static, "ROW_BLOCK", 2)
     rng = np.random.default_rng(3)
     n = 40
     A = rng.standard_normal((n, n))
@@ -34,12 +36,14 @@ def test_refreshed_rows_hold_the_exact_compliance():
     B = sp.csr_matrix(rng.standard_normal((12, n)) * (rng.random((12, n)) < 0.3))
     keys = np.arange(12) * 3
     space.prime(keys, B)
-    moved = np.array([2, 5, 7])
-    B_new = sp.csr_matrix(B[moved].toarray() + 0.2 * rng.standard_normal((3, n)))
-    space.refresh(keys[moved], B_new)
-    held = B.toarray()
+    moved = np.array([7, 2, 11, 5, 0])
+    B_new = sp.csr_matrix(B[moved].toarray() + 0.2 * rng.standard_normal((5, n)))
+    b_first = sp.csr_matrix(rng.standard_normal((1, n)))     # a row not met before
+    space.refresh(np.append(keys[moved], 99), sp.vstack([B_new, b_first]))
+    held = np.vstack([B.toarray(), b_first.toarray()])
     held[moved] = B_new.toarray()
-    pos = space.positions(keys, B)
+    keys = np.append(keys, 99)
+    pos = space.positions(keys, sp.csr_matrix(held))
     exact = held @ Kinv @ held.T
     # the dense inverse and the kept blocks are both exact to a few ulps of a
     # condition number of about 10 (n added to the diagonal of A A^T)

@@ -15,7 +15,7 @@ the same run, never an absolute time (the machine is shared).
 2. Explicit: the average time of one central-difference step (stiffness
    product, contact forces, history) over 2000 steps of the same model
    (after an untimed warm-up run that compiles or loads the kernels; the
-   best of three runs), against the memory-bandwidth bound of the stiffness
+   best of :data:`TIMED_RUNS` runs), against the memory-bandwidth bound of the stiffness
    product measured in the same run: the bytes a CSR product must read
    (values, column indices, row pointers, x, and y written) divided by the
    read bandwidth of a large numpy reduction, reported (the speed issue's
@@ -238,11 +238,14 @@ def _one_run(mesh: Path, steps: int, plastic_: bool, friction: bool):
 
 def _alternated_runs(mesh: Path, steps: int, variants: list[tuple[bool, bool]]) -> list:
     """The timed explicit run of each ``(plastic, friction)`` variant, their runs taken in
-    turn (one of each, :data:`TIMED_RUNS` times) so that a slow spell of the shared
-    machine weighs on every side of a ratio alike; the best run of each variant."""
+    turn (one of each, :data:`TIMED_RUNS` times, the order reversed every other time) so
+    that a slow spell of the shared machine weighs on every side of a ratio alike; the
+    best run of each variant."""
     best = [(np.inf, np.inf, None) for _ in variants]
-    for _ in range(TIMED_RUNS):
-        for k, (plastic_, friction) in enumerate(variants):
+    order = list(enumerate(variants))
+    for r in range(TIMED_RUNS):
+        # forwards, then backwards: a machine slowing through the run weighs alike
+        for k, (plastic_, friction) in order if r % 2 == 0 else order[::-1]:
             step, product, res = _one_run(mesh, steps, plastic_, friction)
             if (step, product) < best[k][:2]:
                 best[k] = (step, product, res)

@@ -397,3 +397,34 @@ def test_kinematic_te_is_plus_e_in_both_models():
     assert a == pytest.approx(EXCITATION, rel=0.05)
     assert abs(b) < 0.05 * EXCITATION
     assert not np.any(runs[0].pair_force_n[:, :, 1] > 0.0)
+
+
+@pytest.mark.parametrize("teeth", [4, 5, 6, 7])
+def test_comparison_runs_fit_the_sectors_and_count_the_mesh_ins(teeth):
+    # the comparison's start (MESH_PHASE - pair_offset) and length (cycles_for) must lie
+    # in the window the rolling FE's sectors hold (the solid tip-edge gaps, as the FE
+    # runs them): the Roller refuses otherwise. A pair enters every mesh period, at
+    # 1 - MESH_PHASE (+ a tip edge's approach, < 0.1 period) past each whole period; a
+    # mesh-in counts when the run goes on MESH_IN_HOLD periods after it: after the
+    # 1-period load ramp, 7 teeth (4.4 periods) count the entries near 1.1, 2.1 and 3.1
+    # periods, as the 7-tooth rolling FE of loaded-1000 counted them (1.08, 2.10, 3.11).
+    import sys
+    from pathlib import Path
+
+    from fe_impact.rolling.compare import MESH_IN_HOLD
+    from fe_impact.rolling.model import ContactGeometry, Roller, RollSettings, rigid_body
+    from fe_impact.rolling.sectors import tooth_range
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from validation.rolling_compare import MESH_PHASE, cycles_for, pair_offset
+
+    geo = ContactGeometry.build(GEARSET, 1)
+    pair = geo.pair
+    s = RollSettings(speed=100.0, cycles=cycles_for(teeth),
+                     start_cycles=MESH_PHASE - pair_offset(teeth))
+    Roller(geo, rigid_body("pinion", GEARSET.pinion.inertia, *pair.pinion_axis),
+           rigid_body("face_gear", GEARSET.stages[0].inertia, *pair.face_axis),
+           tooth_range(teeth), 0.0, pair.nominal_face_angle(0.0), s)
+    entries = [k + 1.0 - MESH_PHASE for k in range(1, 10)]
+    counted = [t for t in entries if t + 0.1 + MESH_IN_HOLD <= cycles_for(teeth)]
+    assert len(counted) == teeth - 4

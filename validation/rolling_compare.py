@@ -175,7 +175,16 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
         return None
     path = fe / condition.name / "record.json"
     if path.is_file():
-        return read_record(path)
+        record = read_record(path)
+        kept = int(record.info.get("inputs", {}).get("teeth", TEETH))
+        if kept != teeth or not math.isclose(record.condition.duration, condition.duration,
+                                             rel_tol=1e-6):
+            raise FeImpactError(
+                f"--fe {fe}: {path} is a run of {kept}-tooth sectors over "
+                f"{record.condition.duration * 1e3:.4g} ms, this comparison asks "
+                f"--teeth {teeth} over {condition.duration * 1e3:.4g} ms (--cycles); give "
+                "another --fe folder for these")
+        return record
     if not run_fe:
         logger.warning("no rolling FE record for %s at %s (run with --run-fe)",
                        condition.name, path)

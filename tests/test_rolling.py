@@ -133,11 +133,14 @@ def test_window_holds_the_geometric_count_of_cycles(gearset, teeth):
 
 
 def test_cycles_beyond_sector_says_what_fits(gearset):
-    # the refusal's count is the geometric one of the test above (7 teeth: 7 - 2.23
-    # - 0.02 = 4.75 on the planar corners), and it names the option that gives more
-    roller = _roller(gearset, RollSettings(speed=100.0, cycles=0.1), teeth=7)
-    with pytest.raises(CaseError, match="cycles = 5: the sectors \\(7 teeth each\\) hold "
-                       f"{roller.capacity:.2f} mesh cycles.*--teeth"):
+    # the refusal's count is the geometric one of the test above (6 teeth: 6 - 2.23
+    # - 0.02 = 3.75 on the planar corners), and it names the option that gives more
+    # (none at the most teeth)
+    roller = _roller(gearset, RollSettings(speed=100.0, cycles=0.1), teeth=6)
+    with pytest.raises(CaseError, match="cycles = 5: the sectors \\(6 teeth each\\) hold "
+                       f"{roller.capacity:.2f} mesh cycles.*more --teeth \\(up to 7\\)"):
+        _roller(gearset, RollSettings(speed=100.0, cycles=5.0), teeth=6)
+    with pytest.raises(CaseError, match="hold 4.7.* fewer cycles$"):
         _roller(gearset, RollSettings(speed=100.0, cycles=5.0), teeth=7)
     with pytest.raises(CaseError, match="start_cycles -4 is before the window"):
         _roller(gearset, RollSettings(speed=100.0, cycles=1.0, start_cycles=-4.0), teeth=7)

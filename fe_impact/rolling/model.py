@@ -485,7 +485,11 @@ class Roller:
         """Why the run leaves the sectors' window, with the start and length that fit."""
         msg = (f"cycles = {settings.cycles:g}: the sectors ({n_teeth} teeth each) hold "
                f"{self.capacity:.2f} mesh cycles from the start of their window")
-        more = "ask for fewer cycles or more --teeth (up to 7)"
+        from fe_impact.rolling.sectors import TEETH_RANGE
+
+        top = TEETH_RANGE[1]
+        more = ("ask for fewer cycles" + (f" or more --teeth (up to {top})"
+                                          if n_teeth < top else ""))
         if settings.start_cycles is None:
             return f"{msg}; {more}"
         # start_cycles moves theta0 by the pinion angle of one base pitch per unit

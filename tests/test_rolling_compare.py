@@ -175,6 +175,10 @@ def test_basis_lines_name_figures_set_by_one_event():
     # 0.25 and 0.75 ms after it: 0.024 and 0.071 of a 10.5 ms mesh period
     assert "max 0.02 periods after a mesh-in, its min 0.07 periods after" in text[0]
     assert "set by one" not in text[1] and "from one event" not in text[1]
+    # each of the 9 periods of a 1 um sine: peak-to-peak 2 um, RMS 1/sqrt(2) um (the
+    # closed forms; sampled at 1e-6 s, 0.01% of a period, well within 3 digits)
+    assert "(per period: peak-to-peak " + " ".join(["2"] * 9) + " um, RMS " \
+        + " ".join(["0.707"] * 9) + " um)" in text[1]
     # two mesh-ins: the line gives the range their median comes from (600 and 900 N:
     # median 750, the events' own values)
     two = ContactEvents([0.03, 0.05], ["mesh-in"] * 2, [1, 2], [0.05, 0.06], [600.0, 900.0],

@@ -624,6 +624,20 @@ def te_extremes(record: RollingRecord) -> tuple[float, float]:
     return float(record.time[inside[np.argmax(te)]]), float(record.time[inside[np.argmin(te)]])
 
 
+def period_figures(record: RollingRecord) -> tuple[np.ndarray, np.ndarray]:
+    """TE peak-to-peak and RMS [m] of each whole mesh period of the metrics' window
+    (`mesh_window`), each period's own mean removed: how much the window's figures vary
+    from one mesh period (one mesh-in) to the next."""
+    f = record.mesh_frequency
+    t0, _, periods = mesh_window(record.time, f, record.condition.settle)
+    pp, rms = np.zeros(periods), np.zeros(periods)
+    for k in range(periods):
+        inside = (record.time >= t0 + k / f) & (record.time <= t0 + (k + 1) / f)
+        te = record.te[inside] - record.te[inside].mean()
+        pp[k], rms[k] = np.ptp(te), np.sqrt(np.mean(te**2))
+    return pp, rms
+
+
 def _last_impact(record: RollingRecord, t: float) -> tuple[float, str] | None:
     """Onset [s] and kind of the record's last mesh-in or rattle impact in the mesh
     period up to ``t`` (counted by the metrics or not: one near the record's end still
@@ -639,7 +653,8 @@ def basis_lines(records) -> str:
     """What each condition's figures rest on, one Markdown line per condition and model:
     the whole mesh periods of the TE window, where its peak-to-peak's two extremes
     fall (how many mesh periods after an impact, when less than one), and how many
-    impacts the impact figures count (with several mesh-ins, the range of their peak
+    impacts the impact figures count (with several periods, each one's TE peak-to-peak
+    and RMS; with several mesh-ins, the range of their peak
     forces beside the median). A figure taken from one impact (its median is its
     largest) and a peak-to-peak whose two extremes both follow the same impact by less
     than a mesh period are that event's, not a statistic of the mesh: the line says
@@ -665,8 +680,13 @@ def basis_lines(records) -> str:
                 forces = counted_events(record)[0].peak_force
                 spread = (f" (peak forces {forces.min():.4g} .. {forces.max():.4g} N, "
                           f"median {m.mesh_in_force_median:.4g} N)")
+            per = ""
+            if m.periods > 1:
+                pp, rms = period_figures(record)
+                per = (f" (per period: peak-to-peak {' '.join(f'{v * 1e6:.3g}' for v in pp)}"
+                       f" um, RMS {' '.join(f'{v * 1e6:.3g}' for v in rms)} um)")
             lines.append(f"- {name}, {record.source}: TE over {m.periods} mesh period"
-                         f"{'s' if m.periods != 1 else ''}, its max {where[0]}, its min "
+                         f"{'s' if m.periods != 1 else ''}{per}, its max {where[0]}, its min "
                          f"{where[1]}; {m.mesh_in_count} mesh-in{spread}, "
                          f"{m.rattle_count} rattle{note}")
     return "\n".join(lines) + "\n"

@@ -329,3 +329,31 @@ def test_body_probe_reads_interpolated_field():
         assert inside >= -1e-12
         np.testing.assert_allclose(w @ q[dofs], field(x), atol=1e-13)
     assert body.probe(np.array([1.5, 0.5, 0.5]))[2] < -0.1
+
+
+def test_faces_on_cut_finds_the_plane_through_the_axis():
+    # a known solid: the wedge between the planes through the y axis at -30 and +10 deg
+    # (points (z tan(a), y, z)), cut from a box; the face at -30 deg is one planar face,
+    # the +10 deg one another, and no face lies in the plane at -20 deg
+    import math
+
+    from fe_impact.errors import MeshError
+    from fe_impact.meshing.session import gmsh_session
+    from fe_impact.rolling.sectors import _faces_on_cut
+
+    with gmsh_session("wedge") as model:
+        occ = model.occ
+        pts = [occ.addPoint(0, 0, 0), occ.addPoint(50 * math.tan(math.radians(-30)), 0, 50),
+               occ.addPoint(50 * math.tan(math.radians(10)), 0, 50)]
+        lines = [occ.addLine(pts[i], pts[(i + 1) % 3]) for i in range(3)]
+        face = occ.addPlaneSurface([occ.addCurveLoop(lines)])
+        volume = occ.extrude([(2, face)], 0, 10, 0)[1][1]
+        occ.synchronize()
+        left = _faces_on_cut(model, volume, math.radians(-30))
+        right = _faces_on_cut(model, volume, math.radians(10))
+        assert len(left) == 1 and len(right) == 1 and left != right
+        for tag in left:
+            x, _, z = model.occ.getCenterOfMass(2, tag)
+            assert math.degrees(math.atan2(x, z)) == pytest.approx(-30.0, abs=1e-9)
+        with pytest.raises(MeshError, match="no face in its cut plane at -20 deg"):
+            _faces_on_cut(model, volume, math.radians(-20))

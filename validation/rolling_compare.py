@@ -17,8 +17,9 @@ written, and nothing is asserted.
 Conditions (the seed set, stage 1 unless ``--stage``, one pinion on one face-gear rotor
 of the stage's inertia, the pinion at constant speed from t = 0, the face gear at the
 conjugate speed touching its drive flank at zero force, the stage's default backlash,
-`CYCLES` mesh periods: what the FE's 5-tooth sectors hold; ``--teeth N`` (4..7) sectors
-hold ``N - 5`` more, and the runs are that much longer, `cycles_for`):
+`CYCLES` mesh periods: what the FE's 5-tooth sectors hold; ``--teeth N`` (4..7, default
+`STUDY_TEETH` = 7) sectors hold ``N - 5`` more, and the runs are that much longer,
+`cycles_for`):
 
 - ``loaded-1000``: 1000 r/min, 50 N m on the face gear rising as ``sin^2`` over the
   first period (634 N a mesh on stage 1, inside the mesh cycle's calibrated forces
@@ -104,8 +105,13 @@ LOAD = 50.0
 #: Mesh periods the rolling FE's sectors hold (5 teeth each: 2.47 cycles; each added
 #: tooth adds one, `cycles_for`).
 CYCLES = 2.4
-#: Teeth of each of the rolling FE's sectors by default.
+#: Teeth of each of the rolling FE's sectors by default (`fe-impact roll`'s), the ones
+#: `CYCLES` and `FE_PAIR_OFFSET` are counted for.
 TEETH = 5
+#: Teeth of each sector this study runs unless told (``--teeth``): 7 hold 4.4 periods,
+#: so that the loaded condition's figures rest on three mesh-ins after the load ramp,
+#: not on one (5 teeth: 2.4 periods, one mesh-in).
+STUDY_TEETH = 7
 #: Pair 0 this many base pitches past the path's start at t = 0: a pair then enters at
 #: about 0.08, 1.08 and 2.08 cycles, so the pair entering after the 1-cycle load ramp
 #: passes its single-contact zone (0.76-1 period after entry, contact ratio 1.76), where
@@ -228,9 +234,10 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
 
 
 def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int = 1,
-        cycles: float = CYCLES, run_fe: bool = False, level: str = "coarse",
-        friction: bool = False, teeth: int = TEETH) -> dict:
-    """Compute the records, metrics and goal checks of every condition.
+        cycles: float | None = None, run_fe: bool = False, level: str = "coarse",
+        friction: bool = False, teeth: int = STUDY_TEETH) -> dict:
+    """Compute the records, metrics and goal checks of every condition (over ``cycles``
+    mesh periods; default: what sectors of ``teeth`` teeth hold, `cycles_for`).
 
     Returns
     -------
@@ -238,6 +245,8 @@ def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int 
         ``records`` (all models, all conditions), ``goal`` (condition -> GoalCheck, only
         where the FE record is there), ``missing`` (what is not available).
     """
+    if cycles is None:
+        cycles = cycles_for(teeth)
     records, goal, missing = [], {}, []
     if calibration is None or not calibration.is_file():
         missing.append(f"calibration file {calibration}")
@@ -300,9 +309,9 @@ def main(argv: list[str] | None = None) -> int:
                         "conditions whose record is not in --fe yet, and keep it there")
     parser.add_argument("--level", default="coarse", help="mesh level of the rolling FE")
     parser.add_argument("--stage", type=int, default=1)
-    parser.add_argument("--teeth", type=int, default=TEETH,
+    parser.add_argument("--teeth", type=int, default=STUDY_TEETH,
                         help=f"teeth of each of the rolling FE's sectors, 4..7 (default "
-                        f"{TEETH})")
+                        f"{STUDY_TEETH}: three mesh-ins under load after the ramp)")
     parser.add_argument("--cycles", type=float,
                         help=f"mesh periods simulated (default {CYCLES} with 5 teeth and "
                         "one more for each added tooth, what the FE's sectors hold)")

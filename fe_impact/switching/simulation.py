@@ -15,6 +15,7 @@ at that speed. See `ImpactEvents` for the kinds and what is recorded.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import time
@@ -564,6 +565,13 @@ def friction_coefficient(friction: Friction, speed: float) -> float:
     """The signed coefficient ``mu(|v|) sgn(v)`` [-] of the lumped model's flank friction
     (seed eqs. 9-10, the sign smoothed below the stiction speed) at the sliding speed
     ``speed`` [m/s]: the kernel's own law, for models that share it (the rolling FE)."""
+    return float(K.friction_coefficient(float(speed), _friction_params(friction)))
+
+
+@functools.lru_cache(maxsize=8)
+def _friction_params(friction: Friction):
+    """A `_kernel.PARAMS` record holding ``friction`` alone (kept: the rolling FE asks
+    for the coefficient at every contact row of every step)."""
     params = np.zeros(1, dtype=K.PARAMS)
     _set_friction(params[0], friction)
-    return float(K.friction_coefficient(float(speed), params[0]))
+    return params[0]

@@ -607,7 +607,7 @@ class CondensedContact:
         gap ``h`` is below twice the deepest penetration or a tenth of the spread of
         the projection's gaps, so that the patch grows a few times, not row by row."""
         c = self.contact
-        forced = (sol.lam > 0) | np.any(sol.t != 0.0, axis=1)
+        forced = sol.forced
         if not np.any(forced & self._open_rows):
             return None
         rows, new = patch_growth(self.mesh, c, forced, h, self.tangential)

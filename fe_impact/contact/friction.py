@@ -210,6 +210,11 @@ class FrictionalSolution:
     slipping: np.ndarray    # (r,) bool: the row slips (in contact, at the cone)
     iterations: int
 
+    @property
+    def forced(self) -> np.ndarray:
+        """(r,) bool: the rows with a normal or a tangential force."""
+        return (self.lam > 0) | np.any(self.t != 0.0, axis=1)
+
 
 def solve_frictional(D: np.ndarray, h: np.ndarray, s0: np.ndarray, eps_n: np.ndarray,
                      eps_t: np.ndarray, mu: np.ndarray, t_old: np.ndarray,

@@ -641,7 +641,7 @@ class StaticSolver:
             The projection's frictional solution: its rows with a force are refreshed.
         """
         r = len(sol.lam)
-        idx = np.flatnonzero((sol.lam > 0) | np.any(sol.t != 0.0, axis=1))
+        idx = np.flatnonzero(sol.forced)
         rows3 = np.concatenate([idx, r + idx, 2 * r + idx])
         logger.info("friction: the compliances of %d rows in contact formed again in the "
                     "current projection (the kept ones had stopped the iteration settling)",
@@ -661,7 +661,7 @@ class StaticSolver:
             return False
         c = self.contact
         r = len(c.active_rows)
-        forced = (sol.lam > 0) | np.any(sol.t != 0.0, axis=1)
+        forced = sol.forced
         reach = np.diff((c.Bt @ self.R_open).tocsr().indptr)
         if not np.any(forced & ((reach[:r] > 0) | (reach[r:] > 0))):
             return False

@@ -273,10 +273,11 @@ def _plastic_item(run: tuple, elastic_step_ms: float) -> dict:
             "target_ratio": PLASTIC_OVER_ELASTIC}
 
 
-def explicit(out: Path, steps: int = 2000, h: float = H_CONTACT) -> dict:
+def explicit(out: Path, steps: int = 2000, h: float = H_CONTACT) -> tuple[dict, tuple, tuple]:
     """Item 2, with the runs of items 3 and 5 (elastic-plastic, and with friction)
-    alternated with its own (:func:`_alternated_runs`): under ``"plastic_run"`` and
-    ``"friction_run"``, each ``(seconds a step, seconds a product, result)``."""
+    alternated with its own (:func:`_alternated_runs`): the item's record, then the
+    elastic-plastic and the frictional run, each ``(seconds a step, seconds a product,
+    result)``."""
     mesh = _mesh(out, h)
     solver = _warmed_solver(mesh, steps, plastic_=False)
     dt = solver.dt
@@ -289,16 +290,16 @@ def explicit(out: Path, steps: int = 2000, h: float = H_CONTACT) -> dict:
     bound = matvec_bytes(K) / bw
     (step, in_step, res), plastic_run, friction_run = _alternated_runs(
         mesh, steps, [(False, False), (True, False), (False, True)])
-    return {"plastic_run": plastic_run, "friction_run": friction_run,
-            "n_reduced_dofs": int(K.shape[0]), "nnz": int(K.nnz), "time_step": dt,
-            "stable_time_step": res.info["stable_time_step"], "steps": res.info["steps"],
-            "bandwidth_GB_s": bw / 1e9, "matvec_bytes": matvec_bytes(K),
-            "bound_ms": bound * 1e3, "matvec_ms": matvec * 1e3,
-            "matvec_backend": "mkl" if product.uses_mkl else "scipy",
-            "scipy_matvec_ms": scipy_matvec * 1e3, "step_ms": step * 1e3,
-            "matvec_in_steps_ms": in_step * 1e3,
-            "step_over_bound": step / bound, "matvec_over_bound": matvec / bound,
-            "bound_goal": EXPLICIT_OVER_BOUND_GOAL, "target_ratio": EXPLICIT_OVER_PRODUCT}
+    record = {"n_reduced_dofs": int(K.shape[0]), "nnz": int(K.nnz), "time_step": dt,
+              "stable_time_step": res.info["stable_time_step"], "steps": res.info["steps"],
+              "bandwidth_GB_s": bw / 1e9, "matvec_bytes": matvec_bytes(K),
+              "bound_ms": bound * 1e3, "matvec_ms": matvec * 1e3,
+              "matvec_backend": "mkl" if product.uses_mkl else "scipy",
+              "scipy_matvec_ms": scipy_matvec * 1e3, "step_ms": step * 1e3,
+              "matvec_in_steps_ms": in_step * 1e3,
+              "step_over_bound": step / bound, "matvec_over_bound": matvec / bound,
+              "bound_goal": EXPLICIT_OVER_BOUND_GOAL, "target_ratio": EXPLICIT_OVER_PRODUCT}
+    return record, plastic_run, friction_run
 
 
 def run(quick: bool = False, out: str | Path = "out/bench_dynamic") -> dict:
@@ -312,8 +313,7 @@ def run(quick: bool = False, out: str | Path = "out/bench_dynamic") -> dict:
 def _run(quick: bool, out: Path) -> dict:
     h = QUICK_H_CONTACT if quick else H_CONTACT
     steps = 500 if quick else 2000
-    ex = explicit(out, steps, h)
-    plastic_run, friction_run = ex.pop("plastic_run"), ex.pop("friction_run")
+    ex, plastic_run, friction_run = explicit(out, steps, h)
     result = {"quick": quick, "newmark": newmark(out, h=h), "explicit": ex}
     result["explicit_plastic"] = _plastic_item(plastic_run, ex["step_ms"])
     result["friction"] = friction_items(out, result, friction_run, h)

@@ -195,32 +195,23 @@ def fe_record(condition: RollingCondition, gearset: GearSet, fe: Path | None,
         logger.warning("no rolling FE record for %s at %s (run with --run-fe)",
                        condition.name, path)
         return None
-    try:
-        from fe_impact.rolling.api import RollInputs, roll
-    except ImportError:
-        logger.warning("the rolling FE (fe_impact.rolling.api) is not available")
-        return None
+    from fe_impact.rolling.api import RollInputs, roll
+
     period = 1.0 / condition.mesh_frequency(gearset.pinion.teeth)
-    kwargs = dict(stage=condition.stage, speed_rpm=condition.speed_rpm,
-                  steps_per_cycle=FE_STEPS[condition.name.removesuffix("-friction")],
-                  torque_nm=condition.torque + condition.drag_torque,
-                  cycles=condition.duration / period, level=level,
-                  ramp_cycles=condition.load_ramp / period,
-                  te_amplitude=condition.transmission_error,
-                  friction=condition.friction)      # the same flanks as the lumped run
-    if teeth != TEETH:
-        kwargs["teeth"] = teeth
-    if "start_cycles" in RollInputs.__dataclass_fields__:
-        kwargs["start_cycles"] = condition.mesh_phase - pair_offset(teeth)
-    else:
-        logger.warning("the rolling FE takes no start_cycles: pair 0 starts at the path's "
-                       "start in both models")
-        condition = replace(condition, mesh_phase=0.0)
+    inputs = RollInputs(stage=condition.stage, speed_rpm=condition.speed_rpm,
+                        steps_per_cycle=FE_STEPS[condition.name.removesuffix("-friction")],
+                        torque_nm=condition.torque + condition.drag_torque,
+                        cycles=condition.duration / period, level=level,
+                        ramp_cycles=condition.load_ramp / period,
+                        te_amplitude=condition.transmission_error,
+                        friction=condition.friction,     # the same flanks as the lumped run
+                        teeth=teeth,
+                        start_cycles=condition.mesh_phase - pair_offset(teeth))
     wall = time.perf_counter()
     # the record is what the comparison needs: the run's own files (frames, plots) are
     # not written; the sector mesh is made once for every condition
     try:
-        result = roll(gearset, RollInputs(**kwargs), mesh_dir=fe / "mesh")
+        result = roll(gearset, inputs, mesh_dir=fe / "mesh")
     except FeImpactError as exc:
         logger.warning("rolling FE of %s: %s", condition.name, exc)
         return None

@@ -395,7 +395,7 @@ def record_from_roll(result, condition: RollingCondition, pinion_teeth: int,
         row = (e.time_s, e.kind, _FE_FLANK[e.flank], e.closing_speed_m_s, e.peak_force_n,
                _FE_WHERE[e.where], e.s_m)
         if e.kind == "rattle":
-            rattles.append((row, getattr(e, "end_time_s", math.nan)))
+            rattles.append((row, e.end_time_s))
         else:
             rows.append(row)
     rows.extend(_flank_rattles(rattles, np.asarray(result.time_s, dtype=float),

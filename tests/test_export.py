@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from fe_impact.cli.main import main
+from fe_impact.switching.model import Segment, StageSchedule
 from validation import exudyn_export as study
 
 LAW = {"k": 6.5e10, "exponent": 1.5, "cmax": 1.5e3, "d": 1e-6}
@@ -150,6 +151,33 @@ def test_exported_gaps_and_geometry_are_the_switching_models(exported):
     mine = np.array([mesh.gap(x) for x in s])
     assert np.allclose(mine[:, 0], g, rtol=0.0, atol=1e-12)
     assert np.allclose(mine[:, 1], dg, rtol=1e-9, atol=1e-12)
+
+
+def test_exported_pair_stiffness_is_the_switching_models(exported):
+    # The script's tooth-pair stiffness and exponent along the path and beyond both ends
+    # (where it passes onto the tip edges' corner laws) against the switching kernel's
+    # on the same laws: separate code for one function, so round-off (1e-12).
+    from fe_impact.gears.gearset import default_gearset
+    from fe_impact.switching import _kernel as K
+    from fe_impact.switching.simulation import _pack
+
+    cal, module = exported
+    model = study.drive_model(cal)
+    pk = _pack(model, StageSchedule((Segment(1e-3, study.STAGE, 0.0),)), 1e-4)
+    i = study.STAGE - 1
+    geo = model.stage_geometry(study.STAGE)
+    mesh = module.MeshForce(module.DATA)
+    k, n, _, _, k_in, n_in, k_out, n_out = mesh.default
+    s = np.linspace(geo.s_start - 1.2 * geo.approach.delta_max,
+                    geo.s_end + 1.2 * geo.recess.delta_max, 997)
+    nan = float("nan")
+    mine = np.array([mesh.stiffness(x, mesh.default) for x in s])
+    kernel = np.array([K.pair_law(x, pk.p, pk.postab[i], k, n,
+                                  nan if k_in is None else k_in, nan if n_in is None else n_in,
+                                  nan if k_out is None else k_out,
+                                  nan if n_out is None else n_out, pk.stages[i]) for x in s])
+    assert default_gearset().name == model.gearset.name
+    assert np.allclose(mine, kernel, rtol=1e-12, atol=0.0)
 
 
 def test_exudyn_model_reproduces_the_first_mesh_cycles(exported):

@@ -730,20 +730,44 @@ def test_fe_corner_positions_replace_the_roundings_hertz_stiffness(tmp_path):
 
 
 def test_pair_law_follows_where_the_pair_touches():
-    # Before the path's start a pair takes the approach edge's stiffness, after its end
-    # the recess edge's; without a corner law (NaN) the flank's, through the position law.
+    # On the path a pair takes the flank's stiffness; beyond the path's start the approach
+    # edge's, beyond its end the recess edge's, from where the edge first touches (the
+    # planar corner gap at REFERENCE_GAP, the roll the corner laws are measured at) on;
+    # between the path's end and there it passes continuously from the flank's to the
+    # edge's (no step where the contact leaves the flank). Without a corner law (NaN) the
+    # flank's, through the position law.
+    from fe_impact.gears.corner import REFERENCE_GAP
     from fe_impact.switching import _kernel as K
     from fe_impact.switching.simulation import _pack
 
     model = DriveModel(corners="planar")
-    p = _pack(model, StageSchedule((Segment(1e-3, 1, 0.0),)), 1e-4).p
-    geo = model.geometry
+    pk = _pack(model, StageSchedule((Segment(1e-3, 1, 0.0),)), 1e-4)
+    p, stage = pk.p, pk.stages[0]
+    geo, ring = model.geometry, model.stage_geometry(1)
+    # the corner laws stand where the edge's gap is the reference gap (rel. 1e-9: brentq's
+    # xtol of 1e-13 m on a roll distance of about 1e-4 m, times the gap's slope)
+    assert ring.approach(stage["law_in"])[0] == pytest.approx(REFERENCE_GAP, rel=1e-6)
+    assert ring.recess(stage["law_out"])[0] == pytest.approx(REFERENCE_GAP, rel=1e-6)
+    assert 0.0 < stage["law_in"] < stage["corner_in"]
+    assert 0.0 < stage["law_out"] < stage["corner_out"]
     none = np.full((3, K.NPOS), np.nan)
-    before, on, after = geo.s_start - 1e-6, 0.5 * (geo.s_start + geo.s_end), geo.s_end + 1e-6
-    assert K.pair_law(before, p, none, 1.0, 1.5, 2.0, 1.4, 3.0, 1.3) == (2.0, 1.4)
-    assert K.pair_law(on, p, none, 1.0, 1.5, 2.0, 1.4, 3.0, 1.3) == (1.0, 1.5)
-    assert K.pair_law(after, p, none, 1.0, 1.5, 2.0, 1.4, 3.0, 1.3) == (3.0, 1.3)
-    assert K.pair_law(before, p, none, 1.0, 1.5, np.nan, np.nan, 3.0, 1.3) == (1.0, 1.5)
+    laws = (1.0, 1.5, 2.0, 1.4, 3.0, 1.3)
+    on = 0.5 * (geo.s_start + geo.s_end)
+    assert K.pair_law(on, p, none, *laws, stage) == (1.0, 1.5)
+    beyond_in, beyond_out = geo.s_start - stage["law_in"], geo.s_end + stage["law_out"]
+    assert K.pair_law(beyond_in - 1e-9, p, none, *laws, stage) == (2.0, 1.4)
+    assert K.pair_law(beyond_in, p, none, *laws, stage) == (2.0, 1.4)
+    assert K.pair_law(beyond_out + 1e-9, p, none, *laws, stage) == (3.0, 1.3)
+    # continuous at the path's ends: 1e-12 m past them, within 1e-7 of the flank's
+    for end in (geo.s_start - 1e-12, geo.s_end + 1e-12):
+        k, n = K.pair_law(end, p, none, *laws, stage)
+        assert k == pytest.approx(1.0, rel=1e-7) and n == pytest.approx(1.5, rel=1e-7)
+    # and monotone between the two laws
+    ks = [K.pair_law(s, p, none, *laws, stage)[0]
+          for s in np.linspace(geo.s_end, beyond_out, 9)[1:]]
+    assert np.all(np.diff(ks) > 0.0) and 1.0 < ks[0] and ks[-1] == pytest.approx(3.0)
+    nan = (1.0, 1.5, np.nan, np.nan, 3.0, 1.3)
+    assert K.pair_law(beyond_in - 1e-9, p, none, *nan, stage) == (1.0, 1.5)
 
 
 def test_a_pair_on_a_tip_edge_feels_the_edges_law():

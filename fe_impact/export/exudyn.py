@@ -23,6 +23,7 @@ import numpy as np
 from fe_impact.atomic import atomic_path
 from fe_impact.calibration.records import KINDS
 from fe_impact.errors import CalibrationError
+from fe_impact.gears.corner import REFERENCE_GAP
 
 logger = logging.getLogger(__name__)
 
@@ -72,7 +73,8 @@ def _table(table) -> dict:
 
 def _corner(gap) -> dict:
     return {"delta_max": float(gap.delta_max), "values": np.asarray(gap.values).tolist(),
-            "slopes": np.asarray(gap.slopes).tolist()}
+            "slopes": np.asarray(gap.slopes).tolist(),
+            "law_at": float(gap.delta_at(REFERENCE_GAP))}
 
 
 def _check_operation(gearset, options: ExudynOptions) -> None:
@@ -115,7 +117,7 @@ def exudyn_data(calibration: str | Path, gearset, options: ExudynOptions) -> dic
     friction = model.friction
     positions = laws.positions.get(options.stage)
     return {
-        "format": "fe-impact/exudyn-stage/1",
+        "format": "fe-impact/exudyn-stage/2",
         "stage": options.stage,
         "units": "SI: m, kg, s, N, rad; k in N/m^exponent, cmax in N s/m, d in m",
         "law_source": laws.source,

@@ -70,10 +70,13 @@ PARAMS = np.dtype([
 ], align=True)
 
 #: Per ring (stage): inertia [kg m^2], web stiffness [N m/rad] and damping [N m s/rad],
-#: base lever r_b [m], roll spans of its approach and recess corner tables [m].
+#: base lever r_b [m], roll spans of its approach and recess corner tables [m], and the
+#: roll distances beyond the path's start and end at which its tip edges' corner laws
+#: stand (their first touch; `pair_law` passes to them from the flank's law there).
 STAGE = np.dtype([("inertia", np.float64), ("coupling", np.float64), ("damping", np.float64),
                   ("lever", np.float64), ("corner_in", np.float64),
-                  ("corner_out", np.float64)], align=True)
+                  ("corner_out", np.float64), ("law_in", np.float64),
+                  ("law_out", np.float64)], align=True)
 
 #: Piece of a schedule, for `reference`: a schedule segment, or a part of one between two
 #: points of its load time series. Within a segment the pinion speed is linear in time
@@ -349,14 +352,34 @@ def position_law(s, tab, k, n):
 
 
 @njit(cache=True)
-def pair_law(s, p, postab, k, n, k_in, n_in, k_out, n_out):
-    """Stiffness and exponent of a pair at ``s``: a tip edge's before ``s_start`` or after
-    ``s_end`` where it has one (not NaN), else the flank's: the position law's, or
-    ``(k, n)`` without one."""
+def _towards(kf, nf, kc, nc, w):
+    """``log k`` and the exponent a share ``w`` of the way from ``(kf, nf)`` to ``(kc, nc)``."""
+    return (math.exp((1.0 - w) * math.log(kf) + w * math.log(kc)),
+            (1.0 - w) * nf + w * nc)
+
+
+@njit(cache=True)
+def pair_law(s, p, postab, k, n, k_in, n_in, k_out, n_out, stage):
+    """Stiffness and exponent of a pair at ``s``: on the path the flank's (the position
+    law's, or ``(k, n)`` without one); beyond its start or end, where the tip edge has a
+    corner law (not NaN), passing from the flank's at the path's end to the corner law's
+    at its first touch (``stage.law_in`` / ``law_out`` beyond the end), ``log k`` and
+    the exponent linear in ``s`` as between mesh-cycle positions, and the corner law's
+    from there on. The contact passes from the flank onto the rounding continuously, so
+    does the pair's stiffness (a step there kicks the mesh's vibration at every
+    mesh-out)."""
     if s < p.s_start and k_in == k_in:
-        return k_in, n_in
+        span = stage.law_in
+        if not span > 0.0 or p.s_start - s >= span:
+            return k_in, n_in
+        kf, nf = position_law(p.s_start, postab, k, n)
+        return _towards(kf, nf, k_in, n_in, (p.s_start - s) / span)
     if s > p.s_end and k_out == k_out:
-        return k_out, n_out
+        span = stage.law_out
+        if not span > 0.0 or s - p.s_end >= span:
+            return k_out, n_out
+        kf, nf = position_law(p.s_end, postab, k, n)
+        return _towards(kf, nf, k_out, n_out, (s - p.s_end) / span)
     return position_law(s, postab, k, n)
 
 
@@ -422,11 +445,11 @@ def rhs(t, y, dy, p, stages, aoff, corners, postab, sch, slots, pairs, npairs, a
             slot = slots[fl, slot_of(k)]
             if slot.pair == k and slot.has_law == 1:
                 kk, nn = pair_law(s, p, postab[eng], slot.k, slot.n, slot.k_in, slot.n_in,
-                                  slot.k_out, slot.n_out)
+                                  slot.k_out, slot.n_out, stages[eng])
                 f, pe = impact_force_energy(h, hd, kk, nn, slot.cmax, slot.d)
             else:
                 kk, nn = pair_law(s, p, postab[eng], p.law_k, p.law_n, p.law_k_in, p.law_n_in,
-                                  p.law_k_out, p.law_n_out)
+                                  p.law_k_out, p.law_n_out, stages[eng])
                 f, pe = impact_force_energy(h, hd, kk, nn, p.law_cmax, p.law_d)
             if f > 0.0 or h > 0.0:
                 if h > 0.0:

@@ -26,6 +26,7 @@ import numpy as np
 
 from fe_impact.calibration.records import KINDS
 from fe_impact.errors import CaseError, SolverError
+from fe_impact.gears.corner import REFERENCE_GAP
 from fe_impact.switching import _kernel as K
 from fe_impact.switching.model import (
     DRIVES,
@@ -291,6 +292,8 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     stages["lever"] = model.base_levers
     stages["corner_in"] = [r.approach.delta_max for r in rings]
     stages["corner_out"] = [r.recess.delta_max for r in rings]
+    stages["law_in"] = [r.approach.delta_at(REFERENCE_GAP) for r in rings]
+    stages["law_out"] = [r.recess.delta_at(REFERENCE_GAP) for r in rings]
     levers = np.concatenate([[geo.base_radius], model.base_levers, [model.base_levers.min()]])
     atol = np.empty(2 * (n + 2))
     atol[0::2] = model.length_tol / levers
@@ -337,7 +340,8 @@ def _static_offset(model: DriveModel, pk: _Packed, stage: int, load: float,
     s = geo.s_start + phase + geo.base_pitch * np.arange(-2, 4)
     g, _ = geo.gap(s)
     kn = np.array([K.pair_law(float(x), p, pk.postab[i], p["law_k"], p["law_n"], p["law_k_in"],
-                              p["law_n_in"], p["law_k_out"], p["law_n_out"]) for x in s])
+                              p["law_n_in"], p["law_k_out"], p["law_n_out"], pk.stages[i])
+                   for x in s])
     te = model.transmission_error * math.sin(2.0 * math.pi * roll / geo.base_pitch)
 
     def force(x: float) -> float:

@@ -88,7 +88,7 @@ from fe_impact.rolling.compare import (
     write_comparison,
     write_record,
 )
-from fe_impact.rolling.lumped import run_lumped
+from fe_impact.rolling.lumped import lumped_model, run_lumped, run_model
 from validation import checks as ck
 
 logger = logging.getLogger(__name__)
@@ -112,6 +112,9 @@ TEETH = 5
 #: so that the loaded condition's figures rest on three mesh-ins after the load ramp,
 #: not on one (5 teeth: 2.4 periods, one mesh-in).
 STUDY_TEETH = 7
+#: The records' name of the diagnostic run on position laws fitted at low force
+#: (`low_force_model`).
+LOW_FORCE_SOURCE = "lumped, calibrated, position laws up to 50 N"
 #: Pair 0 this many base pitches past the path's start at t = 0: a pair then enters at
 #: about 0.08, 1.08 and 2.08 cycles, so the pair entering after the 1-cycle load ramp
 #: passes its single-contact zone (0.76-1 period after entry, contact ratio 1.76), where
@@ -266,6 +269,11 @@ def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int 
             # the elastic FE has them, to tell the mesh-in laws' dissipation apart
             lumped["undamped tip edges"] = run_lumped(condition, "calibrated", gearset,
                                                       calibration, tip_edge_damping=False)
+            # a diagnostic too: the mesh cycle's position laws fitted below the
+            # calibration's range, where the unloaded conditions' forces lie
+            low = low_force_model(condition, gearset, calibration)
+            if low is not None:
+                lumped["low-force laws"] = run_model(condition, low, gearset, LOW_FORCE_SOURCE)
         logger.info("%s: lumped runs %.1f s", condition.name, time.perf_counter() - wall)
         records.extend(lumped.values())
         if fe_side is not None and "calibrated" in lumped:
@@ -273,6 +281,41 @@ def run(gearset: GearSet, calibration: Path | None, fe: Path | None, stage: int 
                                               mesh_metrics(lumped["calibrated"]),
                                               mesh_metrics(lumped["closed-form"]))
     return {"records": records, "goal": goal, "missing": missing, "phase_shift": shift}
+
+
+def low_force_model(condition: RollingCondition, gearset: GearSet, calibration: Path):
+    """The calibrated lumped model of ``condition`` with each mesh-cycle position's law
+    fitted to its load-approach curve up to `FIT_MIN_FORCE` (the nominal load, modelled
+    as Hertz plus the FE's linear compliance where its patch is narrower than an
+    element, and the first FE step at 50 N), not from it up: the forces of the
+    unloaded conditions' rattles (3-20 N a pair) lie below the calibration's fits.
+    None without the calibration's ``mesh_cycle.json`` or a position law."""
+    import json
+
+    import numpy as np
+
+    from fe_impact.calibration.meshcycle import FIT_MIN_FORCE, fit_power_law
+
+    path = calibration.parent / "mesh_cycle.json"
+    model = lumped_model(condition, gearset, calibration)
+    laws = model.law_set
+    if not path.is_file() or 1 not in laws.positions:
+        return None
+    curves = {round(p["roll_angle_deg"], 6): p for p in json.loads(path.read_text())["positions"]
+              if p["stage"] == condition.stage and not p.get("companion")}
+    roll, k, n = laws.positions[1]
+    fits = []
+    for angle in roll:
+        curve = curves.get(round(float(angle), 6))
+        if curve is None:
+            return None
+        force, approach = np.array(curve["forces"]), np.array(curve["approaches"])
+        low = force <= FIT_MIN_FORCE * (1.0 + 1e-3)
+        fits.append(fit_power_law(force[low], approach[low])[:2])
+    k_low, n_low = (np.array(v) for v in zip(*fits, strict=True))
+    return model.with_laws(replace(laws, positions={1: (roll, k_low, n_low)},
+                                   source=f"{laws.source}; position laws fitted up to "
+                                          f"{FIT_MIN_FORCE:g} N"))
 
 
 def check(result: dict) -> list[ck.Check]:

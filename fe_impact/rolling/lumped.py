@@ -43,8 +43,8 @@ from fe_impact.switching.simulation import CONTACT_NAMES, KIND_NAMES, simulate
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["LAW_SOURCES", "OUTPUT_SHARE", "lumped_model", "run_lumped", "stage_gearset",
-           "stage_laws"]
+__all__ = ["LAW_SOURCES", "OUTPUT_SHARE", "lumped_model", "run_lumped", "run_model",
+           "stage_gearset", "stage_laws"]
 
 #: Share of the face-gear rotor's inertia put on the lumped model's output (the rest
 #: on the ring).
@@ -191,6 +191,16 @@ def run_lumped(condition: RollingCondition, laws: str = "closed-form",
     gearset = default_gearset() if gearset is None else gearset
     model = lumped_model(condition, gearset, calibration if laws == "calibrated" else None,
                          output_share, tip_edge_damping)
+    record = run_model(condition, model, gearset,
+                       f"lumped, {laws}" + ("" if tip_edge_damping else ", tip edges undamped"))
+    record.info.update(laws=laws, output_share=output_share)
+    return record
+
+
+def run_model(condition: RollingCondition, model: DriveModel, gearset: GearSet,
+              source: str) -> RollingRecord:
+    """Run ``model`` (a `lumped_model`, its laws changed as a study needs) on
+    ``condition``; the record is named ``source``."""
     schedule = StageSchedule((Segment(condition.duration, 1, condition.speed_rpm,
                                       load_series=load_series(condition)),))
     period = 1.0 / condition.mesh_frequency(gearset.pinion.teeth)
@@ -198,13 +208,11 @@ def run_lumped(condition: RollingCondition, laws: str = "closed-form",
     s = run.series
     info = {key: run.info[key] for key in ("steps", "rejected_steps", "wall_s",
                                            "clamped_low", "clamped_high", "law_source")}
-    info.update(laws=laws, output_share=output_share, ring_inertia=float(model.ring_inertias[0]),
-                output_inertia=model.output_j, web_stiffness=float(model.couplings[0]),
-                law_notes=list(model.law_set.notes))
-    logger.info("lumped %s, %s: %d steps, %.1f s, %d impacts", condition.name, laws,
+    info.update(ring_inertia=float(model.ring_inertias[0]), output_inertia=model.output_j,
+                web_stiffness=float(model.couplings[0]), law_notes=list(model.law_set.notes))
+    logger.info("lumped %s, %s: %d steps, %.1f s, %d impacts", condition.name, source,
                 info["steps"], info["wall_s"], len(run.events))
     return RollingRecord(
-        source=f"lumped, {laws}" + ("" if tip_edge_damping else ", tip edges undamped"),
-        condition=condition, pinion_teeth=gearset.pinion.teeth,
+        source=source, condition=condition, pinion_teeth=gearset.pinion.teeth,
         time=s["time_s"], te=s["mesh_displacement_m"], drive_force=s["drive_force_N"],
         coast_force=s["coast_force_N"], events=events_from_run(run.events), info=info)

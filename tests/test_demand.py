@@ -68,6 +68,7 @@ def test_the_demand_is_counted_per_stage_and_law_and_cached(tmp_path, monkeypatc
     assert (mesh.count, mesh.speed_min, mesh.speed_max, mesh.force_max) == (4, 0.01, 0.03,
                                                                             30.0)
     assert math.isclose(mesh.speed_median, 0.02) and math.isclose(mesh.position_median, 0.012)
+    assert (mesh.force_min, mesh.force_median) == (10.0, 20.0)
     assert got.stages[1]["corner-approach"].count == 2
     assert got.top_speed(1) == 0.03 and got.top_speed(2) is None
     assert got.mesh_force == {1: 55.0} and got.top_mesh_force() == 55.0

@@ -337,6 +337,34 @@ def test_calibration_report_tables_the_force_range(tmp_path):
     assert rows[1].startswith("| 2 | 4000 | 5000 | 1.25 (short of the margin")
 
 
+def test_calibration_report_says_when_the_flank_impacts_peak_below_the_fits(tmp_path):
+    # a stage whose flank impacts' median peak (20 N) lies below the least fitted force
+    # (50 N): the note names it with the law's secant stiffness at the nominal load over
+    # the curve's, here built to be 1.25 (law F = 1e10 d^1.5 at 4 N, the curve's point
+    # 1.25 times as compliant); a stage whose median lies above gets no note
+    import json
+
+    from fe_impact.calibration.report import _force_range_lines
+
+    f, k, n = 4.0, 1e10, 1.5
+    secant = f / (f / k) ** (1.0 / n)
+    position = {"forces": [f, 50.0, 500.0], "fit_forces": [50.0, 500.0], "edge": "",
+                "nominal_force": f, "nominal_stiffness": secant / 1.25, "stiffness": k,
+                "exponent": n}
+    positions = [{**position, "stage": 1}, {**position, "stage": 2}]
+    (tmp_path / "mesh_cycle.json").write_text(json.dumps({"positions": positions}))
+    demand = {"mesh_force_max_N": {"1": 300.0, "2": 300.0}, "force_margin": 1.5,
+              "stages": {"1": {"mesh": {"force_median": 20.0}},
+                         "2": {"mesh": {"force_median": 80.0}}}}
+    (note,) = [line for line in _force_range_lines(tmp_path, demand)
+               if line.startswith("The flank impacts")]
+    assert "stage 1: median 20 N" in note and "1.25-1.25 times" in note
+    assert "stage 2" not in note and "(50 N)" in note
+    demand["stages"]["1"]["mesh"]["force_median"] = float("nan")   # an older cache
+    assert not [line for line in _force_range_lines(tmp_path, demand)
+                if line.startswith("The flank impacts")]
+
+
 # -- a schedule against the gear set: unit mistakes -------------------------------------
 def _duty(tmp_path, speed=300.0, load=0.1, name=None):
     top = "" if name is None else f'name = "{name}"\n'

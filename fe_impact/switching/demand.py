@@ -50,7 +50,8 @@ __all__ = ["FORCE_MARGIN", "Demand", "LawDemand", "corner_impacts", "cover", "cu
 @dataclass(frozen=True)
 class LawDemand:
     """The impacts of one stage that took one law: count, closing speeds [m/s]
-    (least, median, largest), the largest peak force [N] and where they touched."""
+    (least, median, largest), the largest peak force [N], where they touched, and the
+    least and median peak force [N]."""
 
     count: int
     speed_min: float
@@ -60,6 +61,8 @@ class LawDemand:
     #: Median place of the touching pair on the line of action at the onsets,
     #: ``s`` [m] (`fe_impact.switching.simulation.ImpactEvents.position`).
     position_median: float = math.nan
+    force_min: float = math.nan
+    force_median: float = math.nan
 
 
 #: The mesh cycle and the corner laws are measured up to this factor times the largest
@@ -230,7 +233,8 @@ def preset_demand(gearset: GearSet, presets: Sequence[str] | None = None,
                     stages.setdefault(int(stage), {})[law] = LawDemand(
                         len(pick), float(pick[:, 2].min()), float(np.median(pick[:, 2])),
                         float(pick[:, 2].max()), float(pick[:, 3].max()),
-                        float(np.median(pick[:, 4])))
+                        float(np.median(pick[:, 4])), float(pick[:, 3].min()),
+                        float(np.median(pick[:, 3])))
     demand = Demand(presets, stages, dict(sorted(mesh_force.items())),
                     tuple(d.name for d in schedules))
     if path is not None:

@@ -4,18 +4,18 @@ Run ``python validation/rolling_compare.py validation/rolling_compare_elastic.to
 --calibration CAL --fe DIR --run-fe --out out/rolling_compare`` with ``CAL`` the
 ``calibration.json`` of ``fe-impact calibrate validation/rolling_compare_elastic.toml
 --level coarse --stages 1 --corners --corner-impacts --out D`` (19 minutes on two
-workers): the seed set as the rolling FE models it, elastic and frictionless, so that the
-calibration's FE impacts, the tip edges' among them, hold the same material as the
-rolling sectors. A calibration of the seed set itself (yield strength 835 MPa) gives the
-tip-edge laws the plastic dissipation of its corner impacts, which the elastic rolling FE
-cannot have; without ``--corner-impacts`` their laws take the closed-form restitution,
-which dissipates most of a mesh-in. ``--run-fe`` runs the rolling FE
-(`fe_impact.rolling.api.roll`, coarse) of each condition whose record is not yet in
-``DIR/<condition>/record.json`` and keeps it there; without it, the records already
-there are used. The lumped runs take about a second each. Exit status: 0 when the goal
-holds on every condition, 1 when it fails on one, 2 when the FE side (or the
-calibration) is not available: then the lumped side alone is computed, printed and
-written, and nothing is asserted.
+workers, mostly its two approach-corner impacts): the seed set as the rolling FE models
+it, elastic and frictionless, so that the calibration's FE impacts, the tip edges' among
+them, hold the same material as the rolling sectors. A calibration of the seed set
+itself (yield strength 835 MPa) gives the tip-edge laws the plastic dissipation of its
+corner impacts, which the elastic rolling FE cannot have; without ``--corner-impacts``
+their laws take the closed-form restitution, which dissipates most of a mesh-in.
+``--run-fe`` runs the rolling FE (`fe_impact.rolling.api.roll`, coarse) of each
+condition whose record is not yet in ``DIR/<condition>/record.json`` and keeps it there;
+without it, the records already there are used. The lumped runs take about a second
+each. Exit status: 0 when the goal holds on every condition, 1 when it fails on one, 2
+when the FE side (or the calibration) is not available: then the lumped side alone is
+computed, printed and written, and nothing is asserted.
 
 Conditions (the seed set, stage 1 unless ``--stage``, one pinion on one face-gear rotor
 of the stage's inertia, the pinion at constant speed from t = 0, the face gear at the

@@ -22,8 +22,10 @@ Checks (tolerances from the issue, set before any run):
    the largest force;
 2. the whole 5 s: impact count and the peak-force statistics (mean, median,
    largest) within 5%. The issue's check; it is ill-posed for a chaotic rattle
-   (below), so with the ensemble run it is reported in the table and only the
-   largest force (set by the deterministic first impacts) is asserted at 5%;
+   (below), so with the ensemble run it is reported in the table, and the largest
+   force is asserted at 5% only where both runs reach it within the deterministic
+   first `STUDY_TIME` s; reached later, it is checked against fe-impact's ensemble
+   like the count and the mean force;
 3. (added) the impacts of more than 1 N over the first `STUDY_TIME` s, where
    both sides' runs are still deterministic: as many, each peak force within
    the 2% of check 1.
@@ -181,7 +183,8 @@ def statistics(run: dict) -> dict:
     if f.size == 0:
         return dict.fromkeys(STATISTICS, 0.0)
     return {"impacts": float(f.size), "mean_force": float(f.mean()),
-            "median_force": float(np.median(f)), "max_force": float(f.max())}
+            "median_force": float(np.median(f)), "max_force": float(f.max()),
+            "max_force_time": float(run["impacts"][int(np.argmax(f)), 0])}
 
 
 def history(fe: dict, ex: dict, cycles: int = CYCLES) -> dict:
@@ -219,7 +222,8 @@ def loaded(calibration: Path, folder: Path, load: float = LOAD, cycles: int = 3)
 
 
 def study(calibration: Path, module) -> dict:
-    """Step halving and tolerances / 32 on each side: the first impacts, and fe-impact's
+    """Step halving and smaller tolerances on each side (fe-impact's / 32, Exudyn's / 10:
+    the export's are already 1/320 of fe-impact's): the first impacts, and fe-impact's
     5 s statistics."""
     base = drive_model(calibration)
     h = module.DATA["tolerances"]["max_step"]
@@ -229,8 +233,8 @@ def study(calibration: Path, module) -> dict:
                    "tolerances / 32": fine, "both": {**fine, "max_step": h / 2}}
     a, r = module.tolerances(module.DATA)
     ex_variants = {"as run": {}, "largest step / 2": {"max_step": h / 2},
-                   "tolerances / 32": {"atol": a / 32, "rtol": r / 32},
-                   "both": {"atol": a / 32, "rtol": r / 32, "max_step": h / 2}}
+                   "tolerances / 10": {"atol": a / 10, "rtol": r / 10},
+                   "both": {"atol": a / 10, "rtol": r / 10, "max_step": h / 2}}
     out = {"fe-impact": {}, "exudyn": {}}
     for name, change in fe_variants.items():
         model = dataclasses.replace(base, **change)
@@ -326,11 +330,14 @@ def check(record: dict) -> list[ck.Check]:
         # distribution: fe-impact's own runs with the start moved by 1e-11 m spread by far
         # more than 5% (report()'s ensemble table). The single-trajectory 5% comparison is
         # then reported, not asserted; the 5 s statistics are checked against that spread.
-        # The largest force, set by the first impacts (deterministic), stays at 5%.
-        out.append(ck.within("5 s largest force: Exudyn against fe-impact",
-                             ex["max_force"], fe["max_force"], STATISTICS_TOL))
-    if ens is not None:
-        for k in ("impacts", "mean_force"):
+        # The largest force stays at 5% where both runs reach it within the deterministic
+        # first STUDY_TIME s; reached later, it is one more statistic of the chaos.
+        late = max(fe.get("max_force_time", math.inf),
+                   ex.get("max_force_time", math.inf)) > STUDY_TIME
+        if not late:
+            out.append(ck.within("5 s largest force: Exudyn against fe-impact",
+                                 ex["max_force"], fe["max_force"], STATISTICS_TOL))
+        for k in ("impacts", "mean_force", *(("max_force",) if late else ())):
             diff, std = ex[k] - ens["mean"][k], ens["std"][k]
             z = diff / std if std > 0.0 else (0.0 if diff == 0.0 else math.inf)
             out.append(ck.holds(f"5 s {k.replace('_', ' ')}: Exudyn in fe-impact's ensemble "

@@ -13,7 +13,9 @@ import csv
 import json
 import os
 import shutil
+import signal
 import tempfile
+import threading
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
@@ -23,21 +25,42 @@ __all__ = ["atomic_folder", "atomic_path", "standard_json", "write_csv", "write_
 
 
 @contextlib.contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """SIGINT and SIGTERM held back (delivered at the end) in the main thread, so that
+    the stop they raise (:mod:`fe_impact.interrupts`) cannot fall between making a
+    temporary file and taking charge of it, or inside its removal."""
+    mask = getattr(signal, "pthread_sigmask", None)
+    if mask is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = mask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        mask(signal.SIG_SETMASK, old)
+
+
+@contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; rename it to ``path`` on success."""
+    """Yield a temporary path next to ``path``; rename it to ``path`` on success. A stop
+    (Ctrl-C, SIGTERM) at any point leaves no temporary file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)   # mkstemp makes 0600; results are meant to be shared
+    tmp = None
     try:
+        with _signals_deferred():
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix,
+                                       dir=path.parent)
+            os.close(fd)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)   # mkstemp makes 0600; results are to be shared
         yield Path(tmp)
         os.replace(tmp, path)
     finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+        with _signals_deferred():
+            if tmp is not None and os.path.exists(tmp):
+                os.remove(tmp)
 
 
 @contextlib.contextmanager
@@ -50,11 +73,15 @@ def atomic_folder(folder: str | Path, stem: str = "build") -> Iterator[Path]:
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{stem}-", dir=folder))
+    tmp = None
     try:
+        with _signals_deferred():
+            tmp = Path(tempfile.mkdtemp(prefix=f".{stem}-", dir=folder))
         yield tmp
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        with _signals_deferred():
+            if tmp is not None:
+                shutil.rmtree(tmp, ignore_errors=True)
 
 
 def standard_json(obj):

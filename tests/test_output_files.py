@@ -77,3 +77,35 @@ def test_a_rerun_into_the_same_folder_leaves_none_of_the_earlier_files(tmp_path)
     assert sorted(p.name for p in gone) == ["frame_0001.vtu", "frame_0002.vtu"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["frame_0000.vtu", "impact.pvd",
                                                            "notes.txt"]
+
+
+@pytest.mark.parametrize("where", ["setup", "body"])
+def test_a_stop_while_a_file_is_written_leaves_no_temporary_file(tmp_path, monkeypatch, where):
+    # Ctrl-C arriving while atomic_path sets its temporary file up (between mkstemp and
+    # taking charge of it) or writes it: the stop comes through, the target is not
+    # written and no temporary file is left. The signal is sent to this process, as the
+    # terminal sends it; in the set-up it is held back until the file is in charge.
+    import os
+    import signal
+
+    import fe_impact.atomic as atomic
+
+    target = tmp_path / "frame.vtu"
+    if where == "setup":
+        chmod = os.chmod
+
+        def signalled_chmod(*args, **kwargs):
+            chmod(*args, **kwargs)
+            os.kill(os.getpid(), signal.SIGINT)
+
+        monkeypatch.setattr(atomic.os, "chmod", signalled_chmod)
+    with pytest.raises(KeyboardInterrupt):
+        with atomic.atomic_path(target) as tmp:
+            tmp.write_text("half")
+            if where == "body":
+                os.kill(os.getpid(), signal.SIGINT)
+                for _ in range(10**6):   # the handler runs at the next bytecode
+                    pass
+            tmp.write_text("whole")
+    assert not target.exists()
+    assert list(tmp_path.iterdir()) == []

@@ -13,31 +13,15 @@ import csv
 import json
 import os
 import shutil
-import signal
 import tempfile
-import threading
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from fe_impact.interrupts import held_signals
+
 __all__ = ["atomic_folder", "atomic_path", "standard_json", "write_csv", "write_json"]
-
-
-@contextlib.contextmanager
-def _signals_deferred() -> Iterator[None]:
-    """SIGINT and SIGTERM held back (delivered at the end) in the main thread, so that
-    the stop they raise (:mod:`fe_impact.interrupts`) cannot fall between making a
-    temporary file and taking charge of it, or inside its removal."""
-    mask = getattr(signal, "pthread_sigmask", None)
-    if mask is None or threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = mask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-    try:
-        yield
-    finally:
-        mask(signal.SIG_SETMASK, old)
 
 
 @contextlib.contextmanager
@@ -48,7 +32,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = None
     try:
-        with _signals_deferred():
+        with held_signals():
             fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix,
                                        dir=path.parent)
             os.close(fd)
@@ -58,7 +42,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         yield Path(tmp)
         os.replace(tmp, path)
     finally:
-        with _signals_deferred():
+        with held_signals():
             if tmp is not None and os.path.exists(tmp):
                 os.remove(tmp)
 
@@ -75,11 +59,11 @@ def atomic_folder(folder: str | Path, stem: str = "build") -> Iterator[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     tmp = None
     try:
-        with _signals_deferred():
+        with held_signals():
             tmp = Path(tempfile.mkdtemp(prefix=f".{stem}-", dir=folder))
         yield tmp
     finally:
-        with _signals_deferred():
+        with held_signals():
             if tmp is not None:
                 shutil.rmtree(tmp, ignore_errors=True)
 

@@ -23,7 +23,6 @@ import numpy as np
 from fe_impact.atomic import atomic_path
 from fe_impact.calibration.records import KINDS
 from fe_impact.errors import CalibrationError
-from fe_impact.gears.corner import REFERENCE_GAP
 
 logger = logging.getLogger(__name__)
 
@@ -74,7 +73,7 @@ def _table(table) -> dict:
 def _corner(gap) -> dict:
     return {"delta_max": float(gap.delta_max), "values": np.asarray(gap.values).tolist(),
             "slopes": np.asarray(gap.slopes).tolist(),
-            "law_at": float(gap.delta_at(REFERENCE_GAP))}
+            "law_at": float(gap.reference_delta)}
 
 
 def _check_operation(gearset, options: ExudynOptions) -> None:

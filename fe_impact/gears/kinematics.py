@@ -37,7 +37,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -297,6 +297,15 @@ class CornerGap:
         """Roll distance [m] beyond the path's end at which the table's gap is ``gap``
         [m], ``0 < gap <= CORNER_GAP_CAP``."""
         return brentq(lambda d: float(self(d)[0]) - gap, 1e-9, self.delta_max, xtol=1e-13)
+
+    @cached_property
+    def reference_delta(self) -> float:
+        """Roll distance [m] beyond the path's end of the tip edge's first touch as the
+        corner laws take it (`corner_reference_roll`): where the gap is
+        `fe_impact.gears.corner.REFERENCE_GAP`."""
+        from fe_impact.gears.corner import REFERENCE_GAP
+
+        return self.delta_at(REFERENCE_GAP)
 
     def __call__(self, delta: ArrayLike) -> tuple[NDArray, NDArray]:
         """``g(delta)`` [m] and ``dg/d delta`` [-] (the kernel's interpolant; beyond the
@@ -625,7 +634,5 @@ def corner_reference_roll(gearset: GearSet, side: str) -> float:
     of ``side``: where the torsional model's planar corner gap is
     `fe_impact.gears.corner.REFERENCE_GAP` (the same for every stage: the pinion's
     line of action)."""
-    from fe_impact.gears.corner import REFERENCE_GAP
-
     line = mesh_geometry(gearset)
-    return float(line.corner_roll(side, getattr(line, side).delta_at(REFERENCE_GAP)))
+    return float(line.corner_roll(side, getattr(line, side).reference_delta))

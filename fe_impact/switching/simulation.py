@@ -26,7 +26,6 @@ import numpy as np
 
 from fe_impact.calibration.records import KINDS
 from fe_impact.errors import CaseError, SolverError
-from fe_impact.gears.corner import REFERENCE_GAP
 from fe_impact.switching import _kernel as K
 from fe_impact.switching.model import (
     DRIVES,
@@ -292,8 +291,8 @@ def _pack(model: DriveModel, schedule: StageSchedule, sample_interval: float) ->
     stages["lever"] = model.base_levers
     stages["corner_in"] = [r.approach.delta_max for r in rings]
     stages["corner_out"] = [r.recess.delta_max for r in rings]
-    stages["law_in"] = [r.approach.delta_at(REFERENCE_GAP) for r in rings]
-    stages["law_out"] = [r.recess.delta_at(REFERENCE_GAP) for r in rings]
+    stages["law_in"] = [r.approach.reference_delta for r in rings]
+    stages["law_out"] = [r.recess.reference_delta for r in rings]
     levers = np.concatenate([[geo.base_radius], model.base_levers, [model.base_levers.min()]])
     atol = np.empty(2 * (n + 2))
     atol[0::2] = model.length_tol / levers

@@ -65,6 +65,7 @@ it than the closed forms on each.
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import math
 import sys
@@ -72,9 +73,12 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from fe_impact.calibration.meshcycle import FIT_MIN_FORCE, fit_power_law
 from fe_impact.errors import FeImpactError
 from fe_impact.gears.gearset import GearSet, default_gearset, load_gearset
 from fe_impact.rolling.compare import (
@@ -95,6 +99,7 @@ from fe_impact.rolling.compare import (
     write_record,
 )
 from fe_impact.rolling.lumped import lumped_model, run_lumped, run_model
+from fe_impact.rolling.sectors import SECTOR_TEETH, check_teeth, tooth_range
 from validation import checks as ck
 
 logger = logging.getLogger(__name__)
@@ -113,7 +118,7 @@ LOAD = 50.0
 CYCLES = 2.4
 #: Teeth of each of the rolling FE's sectors by default (`fe-impact roll`'s), the ones
 #: `CYCLES` and `FE_PAIR_OFFSET` are counted for.
-TEETH = 5
+TEETH = SECTOR_TEETH
 #: Teeth of each sector this study runs unless told (``--teeth``): 7 hold 4.4 periods,
 #: so that the loaded condition's figures rest on three mesh-ins after the load ramp,
 #: not on one (5 teeth: 2.4 periods, one mesh-in).
@@ -150,8 +155,6 @@ def cycles_for(teeth: int) -> float:
 def pair_offset(teeth: int) -> int:
     """`FE_PAIR_OFFSET` for sectors of ``teeth`` teeth: the window's start moves a pitch
     earlier with each tooth past tooth 3 (the last one of the 5-tooth sectors)."""
-    from fe_impact.rolling.sectors import tooth_range
-
     return FE_PAIR_OFFSET + max(tooth_range(teeth)) - max(tooth_range(TEETH))
 
 
@@ -296,12 +299,6 @@ def low_force_model(condition: RollingCondition, gearset: GearSet, calibration: 
     element, and the first FE step at 50 N), not from it up: the forces of the
     unloaded conditions' rattles (3-20 N a pair) lie below the calibration's fits.
     None without the calibration's ``mesh_cycle.json`` or a position law."""
-    import json
-
-    import numpy as np
-
-    from fe_impact.calibration.meshcycle import FIT_MIN_FORCE, fit_power_law
-
     path = calibration.parent / "mesh_cycle.json"
     model = lumped_model(condition, gearset, calibration)
     laws = model.law_set
@@ -365,8 +362,6 @@ def main(argv: list[str] | None = None) -> int:
         if not 1 <= args.stage <= len(gearset.stages):
             raise FeImpactError(f"--stage {args.stage}: the gear set has stages "
                                 f"1..{len(gearset.stages)}")
-        from fe_impact.rolling.sectors import check_teeth
-
         check_teeth(args.teeth)
         if args.cycles is None:
             args.cycles = cycles_for(args.teeth)
